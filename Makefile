@@ -1,0 +1,60 @@
+# irlsim developer interface. `make demo` and `make test` are all a newcomer needs.
+PY      ?= python3.11
+VENV    ?= .venv
+BIN     := $(VENV)/bin
+IRLSIM  := $(BIN)/irlsim
+DATA    ?= data/default
+RUNS    ?= runs/default
+SEED    ?= 0
+
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive bench lint clean
+
+$(BIN)/.installed: pyproject.toml
+	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
+	$(PY) -m venv $(VENV)
+	$(BIN)/pip install -q --upgrade pip
+	# torch first: the pinned CPU build; a bare 'torch' would pull a multi-GB CUDA build.
+	$(BIN)/pip install -q torch==2.13.0
+	$(BIN)/pip install -q -e '.[dev]'
+	touch $@
+
+setup: $(BIN)/.installed
+
+net: setup
+	$(IRLSIM) net
+
+test: setup
+	$(BIN)/pytest -q -m "not slow"
+
+test-slow: setup
+	$(BIN)/pytest -q -m slow
+
+demo: setup
+	$(IRLSIM) demo --data $(DATA) --runs $(RUNS) --seed $(SEED)
+
+collect: setup
+	$(IRLSIM) collect --config configs/collect/default.toml --out $(DATA)
+
+train: train-stage1 train-stage2
+
+train-stage1: setup
+	$(IRLSIM) train --stage 1 --config configs/train/stage1.toml --data $(DATA) --out $(RUNS)
+
+train-stage2: setup
+	$(IRLSIM) train --stage 2 --config configs/train/stage2.toml --data $(DATA) --out $(RUNS)
+
+evaluate: setup
+	$(IRLSIM) evaluate --data $(DATA) --runs $(RUNS) --out $(RUNS)/eval
+
+drive: setup
+	$(IRLSIM) drive --runs $(RUNS) --model expert,PTACNN+S --episodes 2 --laps 1 --seed 100 --out $(RUNS)/drive
+
+bench: setup
+	$(IRLSIM) bench --out bench
+
+lint: setup
+	$(BIN)/ruff check irlsim pipelines tests
+	$(BIN)/mypy irlsim pipelines
+
+clean:
+	rm -rf $(VENV) data runs bench build *.egg-info sumo_net/oval.net.xml
