@@ -1,0 +1,27 @@
+"""irlsim: path-integral maximum-entropy deep IRL with policy and temporal attention on a SUMO oval.
+
+Implements Rosbach et al., "Planning on the fast lane", IROS 2020. Packages are split by noun:
+``road`` (geometry), ``sim`` (SUMO), ``planner`` (sampling + features + expert), ``data`` (Parquet),
+``irl`` (losses, metrics), ``models`` (networks), ``viz`` (pictures). Stages live in ``pipelines``.
+"""
+
+__version__ = "0.1.0"
+
+FEATURE_NAMES: tuple[str, ...] = (
+    "acc_lon",
+    "jerk_lon",
+    "acc_lat",
+    "jerk_lat",
+    "velocity",
+    "creep",
+    "end_heading",
+    "centerline",
+    "road_edge",
+    "mission_lane",
+    "progress",
+    "stop_line",
+    "lc_delay",
+    "lat_overshoot",
+    "proximity",
+)
+N_FEATURES = len(FEATURE_NAMES)

@@ -1,0 +1,100 @@
+"""Frozen records that cross the simulator / driver boundary. SI units; yaw ENU [rad]."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class EgoState:
+    """The ego's kinematic state. Position is the front-bumper centre (as SUMO's moveToXY uses it).
+
+    ``s`` is the unwrapped route-frame arc length [m] (keeps growing over laps; ``s % road.lap_length``
+    is the position on the loop), ``d`` the lateral offset [m], positive to the left.
+    """
+
+    t: float  # [s] simulation time
+    x: float  # [m]
+    y: float  # [m]
+    yaw: float  # [rad]
+    v: float  # [m/s] speed along the path, >= 0
+    a: float  # [m/s^2] longitudinal acceleration
+    s: float  # [m] unwrapped
+    d: float  # [m]
+    d_dot: float  # [m/s] lateral velocity in the route frame (dd/dt)
+    d_ddot: float  # [m/s^2]
+    lane: int  # loop lane 0..2, -1 off the loop
+
+
+@dataclass(frozen=True)
+class VehicleStates:
+    """Other vehicles at one instant, M of them; every array is [M]. Position is the front-bumper centre."""
+
+    ids: tuple[str, ...]
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    v: np.ndarray  # [m/s]
+    s: np.ndarray  # [m] route frame, in [0, lap_length)
+    d: np.ndarray  # [m]
+    length: np.ndarray  # [m]
+    width: np.ndarray  # [m]
+
+    def __post_init__(self) -> None:
+        m = len(self.ids)
+        for name in ("x", "y", "yaw", "v", "s", "d", "length", "width"):
+            assert getattr(self, name).shape == (m,), f"{name}: {getattr(self, name).shape} != ({m},)"
+
+    @property
+    def count(self) -> int:
+        return len(self.ids)
+
+    @staticmethod
+    def empty() -> VehicleStates:
+        z = np.zeros(0)
+        return VehicleStates((), z, z, z, z, z, z, z, z)
+
+
+@dataclass(frozen=True)
+class Observation:
+    """What a driver sees at the start of a planning cycle."""
+
+    ego: EgoState
+    vehicles: VehicleStates
+    target_checkpoint: int  # index into road.checkpoints: the route target (next checkpoint)
+    target_s: float  # [m] unwrapped route position of the target checkpoint (> ego.s)
+    stop_s: float  # [m] unwrapped position of the next stop line the ego has not yet stopped at; inf if none within reach
+    lap_length: float  # [m]
+    info: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A timed ego trajectory from t0 at step dt; every array is [T], index 0 = the current state.
+
+    The simulator executes states 1..k of it (k = planning cycle / dt) and the next cycle starts from
+    the last executed state, so position, velocity and acceleration stay continuous.
+    """
+
+    t0: float  # [s]
+    dt: float  # [s]
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    s: np.ndarray  # unwrapped [m]
+    d: np.ndarray
+    d_dot: np.ndarray
+    d_ddot: np.ndarray
+    lane: np.ndarray
+
+    def state(self, j: int) -> EgoState:
+        return EgoState(
+            t=self.t0 + j * self.dt,
+            x=float(self.x[j]), y=float(self.y[j]), yaw=float(self.yaw[j]), v=float(self.v[j]),
+            a=float(self.a[j]), s=float(self.s[j]), d=float(self.d[j]), d_dot=float(self.d_dot[j]),
+            d_ddot=float(self.d_ddot[j]), lane=int(self.lane[j]),
+        )
