@@ -1,0 +1,436 @@
+"""Read a dataset: validation, cycles as a DataFrame, splits as memory-mapped tensors.
+
+``Dataset.split_tensors(split)`` turns a split into arrays ``[cycles, policies, ...]`` ordered by
+(episode, cycle), i.e. sequential playback order. The arrays are memory-mapped ``.npy`` files of a cache
+under ``<dataset>/.cache/<split>/``: built once, one episode and one row group at a time (bounded memory),
+each file written under a temporary name and renamed, ``meta.json`` last. The cache is reused while
+``meta.json`` records the same Parquet files (name, size, mtime) and is newer than all of them; otherwise
+it is rebuilt. Deleting ``.cache`` is always safe.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Iterator
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from irlsim import FEATURE_NAMES, N_FEATURES
+from irlsim.data.schema import (
+    META_TABLE,
+    META_VERSION,
+    SCHEMA_VERSION,
+    TABLE_CYCLES,
+    TABLE_POLICIES,
+    cycles_name,
+    policies_name,
+)
+from irlsim.errors import IrlsimError
+from irlsim.planner.policy_set import LABEL_NAMES
+from irlsim.utils import atomic_path, write_json
+
+CACHE_DIR = ".cache"
+#: bump when the cache layout changes; an old cache is then rebuilt
+CACHE_VERSION = 1
+_REGENERATE = "delete it and re-run irlsim collect to regenerate it"
+
+
+@dataclass(frozen=True)
+class SplitTensors:
+    """A split as arrays; C cycles ordered by (episode, cycle), N policies progress-sorted, K control points.
+
+    Arrays (usually read-only memory maps; shapes checked on construction):
+        features:       [C, N, 15] float32  path-integral feature costs (irlsim.FEATURE_NAMES)
+        control_points: [C, N, K, 3] float32  (lateral offset [m], yaw [rad], progress [m]) to the ego
+        actions:        [C, N, K, 2] float32  (longitudinal acceleration [m/s^2], lateral velocity [m/s])
+        distances:      [C, N] float32      d(zeta, pi) [m]; NaN where the window is incomplete
+        demo_index:     [C] int64           index of pi^D, -1 = no demonstration (do not train on it)
+        demo_distance:  [C] float32         d(zeta, pi^D) [m], NaN = no demonstration
+        episode:        [C] int32
+        cycle:          [C] int32
+        executed_index: [C] int32           index of the policy the driver executed
+        labels:         [C, N, 3] bool      collision, offroad, exit (LABEL_NAMES)
+    """
+
+    features: np.ndarray
+    control_points: np.ndarray
+    actions: np.ndarray
+    distances: np.ndarray
+    demo_index: np.ndarray
+    demo_distance: np.ndarray
+    episode: np.ndarray
+    cycle: np.ndarray
+    executed_index: np.ndarray
+    labels: np.ndarray
+
+    def __post_init__(self) -> None:
+        c, n = self.distances.shape
+        k = self.control_points.shape[2] if self.control_points.ndim == 4 else -1
+        expected = {
+            "features": ((c, n, N_FEATURES), np.float32),
+            "control_points": ((c, n, k, 3), np.float32),
+            "actions": ((c, n, k, 2), np.float32),
+            "distances": ((c, n), np.float32),
+            "demo_index": ((c,), np.int64),
+            "demo_distance": ((c,), np.float32),
+            "episode": ((c,), np.int32),
+            "cycle": ((c,), np.int32),
+            "executed_index": ((c,), np.int32),
+            "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
+        }
+        for name, (shape, dtype) in expected.items():
+            arr = getattr(self, name)
+            if arr.shape != shape or arr.dtype != dtype:
+                raise ValueError(
+                    f"SplitTensors.{name}: {arr.dtype}{list(arr.shape)}, "
+                    f"expected {dtype.__name__}{list(shape)}"
+                )
+
+    @property
+    def n_cycles(self) -> int:
+        return int(self.distances.shape[0])
+
+    @property
+    def n_policies(self) -> int:
+        return int(self.distances.shape[1])
+
+    @property
+    def has_demo(self) -> np.ndarray:
+        """[C] bool: cycles that have a demonstration (the ones to train and evaluate on)."""
+        return np.asarray(self.demo_index >= 0)
+
+    def head(self, n: int) -> SplitTensors:
+        """The first n cycles (views, no copy)."""
+        return SplitTensors(**{f.name: getattr(self, f.name)[:n] for f in fields(self)})
+
+
+_ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
+
+
+def open_parquet(path: Path, table: str) -> pq.ParquetFile:
+    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version."""
+    try:
+        pf = pq.ParquetFile(str(path))
+    except FileNotFoundError:
+        raise IrlsimError(f"{path} is missing: re-run irlsim collect to regenerate it") from None
+    except (pa.ArrowException, OSError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+    meta = pf.schema_arrow.metadata or {}
+    if meta.get(META_TABLE) != table.encode():
+        raise IrlsimError(
+            f"{path} is not an irlsim {table} table (no irlsim metadata): remove it from the dataset "
+            "folder, or re-collect the dataset with 'irlsim collect'"
+        )
+    version = meta.get(META_VERSION, b"?").decode()
+    if version != str(SCHEMA_VERSION):
+        raise IrlsimError(
+            f"{path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
+            "re-collect it with 'irlsim collect'"
+        )
+    return pf
+
+
+def _read(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
+    """pf.read / read_row_group with corrupt data turned into a one-line IrlsimError."""
+    try:
+        if "row_group" in kwargs:
+            return pf.read_row_group(kwargs.pop("row_group"), **kwargs)
+        return pf.read(**kwargs)
+    except (pa.ArrowException, OSError) as exc:
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+
+
+def fixed_list_to_numpy(column: pa.ChunkedArray | pa.Array, width: int) -> np.ndarray:
+    """A fixed-size-list column as a [rows, width] numpy array (one copy at most, no Python loop)."""
+    arr = column.combine_chunks() if isinstance(column, pa.ChunkedArray) else column
+    flat = arr.flatten().to_numpy(zero_copy_only=False)  # flatten() honours slice offsets, .values does not
+    return flat.reshape(len(arr), width)
+
+
+def iter_policy_groups(pf: pq.ParquetFile, path: Path, columns: list[str]) -> Iterator[pa.Table]:
+    """The row groups of a policies file, read one at a time."""
+    for i in range(pf.num_row_groups):
+        yield _read(pf, path, row_group=i, columns=columns)
+
+
+class Dataset:
+    """A validated dataset folder. Use ``open_dataset``."""
+
+    def __init__(self, path: Path, manifest: dict[str, Any]) -> None:
+        self.path = path
+        self.manifest = manifest
+
+    @property
+    def splits(self) -> list[str]:
+        return list(self.manifest["splits"])
+
+    def episodes(self, split: str) -> list[int]:
+        """Episode ids of a split, ascending."""
+        splits = self.manifest["splits"]
+        if split not in splits:
+            raise IrlsimError(
+                f"dataset {self.path} has no split {split!r}: choose one of {', '.join(splits) or '(none)'}"
+            )
+        return sorted(int(e) for e in splits[split])
+
+    def cycles_path(self, split: str, episode: int) -> Path:
+        return self.path / split / cycles_name(episode)
+
+    def policies_path(self, split: str, episode: int) -> Path:
+        return self.path / split / policies_name(episode)
+
+    # -- cycles --------------------------------------------------------------------------------------
+
+    def read_cycles_table(self, split: str) -> pa.Table:
+        """All cycles rows of a split as one Arrow table, ordered by (episode, cycle)."""
+        tables = []
+        for ep in self.episodes(split):
+            path = self.cycles_path(split, ep)
+            tables.append(_read(open_parquet(path, TABLE_CYCLES), path))
+        if not tables:
+            from irlsim.data.schema import cycles_schema
+
+            return cycles_schema().empty_table()
+        table = pa.concat_tables(tables)
+        self._check_cycles(split, table)
+        return table
+
+    def read_cycles(self, split: str) -> pd.DataFrame:
+        """All cycles rows of a split as a DataFrame, ordered by (episode, cycle)."""
+        return self.read_cycles_table(split).to_pandas()
+
+    def _check_cycles(self, split: str, table: pa.Table) -> None:
+        n_pol = table.column("n_policies").to_numpy()
+        if n_pol.size and (n_pol != n_pol[0]).any():
+            raise IrlsimError(
+                f"dataset {self.path} split {split} has between {n_pol.min()} and {n_pol.max()} policies per "
+                "cycle, the reader needs a constant count: re-collect it with a fixed planner n_policies"
+            )
+        ep = table.column("episode").to_numpy().astype(np.int64)
+        cy = table.column("cycle").to_numpy().astype(np.int64)
+        if ep.size > 1 and not ((ep[1:] > ep[:-1]) | ((ep[1:] == ep[:-1]) & (cy[1:] > cy[:-1]))).all():
+            raise IrlsimError(
+                f"dataset {self.path} split {split}: cycles are not in (episode, cycle) order: "
+                "re-collect it with 'irlsim collect'"
+            )
+
+    # -- tensors -------------------------------------------------------------------------------------
+
+    def _sources(self, split: str) -> list[list[Any]]:
+        out = []
+        for ep in self.episodes(split):
+            for p in (self.cycles_path(split, ep), self.policies_path(split, ep)):
+                try:
+                    st = p.stat()
+                except FileNotFoundError:
+                    raise IrlsimError(f"{p} is missing: re-run irlsim collect to regenerate it") from None
+                out.append([p.name, st.st_size, st.st_mtime_ns])
+        return out
+
+    def cache_dir(self, split: str) -> Path:
+        return self.path / CACHE_DIR / split
+
+    def _cache_valid(self, split: str, sources: list[list[Any]]) -> bool:
+        meta_path = self.cache_dir(split) / "meta.json"
+        try:
+            meta = json.loads(meta_path.read_text())
+            meta_mtime = meta_path.stat().st_mtime_ns
+        except (OSError, ValueError):
+            return False
+        if meta.get("cache_version") != CACHE_VERSION or meta.get("schema_version") != SCHEMA_VERSION:
+            return False
+        if meta.get("sources") != sources:
+            return False
+        newest = max((s[2] for s in sources), default=0)
+        files_ok = all((self.cache_dir(split) / f"{n}.npy").is_file() for n in _ARRAY_NAMES)
+        return files_ok and meta_mtime >= newest
+
+    def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
+        """A split as memory-mapped arrays (``SplitTensors``); only the first ``max_cycles`` if given."""
+        sources = self._sources(split)
+        if not self._cache_valid(split, sources):
+            self._build_cache(split, sources)
+        folder = self.cache_dir(split)
+        arrays = {n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in _ARRAY_NAMES}
+        tensors = SplitTensors(**arrays)
+        return tensors if max_cycles is None else tensors.head(max_cycles)
+
+    def _build_cache(self, split: str, sources: list[list[Any]]) -> None:
+        cycles = self.read_cycles_table(split)
+        c = cycles.num_rows
+        n = int(cycles.column("n_policies")[0].as_py()) if c else 0
+        k = self._n_control_points(split)
+        folder = self.cache_dir(split)
+        folder.mkdir(parents=True, exist_ok=True)
+        (folder / "meta.json").unlink(missing_ok=True)  # invalid while rebuilding
+        specs: dict[str, tuple[tuple[int, ...], Any]] = {
+            "features": ((c, n, N_FEATURES), np.float32),
+            "control_points": ((c, n, k, 3), np.float32),
+            "actions": ((c, n, k, 2), np.float32),
+            "distances": ((c, n), np.float32),
+            "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
+        }
+        small = {
+            "demo_index": cycles.column("demo_index").to_numpy().astype(np.int64),
+            "demo_distance": cycles.column("demo_distance").to_numpy().astype(np.float32),
+            "episode": cycles.column("episode").to_numpy().astype(np.int32),
+            "cycle": cycles.column("cycle").to_numpy().astype(np.int32),
+            "executed_index": cycles.column("executed_index").to_numpy().astype(np.int32),
+        }
+        with _AtomicNpys(folder, specs) as big:
+            row = 0  # next cycle row to fill
+            for ep in self.episodes(split):
+                path = self.policies_path(split, ep)
+                pf = open_parquet(path, TABLE_POLICIES)
+                cols = [
+                    "episode",
+                    "cycle",
+                    "policy",
+                    "features",
+                    "control_points",
+                    "actions",
+                    "distance",
+                    *LABEL_NAMES,
+                ]
+                for group in iter_policy_groups(pf, path, cols):
+                    if group.num_rows % max(n, 1):
+                        raise IrlsimError(
+                            f"{path}: a row group of {group.num_rows} rows is not whole cycles of "
+                            f"{n} policies: {_REGENERATE}"
+                        )
+                    g = group.num_rows // max(n, 1)
+                    sl = slice(row, row + g)
+                    _check_policy_ids(path, group, small["episode"][sl], small["cycle"][sl], n)
+                    big["features"][sl] = fixed_list_to_numpy(group.column("features"), N_FEATURES).reshape(
+                        g, n, N_FEATURES
+                    )
+                    big["control_points"][sl] = fixed_list_to_numpy(
+                        group.column("control_points"), 3 * k
+                    ).reshape(g, n, k, 3)
+                    big["actions"][sl] = fixed_list_to_numpy(group.column("actions"), 2 * k).reshape(
+                        g, n, k, 2
+                    )
+                    big["distances"][sl] = group.column("distance").to_numpy().reshape(g, n)
+                    big["labels"][sl] = np.stack(
+                        [group.column(name).to_numpy(zero_copy_only=False) for name in LABEL_NAMES], axis=-1
+                    ).reshape(g, n, len(LABEL_NAMES))
+                    row += g
+            if row != c:
+                raise IrlsimError(
+                    f"dataset {self.path} split {split}: policies files hold {row} cycles, cycles "
+                    f"files {c}: delete the split's episode files and re-run irlsim collect"
+                )
+        for name, arr in small.items():
+            with atomic_path(folder / f"{name}.npy") as tmp, open(tmp, "wb") as fh:
+                np.save(fh, arr)
+        write_json(
+            folder / "meta.json",
+            {
+                "cache_version": CACHE_VERSION,
+                "schema_version": SCHEMA_VERSION,
+                "cycles": c,
+                "policies": n,
+                "control_points": k,
+                "sources": sources,
+            },
+        )
+
+    def _n_control_points(self, split: str) -> int:
+        eps = self.episodes(split)
+        if not eps:
+            return 0
+        path = self.policies_path(split, eps[0])
+        width = open_parquet(path, TABLE_POLICIES).schema_arrow.field("control_points").type.list_size
+        return int(width) // 3
+
+
+def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: np.ndarray, n: int) -> None:
+    """The row group's (episode, cycle, policy) columns must match the cycles rows it fills."""
+    g = len(cycle)
+    ok = (
+        np.array_equal(
+            group.column("episode").to_numpy().reshape(g, n), np.broadcast_to(episode[:, None], (g, n))
+        )
+        and np.array_equal(
+            group.column("cycle").to_numpy().reshape(g, n), np.broadcast_to(cycle[:, None], (g, n))
+        )
+        and np.array_equal(
+            group.column("policy").to_numpy().reshape(g, n),
+            np.broadcast_to(np.arange(n, dtype=np.int32), (g, n)),
+        )
+    )
+    if not ok:
+        raise IrlsimError(
+            f"{path} does not match its cycles file (episode/cycle/policy ids differ): {_REGENERATE}"
+        )
+
+
+class _AtomicNpys:
+    """Memory-mapped .npy files opened under temporary names, renamed into place on success."""
+
+    def __init__(self, folder: Path, specs: dict[str, tuple[tuple[int, ...], Any]]) -> None:
+        self.folder = folder
+        self.specs = specs
+        self.tmps: dict[str, Path] = {}
+        self.maps: dict[str, np.memmap] = {}
+
+    def __enter__(self) -> dict[str, np.memmap]:
+        for name, (shape, dtype) in self.specs.items():
+            tmp = self.folder / f".{name}.npy.tmp"
+            self.tmps[name] = tmp
+            self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+        return self.maps
+
+    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
+        for m in self.maps.values():
+            m.flush()
+        self.maps.clear()
+        for name, tmp in self.tmps.items():
+            if exc_type is None:
+                tmp.replace(self.folder / f"{name}.npy")
+            else:
+                tmp.unlink(missing_ok=True)
+
+
+def open_dataset(path: str | Path) -> Dataset:
+    """Open and validate a dataset folder (manifest, schema version, feature names)."""
+    path = Path(path)
+    if not path.is_dir():
+        raise IrlsimError(
+            f"dataset {path} does not exist: collect it with 'irlsim collect' or check the path"
+        )
+    manifest_path = path / "manifest.json"
+    if not manifest_path.is_file():
+        raise IrlsimError(
+            f"dataset {path} has no manifest.json (collection not finished?): re-run 'irlsim collect', "
+            "which resumes finished episodes"
+        )
+    try:
+        manifest = json.loads(manifest_path.read_text())
+    except (OSError, ValueError) as exc:
+        raise IrlsimError(f"{manifest_path} is not valid JSON ({exc}): {_REGENERATE}") from None
+    if not isinstance(manifest, dict):
+        raise IrlsimError(f"{manifest_path} is not a JSON object: {_REGENERATE}")
+    version = manifest.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"dataset {path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
+            "re-collect it with 'irlsim collect'"
+        )
+    names = manifest.get("feature_names")
+    if names != list(FEATURE_NAMES):
+        raise IrlsimError(
+            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
+            "re-collect it with 'irlsim collect'"
+        )
+    if not isinstance(manifest.get("splits"), dict):
+        raise IrlsimError(f"{manifest_path} has no 'splits' mapping: re-collect it with 'irlsim collect'")
+    return Dataset(path, manifest)

@@ -1,0 +1,119 @@
+"""Parquet schemas of a dataset (DESIGN.md section 6).
+
+A dataset folder holds ``manifest.json`` and, per split and episode, two Parquet files:
+
+- ``<split>/episode_<id:05d>.cycles.parquet``: one row per planning cycle (``cycles_schema``);
+- ``<split>/episode_<id:05d>.policies.parquet``: one row per policy, N rows per cycle in cycle order and
+  progress-sorted policy order (``policies_schema``).
+
+Large per-policy vectors are fixed-size lists of float32. float16 was considered for control points and
+actions and rejected: it would halve those two columns before compression, but the Parquet FLOAT16
+logical type is not read by every DuckDB/polars version, and progress along the route in control points
+(tens of metres) would lose centimetres. Float columns are written BYTE_STREAM_SPLIT + zstd (read by
+pyarrow, pandas, DuckDB and polars; tested), integer id columns dictionary-encoded.
+
+Both files carry Parquet key-value metadata ``irlsim.schema_version`` and ``irlsim.table`` (``cycles`` or
+``policies``), so a foreign or outdated Parquet file in a dataset folder is recognised. Row groups hold
+``CYCLES_PER_ROW_GROUP`` whole cycles in both files, so row group i of the cycles file describes the
+cycles of row group i of the policies file.
+"""
+
+from __future__ import annotations
+
+import pyarrow as pa
+
+from irlsim import N_FEATURES
+
+#: bump when a column is added, removed or changes meaning; readers refuse other versions
+SCHEMA_VERSION = 1
+#: control points per policy (DESIGN.md section 4)
+N_CONTROL_POINTS = 10
+#: whole planning cycles per Parquet row group (policies: this x N rows; ~40 MB uncompressed at N=2,500)
+CYCLES_PER_ROW_GROUP = 64
+#: Parquet compression codec and level
+COMPRESSION = "zstd"
+COMPRESSION_LEVEL = 3
+
+#: float columns of the policies table: stored BYTE_STREAM_SPLIT (zstd then compresses the exponent bytes
+#: well; reads ~2x faster), without dictionary encoding (unique floats make it a costly failed attempt)
+POLICIES_FLOAT_COLUMNS: tuple[str, ...] = ("features", "control_points", "actions", "progress", "distance")
+#: columns of the policies table worth dictionary encoding (few distinct values per row group)
+POLICIES_DICTIONARY_COLUMNS: tuple[str, ...] = ("episode", "cycle", "policy")
+
+META_VERSION = b"irlsim.schema_version"
+META_TABLE = b"irlsim.table"
+TABLE_CYCLES = "cycles"
+TABLE_POLICIES = "policies"
+
+#: ego-state keys the writer expects, with their column names in the cycles table
+EGO_KEYS: tuple[str, ...] = ("x", "y", "yaw", "v", "s", "d", "lane")
+
+
+def _metadata(table: str) -> dict[bytes, bytes]:
+    return {META_VERSION: str(SCHEMA_VERSION).encode(), META_TABLE: table.encode()}
+
+
+def cycles_schema() -> pa.Schema:
+    """One row per planning cycle. Units: t [s], x/y/s/d [m], yaw [rad], v [m/s]."""
+    f32 = pa.float32()
+    return pa.schema(
+        [
+            pa.field("episode", pa.int32(), nullable=False),
+            pa.field("cycle", pa.int32(), nullable=False),
+            pa.field("t", f32, nullable=False),
+            pa.field("ego_x", f32, nullable=False),
+            pa.field("ego_y", f32, nullable=False),
+            pa.field("ego_yaw", f32, nullable=False),
+            pa.field("ego_v", f32, nullable=False),
+            pa.field("ego_s", f32, nullable=False),
+            pa.field("ego_d", f32, nullable=False),
+            pa.field("ego_lane", pa.int8(), nullable=False),
+            pa.field("target_checkpoint", pa.int8(), nullable=False),
+            pa.field("n_policies", pa.int32(), nullable=False),
+            # progress-sorted index of the demonstration, -1 = no demonstration
+            pa.field("demo_index", pa.int32(), nullable=False),
+            # d(zeta, pi^D) [m], NaN = no demonstration
+            pa.field("demo_distance", f32, nullable=False),
+            pa.field("has_demo", pa.bool_(), nullable=False),
+            # progress-sorted index of the policy the driver executed
+            pa.field("executed_index", pa.int32(), nullable=False),
+        ],
+        metadata=_metadata(TABLE_CYCLES),
+    )
+
+
+def policies_schema(n_control_points: int = N_CONTROL_POINTS) -> pa.Schema:
+    """One row per policy. Lists are row-major flattenings: control_points [K, 3], actions [K, 2]."""
+    f32 = pa.float32()
+    k = int(n_control_points)
+    return pa.schema(
+        [
+            pa.field("episode", pa.int32(), nullable=False),
+            pa.field("cycle", pa.int32(), nullable=False),
+            pa.field("policy", pa.int32(), nullable=False),
+            pa.field("features", pa.list_(f32, N_FEATURES), nullable=False),
+            # (lateral offset to ego [m], yaw to ego [rad], progress along route [m]) x K
+            pa.field("control_points", pa.list_(f32, 3 * k), nullable=False),
+            # (longitudinal acceleration [m/s^2], lateral velocity [m/s]) x K
+            pa.field("actions", pa.list_(f32, 2 * k), nullable=False),
+            pa.field("progress", f32, nullable=False),
+            # d(zeta, pi) [m], NaN when the cycle's demonstration window is incomplete
+            pa.field("distance", f32, nullable=False),
+            pa.field("collision", pa.bool_(), nullable=False),
+            pa.field("offroad", pa.bool_(), nullable=False),
+            pa.field("exit", pa.bool_(), nullable=False),
+        ],
+        metadata=_metadata(TABLE_POLICIES),
+    )
+
+
+def episode_stem(episode: int) -> str:
+    return f"episode_{int(episode):05d}"
+
+
+def cycles_name(episode: int) -> str:
+    return f"{episode_stem(episode)}.cycles.parquet"
+
+
+def policies_name(episode: int) -> str:
+    return f"{episode_stem(episode)}.policies.parquet"

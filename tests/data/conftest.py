@@ -1,0 +1,97 @@
+"""Synthetic episodes for the data tests: numpy-built PolicySets and a straight-driving ego."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from irlsim import N_FEATURES
+from irlsim.data.demos import DemoProjector
+from irlsim.data.writer import EpisodeWriter, write_manifest
+from irlsim.planner.policy_set import PolicySet
+
+DT = 0.1  # [s]
+T = 51  # states over 5 s
+K = 10  # control points
+V_EGO = 20.0  # [m/s]
+LAP = 1000.0  # [m]
+PLAN_EVERY = 2  # simulation steps per planning cycle
+
+
+def make_policy_set(
+    rng: np.random.Generator, n: int, t: float, s0: float, *, match: bool = True
+) -> PolicySet:
+    """N constant-speed, constant-offset policies from arc length s0 [m]; one matches the ego (20 m/s,
+    d = 0) when ``match``. Sorted by progress ascending."""
+    speeds = rng.uniform(10.0, 30.0, n)
+    offsets = rng.uniform(-4.0, 4.0, n)
+    if match:
+        speeds[rng.integers(n)] = V_EGO
+        offsets[np.argmin(np.abs(speeds - V_EGO))] = 0.0
+    order = np.argsort(speeds * 5.0, kind="stable")
+    speeds, offsets = speeds[order], offsets[order]
+    tau = np.arange(T) * DT
+    s = s0 + speeds[:, None] * tau[None, :]
+    d = np.broadcast_to(offsets[:, None], (n, T)).copy()
+    yaw = np.zeros((n, T))
+    return PolicySet(
+        t=t,
+        x=s.copy(),
+        y=d.copy(),
+        yaw=yaw,
+        v=np.broadcast_to(speeds[:, None], (n, T)).copy(),
+        s=s,
+        d=d,
+        lane=np.ones((n, T), dtype=np.int8),
+        progress=(speeds * 5.0).astype(np.float32),
+        features=rng.random((n, N_FEATURES), dtype=np.float32) * 10,
+        control_points=rng.normal(size=(n, K, 3)).astype(np.float32),
+        actions=rng.normal(size=(n, K, 2)).astype(np.float32),
+        labels=rng.random((n, 3)) < 0.2,
+    )
+
+
+def write_episode(
+    dataset: Path,
+    split: str,
+    episode: int,
+    *,
+    n_policies: int = 24,
+    n_steps: int = 120,
+    seed: int = 0,
+    cycles_per_row_group: int = 8,
+) -> None:
+    """Drive the ego straight at 20 m/s for n_steps, plan every PLAN_EVERY steps, write the episode."""
+    rng = np.random.default_rng(seed)
+    proj = DemoProjector(lap_length=LAP, horizon=5.0, dt=DT)
+    with EpisodeWriter(dataset, split, episode, cycles_per_row_group=cycles_per_row_group) as writer:
+        for step in range(n_steps):
+            t = step * DT
+            s = 100.0 + V_EGO * t
+            proj.push_odometry(t, s, 0.0, 0.0)
+            if step % PLAN_EVERY == 0:
+                k = step // PLAN_EVERY
+                ps = make_policy_set(rng, n_policies, t, s)
+                proj.push_cycle(k, ps.t, ps.s, ps.d, ps.yaw)
+                ego = {"x": s, "y": 0.0, "yaw": 0.0, "v": V_EGO, "s": s, "d": 0.0, "lane": 1}
+                writer.add_cycle(
+                    k, ps, ego, executed_index=int(rng.integers(n_policies)), target_checkpoint=2
+                )
+            writer.add_demos(proj.pop_ready())
+        writer.add_demos(proj.finish())
+
+
+def make_dataset(root: Path, splits: dict[str, list[int]] | None = None, **kwargs: object) -> Path:
+    splits = splits or {"train": [0, 1], "validation": [2]}
+    for split, eps in splits.items():
+        for ep in eps:
+            write_episode(root, split, ep, seed=ep, **kwargs)  # type: ignore[arg-type]
+    write_manifest(root, {"config": {"n_policies": 24}, "seeds": {"collect": 0}, "splits": splits})
+    return root
+
+
+@pytest.fixture()
+def dataset(tmp_path: Path) -> Path:
+    return make_dataset(tmp_path / "ds")

@@ -1,0 +1,143 @@
+"""Distance to the demonstration and its streaming projection (DESIGN.md section 5)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from irlsim.data.demos import ALPHA, W_YAW, DemoProjector, policy_distance
+from tests.data.conftest import DT, LAP, T, make_policy_set
+
+
+def test_hand_computed_tiny_case() -> None:
+    # 3 steps, alpha 0.5, w_yaw 5: per-step costs 5*0.1^2 = 0.05, hypot(3, 4) = 5, 0
+    pol_s, pol_d, pol_yaw = (
+        np.array([[0.0, 3.0, 2.0]]),
+        np.array([[0.0, 4.0, 1.0]]),
+        np.array([[0.1, 0.0, 0.0]]),
+    )
+    demo_s, demo_d, demo_yaw = np.array([0.0, 0.0, 2.0]), np.array([0.0, 0.0, 1.0]), np.zeros(3)
+    d = policy_distance(
+        pol_s, pol_d, pol_yaw, demo_s, demo_d, demo_yaw, alpha=0.5, w_yaw=5.0, lap_length=None
+    )
+    assert d.dtype == np.float32 and d.shape == (1,)
+    assert d[0] == pytest.approx((0.05 + 0.5 * 5.0 + 0.25 * 0.0) / 1.75, rel=1e-6)
+
+
+def test_constant_lateral_offset_is_exact() -> None:
+    rng = np.random.default_rng(0)
+    demo_s = np.cumsum(rng.uniform(1, 3, T)) + 500
+    demo_yaw = rng.uniform(-3, 3, T)
+    demo_d = rng.uniform(-2, 2, T)
+    d = policy_distance(
+        demo_s[None],
+        demo_d[None] + 0.5,
+        demo_yaw[None],
+        demo_s,
+        demo_d,
+        demo_yaw,
+        alpha=ALPHA,
+        w_yaw=W_YAW,
+        lap_length=LAP,
+    )
+    assert d[0] == np.float32(0.5)
+
+
+def test_wrap_around_at_the_lap_seam() -> None:
+    tau = np.arange(T) * DT
+    pol_s = (LAP - 1.0 + 20.0 * tau)[None]  # unwrapped, crosses the start line
+    demo_s = np.mod(LAP - 1.0 + 20.0 * tau, LAP)  # odometry wrapped at the seam
+    zeros = np.zeros((1, T))
+    d = policy_distance(pol_s, zeros, zeros, demo_s, zeros[0], zeros[0], lap_length=LAP)
+    assert d[0] == pytest.approx(0.0, abs=1e-9)
+    # heading across +-pi: 0.1 rad apart, not 2 pi - 0.1
+    d = policy_distance(
+        zeros, zeros, zeros + np.pi - 0.05, zeros[0], zeros[0], zeros[0] - np.pi + 0.05, lap_length=LAP
+    )
+    assert d[0] == pytest.approx(W_YAW * 0.1**2, rel=1e-5)
+
+
+def test_batch_dimensions_match_single_calls() -> None:
+    rng = np.random.default_rng(1)
+    b, n = 4, 7
+    pol = [rng.normal(size=(b, n, T)) * 3 for _ in range(3)]
+    demo = [rng.normal(size=(b, T)) * 3 for _ in range(3)]
+    batched = policy_distance(*pol, *demo, lap_length=LAP)
+    assert batched.shape == (b, n)
+    for i in range(b):
+        single = policy_distance(*(p[i] for p in pol), *(q[i] for q in demo), lap_length=LAP)
+        np.testing.assert_array_equal(batched[i], single)
+
+
+def _drive(push_cycle_late: bool) -> tuple[dict[int, tuple[np.ndarray, int, float]], dict, list]:
+    """A wobbly ego; cycles every 2 steps. Returns projections, the policy sets and the odometry."""
+    rng = np.random.default_rng(2)
+    proj = DemoProjector(lap_length=LAP, horizon=5.0, dt=DT)
+    sets, odo, out = {}, [], {}
+    n_steps = 150
+    for step in range(n_steps):
+        t = step * DT + 1e-9 * rng.normal()  # float drift is matched by rounding
+        s, d, yaw = 10.0 + 20.0 * step * DT, 0.3 * np.sin(step / 7), 0.05 * np.cos(step / 5)
+        odo.append((s, d, yaw))
+        if step % 2 == 0:
+            ps = make_policy_set(rng, 30, t, s)
+            sets[step // 2] = (ps, step)
+            if not push_cycle_late:
+                proj.push_cycle(step // 2, t, ps.s, ps.d, ps.yaw)
+        proj.push_odometry(t, s, d, yaw)
+        if push_cycle_late and step % 2 == 0:
+            proj.push_cycle(step // 2, t, ps.s, ps.d, ps.yaw)
+        for p in proj.pop_ready():
+            out[p.cycle_index] = (p.distances, p.demo_index, p.demo_distance)
+        assert proj.n_pending <= 26  # only cycles with incomplete windows are buffered
+    for p in proj.finish():
+        out[p.cycle_index] = (p.distances, p.demo_index, p.demo_distance)
+    return out, sets, odo
+
+
+@pytest.mark.parametrize("push_cycle_late", [False, True])
+def test_projector_matches_batch_distance_and_argmin(push_cycle_late: bool) -> None:
+    out, sets, odo = _drive(push_cycle_late)
+    assert sorted(out) == sorted(sets)
+    odo_arr = np.array(odo)
+    n_complete = 0
+    for k, (ps, step) in sets.items():
+        dist, idx, demo_d = out[k]
+        if step + T > len(odo):
+            assert idx == -1 and np.isnan(demo_d) and np.isnan(dist).all()
+            continue
+        n_complete += 1
+        win = odo_arr[step : step + T]
+        expected = policy_distance(ps.s, ps.d, ps.yaw, win[:, 0], win[:, 1], win[:, 2], lap_length=LAP)
+        np.testing.assert_allclose(dist, expected, rtol=1e-5, atol=1e-5)
+        best = int(np.argmin(dist))
+        if dist[best] <= 1.5:
+            assert idx == best and demo_d == pytest.approx(float(dist[best]))
+        else:
+            assert idx == -1 and np.isnan(demo_d)
+    assert n_complete == (150 - T) // 2 + 1
+
+
+def test_threshold_rejects_far_demonstrations() -> None:
+    rng = np.random.default_rng(3)
+    proj = DemoProjector(lap_length=LAP, max_demo_distance=1.5)
+    ps = make_policy_set(rng, 10, 0.0, 0.0, match=False)
+    ps.d[:] = 5.0  # every policy 5 m to the left of the ego
+    proj.push_cycle(0, 0.0, ps.s, ps.d, ps.yaw)
+    for step in range(T):
+        proj.push_odometry(step * DT, ps.s[0, step], 0.0, 0.0)
+    (p,) = proj.pop_ready()
+    assert p.demo_index == -1 and np.isnan(p.demo_distance) and np.isfinite(p.distances).all()
+    assert p.distances.min() >= 5.0
+
+
+def test_missing_odometry_step_means_incomplete_window() -> None:
+    rng = np.random.default_rng(4)
+    proj = DemoProjector(lap_length=LAP)
+    ps = make_policy_set(rng, 10, 0.0, 0.0)
+    proj.push_cycle(0, 0.0, ps.s, ps.d, ps.yaw)
+    for step in range(T):
+        if step != 20:
+            proj.push_odometry(step * DT, 20.0 * step * DT, 0.0, 0.0)
+    (p,) = proj.pop_ready()
+    assert p.demo_index == -1 and np.isnan(p.distances).all()
