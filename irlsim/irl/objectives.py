@@ -1,0 +1,224 @@
+"""Path-integral maximum-entropy IRL objective and metrics (DESIGN.md section 5), batched over cycles.
+
+Notation, per planning cycle with N policies (sorted by progress) and 15 path-integral feature costs:
+
+    p(pi | theta) = softmax_pi(-theta^T f^pi)          (the paper's Eq. 1)
+    V(pi)         = -theta^T f^pi                      (policy value; higher is better)
+    NLL           = theta^T f^D + logsumexp_pi(-theta^T f^pi)   gradient in theta: f^D - E_p[f]
+
+The paper's Eq. 3, E_p[f] - f^D, is the gradient of the log-likelihood L = -NLL (which it ascends);
+minimising the NLL is the same update. (DESIGN.md section 5 attributes Eq. 3 to the NLL: a sign slip.)
+    EVD           = |E_p[V] - V(pi^D)| / |V(pi^D)|
+    ED            = E_p[d(zeta, pi)]        OPD = d(zeta, argmax_pi V)      DEMO = d(zeta, pi^D)
+
+Distances ``d`` are the policies' distances to the demonstration odometry [m]. Cycles with
+``demo_index == -1`` have no demonstration: their NLL / EVD / DEMO are NaN and they are skipped by
+:func:`summarize` (ED and OPD only need the odometry, but they are skipped too so that every metric
+averages over the same cycles).
+
+All functions take ``theta`` in raw feature units (the units of ``features``).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import torch
+
+from irlsim import N_FEATURES
+
+#: |V(pi^D)| below this is treated as this value in the EVD denominator (avoids 0/0)
+EVD_EPS = 1e-8
+
+
+def _check(theta: torch.Tensor, features: torch.Tensor) -> None:
+    assert features.dim() == 3 and features.shape[-1] == N_FEATURES, f"features {tuple(features.shape)}"
+    assert theta.shape == (features.shape[0], N_FEATURES), f"theta {tuple(theta.shape)}"
+
+
+def policy_values(theta: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+    """V = -theta^T f. theta: [B, 15], features: [B, N, 15] -> [B, N]."""
+    _check(theta, features)
+    return -torch.einsum("bnf,bf->bn", features, theta)
+
+
+def policy_log_probs(theta: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
+    """log p(pi | theta) = log_softmax(-theta^T f) over each cycle's policies -> [B, N]."""
+    return torch.log_softmax(policy_values(theta, features), dim=-1)
+
+
+def _demo(demo_index: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """(valid mask [B], index clamped to >= 0 [B, 1]) for gathering the demonstration policy."""
+    demo_index = torch.as_tensor(demo_index).long()
+    valid = demo_index >= 0
+    return valid, demo_index.clamp_min(0).unsqueeze(-1)
+
+
+def nll(theta: torch.Tensor, features: torch.Tensor, demo_index: torch.Tensor) -> torch.Tensor:
+    """Negative log-likelihood of the demonstration per cycle -> [B] (NaN where demo_index == -1).
+
+    theta^T f^D + logsumexp(-theta^T f) = -log p(pi^D | theta); computed with logsumexp, so it is stable
+    for any scale of theta. d NLL / d theta = f^D - E_p[f] (= minus the paper's Eq. 3).
+    Train on ``nll(...)[demo_index >= 0].mean()``.
+    """
+    values = policy_values(theta, features)
+    valid, idx = _demo(demo_index)
+    out = torch.logsumexp(values, dim=-1) - values.gather(-1, idx.to(values.device)).squeeze(-1)
+    return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
+
+
+def expected_value_difference(
+    theta: torch.Tensor, features: torch.Tensor, demo_index: torch.Tensor
+) -> torch.Tensor:
+    """EVD = |E_p[V] - V(pi^D)| / |V(pi^D)| per cycle -> [B] (NaN without a demonstration)."""
+    values = policy_values(theta, features)
+    p = torch.softmax(values, dim=-1)
+    valid, idx = _demo(demo_index)
+    v_demo = values.gather(-1, idx.to(values.device)).squeeze(-1)
+    out = ((p * values).sum(-1) - v_demo).abs() / v_demo.abs().clamp_min(EVD_EPS)
+    return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
+
+
+def expected_distance(theta: torch.Tensor, features: torch.Tensor, distances: torch.Tensor) -> torch.Tensor:
+    """ED = E_p[d] per cycle [m]. distances: [B, N] -> [B]."""
+    p = torch.softmax(policy_values(theta, features), dim=-1)
+    return (p * distances).sum(-1)
+
+
+def optimal_policy_distance(
+    theta: torch.Tensor, features: torch.Tensor, distances: torch.Tensor
+) -> torch.Tensor:
+    """OPD = d(argmax_pi V) per cycle [m] -> [B] (ties: the lowest index, i.e. least progress)."""
+    best = policy_values(theta, features).argmax(dim=-1, keepdim=True)
+    return distances.gather(-1, best).squeeze(-1)
+
+
+def demo_distance(distances: torch.Tensor, demo_index: torch.Tensor) -> torch.Tensor:
+    """DEMO = d(pi^D) per cycle [m], the lower bound of OPD -> [B] (NaN without a demonstration)."""
+    valid, idx = _demo(demo_index)
+    out = distances.gather(-1, idx.to(distances.device)).squeeze(-1)
+    return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
+
+
+def cycle_metrics(
+    theta: torch.Tensor, features: torch.Tensor, distances: torch.Tensor, demo_index: torch.Tensor
+) -> dict[str, torch.Tensor]:
+    """All per-cycle metrics at once: {'nll', 'evd', 'ed', 'opd', 'demo'} each [B]."""
+    values = policy_values(theta, features)
+    logp = torch.log_softmax(values, dim=-1)
+    p = logp.exp()
+    valid, idx = _demo(demo_index)
+    nan = torch.full(values.shape[:1], float("nan"), dtype=values.dtype)
+    v_demo = values.gather(-1, idx).squeeze(-1)
+    evd = ((p * values).sum(-1) - v_demo).abs() / v_demo.abs().clamp_min(EVD_EPS)
+    return {
+        "nll": torch.where(valid, -logp.gather(-1, idx).squeeze(-1), nan),
+        "evd": torch.where(valid, evd, nan),
+        "ed": (p * distances).sum(-1),
+        "opd": distances.gather(-1, values.argmax(-1, keepdim=True)).squeeze(-1),
+        "demo": torch.where(valid, distances.gather(-1, idx).squeeze(-1), nan),
+    }
+
+
+def attention_target(distances: torch.Tensor, pool: int, tau: float) -> torch.Tensor:
+    """Target of the semi-supervised attention loss (PACNN+S): softmax(-d / tau) over the N policies,
+    summed in the same groups of ``pool`` consecutive (progress-sorted) policies as the encoder's pooling.
+
+    distances: [B, N] [m]; tau [m] -> [B, ceil(N / pool)], each row sums to 1.
+    """
+    b, n = distances.shape
+    target = torch.softmax(-distances / tau, dim=-1)
+    groups = -(-n // pool)
+    target = torch.nn.functional.pad(target, (0, groups * pool - n))
+    return target.view(b, groups, pool).sum(-1)
+
+
+def attention_loss(attention: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+    """Semi-supervised attention loss per cycle -> [B]: the L1 distance sum_g |a_g - t_g| in [0, 2].
+
+    The paper calls it the mean absolute distance; we sum over the pooled positions (instead of averaging)
+    so its size does not shrink with the number of policies, which keeps ``attention_loss_weight``
+    meaningful across N. The batch mean is taken by the caller.
+    """
+    assert attention.shape == target.shape, f"{tuple(attention.shape)} vs {tuple(target.shape)}"
+    return (attention - target).abs().sum(-1)
+
+
+# --------------------------------------------------------------------------------------------- numpy side
+
+
+def evaluate_thetas(thetas: np.ndarray, split: Any, chunk: int = 256) -> dict[str, np.ndarray]:
+    """Per-cycle metrics of predicted ``thetas`` [C, 15] (raw units) on ``split`` (a SplitTensors).
+
+    Works in chunks of ``chunk`` cycles so memory stays bounded for memory-mapped splits.
+    Returns {'nll', 'evd', 'ed', 'opd', 'demo'} -> float64 [C] each, and 'valid' [C] bool (has a demo).
+    """
+    thetas = np.asarray(thetas)
+    n_cycles = split.features.shape[0]
+    assert thetas.shape == (n_cycles, N_FEATURES), f"thetas {thetas.shape}, split has {n_cycles} cycles"
+    out: dict[str, list[np.ndarray]] = {k: [] for k in ("nll", "evd", "ed", "opd", "demo")}
+    with torch.no_grad():
+        for start in range(0, n_cycles, chunk):
+            sl = slice(start, min(start + chunk, n_cycles))
+            m = cycle_metrics(
+                torch.as_tensor(thetas[sl], dtype=torch.float64),
+                torch.as_tensor(np.asarray(split.features[sl]), dtype=torch.float64),
+                torch.as_tensor(np.asarray(split.distances[sl]), dtype=torch.float64),
+                torch.as_tensor(np.asarray(split.demo_index[sl]), dtype=torch.int64),
+            )
+            for k, v in m.items():
+                out[k].append(v.numpy())
+    res = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in out.items()}
+    res["valid"] = np.asarray(split.demo_index) >= 0
+    return res
+
+
+def summarize(metrics: dict[str, np.ndarray]) -> dict[str, float]:
+    """Means of per-cycle metrics over cycles with a demonstration (NaN if there are none)."""
+    valid = metrics["valid"]
+    return {
+        k: (float(np.mean(v[valid])) if valid.any() else float("nan"))
+        for k, v in metrics.items()
+        if k != "valid"
+    }
+
+
+def episode_starts(episode: np.ndarray) -> np.ndarray:
+    """Index of the first row of each row's episode run -> [C] int64 (rows in (episode, cycle) order)."""
+    episode = np.asarray(episode)
+    n = episode.shape[0]
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    new = np.ones(n, dtype=bool)
+    new[1:] = episode[1:] != episode[:-1]
+    return np.maximum.accumulate(np.where(new, np.arange(n), 0)).astype(np.int64)
+
+
+def history_mean(thetas: np.ndarray, episode: np.ndarray, H: int = 10) -> np.ndarray:
+    """Mean of the last ``H`` predicted thetas within the same episode, the current one included.
+
+    thetas: [C, D] in sequential (episode, cycle) order, episode: [C] -> [C, D]. The first cycles of an
+    episode average over the fewer thetas available. Vectorised with a cumulative sum (float64).
+    """
+    thetas = np.asarray(thetas)
+    assert thetas.ndim == 2 and thetas.shape[0] == len(episode), f"{thetas.shape} vs {len(episode)}"
+    assert H >= 1, "history H must be >= 1"
+    c = thetas.shape[0]
+    cs = np.zeros((c + 1, thetas.shape[1]), dtype=np.float64)
+    np.cumsum(thetas, axis=0, dtype=np.float64, out=cs[1:])
+    i = np.arange(c)
+    start = np.maximum(i - H + 1, episode_starts(episode))
+    return ((cs[i + 1] - cs[start]) / (i + 1 - start)[:, None]).astype(thetas.dtype)
+
+
+def history_indices(episode: np.ndarray, H: int = 10) -> np.ndarray:
+    """Row indices of the H-cycle history ending at each row (oldest first, the row itself last).
+
+    episode: [C] -> [C, H] int64. Histories never cross an episode boundary: the first cycles of an
+    episode are padded by repeating the episode's first row.
+    """
+    c = len(episode)
+    i = np.arange(c)[:, None]
+    idx = i - np.arange(H - 1, -1, -1)[None, :]
+    return np.maximum(idx, episode_starts(episode)[:, None]).astype(np.int64)

@@ -1,0 +1,265 @@
+"""Reward networks: LIRL, 1DCNN, Bi1DCNN, PACNN(+S) (stage 1) and PTACNN(+S) (stage 2).
+
+Stage-1 models map one planning cycle's policy set to linear reward weights theta:
+
+    forward(features [B, N, 15], control_points [B, N, K, 3], actions [B, N, K, 2]) -> dict
+        theta     [B, 15]  raw feature units, >= 0 (so path-integral features stay costs)
+        context   [B, Cc]  (PACNN only) situation context vector, the input of PTACNN
+        attention [B, N]   (PACNN only) policy attention, average-upsampled from the pooled groups
+                           (each group's weight spread evenly over its policies: sums to 1 over N)
+
+Theta is predicted in normalised units (features divided by their train std) and converted to raw
+units by dividing by the per-feature std held in a buffer, so the normalisation travels with the
+checkpoint. Positivity: theta_n = softplus(output).
+
+The policy encoder treats the progress-sorted policy set as a 1-D sequence (length N, D = 15 + 5K
+input channels) and convolves along the policy axis, then average-pools groups of ``pool`` neighbouring
+policies (2500 -> 313; ceil, so no policy is dropped, the paper's figure says 312 with floor).
+"""
+
+from __future__ import annotations
+
+import torch
+from torch import nn
+
+from irlsim import N_FEATURES
+from irlsim.models.normalization import FeatureStats
+
+
+class RewardModel(nn.Module):
+    """Base of the stage-1 models: input normalisation buffers and the theta output transform."""
+
+    input_mean: torch.Tensor
+    input_std: torch.Tensor
+    theta_scale: torch.Tensor
+
+    def __init__(self, stats: FeatureStats, n_policies: int) -> None:
+        super().__init__()
+        self.k = stats.k
+        self.n_policies = n_policies
+        self.register_buffer("input_mean", torch.as_tensor(stats.mean, dtype=torch.float32))
+        self.register_buffer("input_std", torch.as_tensor(stats.std, dtype=torch.float32))
+        self.register_buffer("theta_scale", torch.as_tensor(stats.std[:N_FEATURES], dtype=torch.float32))
+
+    @property
+    def n_channels(self) -> int:
+        return N_FEATURES + 5 * self.k
+
+    def policy_inputs(
+        self, features: torch.Tensor, control_points: torch.Tensor, actions: torch.Tensor
+    ) -> torch.Tensor:
+        """Normalised per-policy inputs [B, N, D] (shapes asserted)."""
+        b, n = features.shape[:2]
+        assert features.shape == (b, n, N_FEATURES), f"features {tuple(features.shape)}"
+        assert control_points.shape == (b, n, self.k, 3), f"control_points {tuple(control_points.shape)}"
+        assert actions.shape == (b, n, self.k, 2), f"actions {tuple(actions.shape)}"
+        x = torch.cat([features, control_points.reshape(b, n, -1), actions.reshape(b, n, -1)], dim=-1)
+        return (x - self.input_mean) / self.input_std
+
+    def to_theta(self, out: torch.Tensor) -> torch.Tensor:
+        """Network output [B, 15] (normalised units, unconstrained) -> theta [B, 15] raw units, >= 0."""
+        return nn.functional.softplus(out) / self.theta_scale
+
+
+class LIRL(RewardModel):
+    """Linear IRL: one theta for every situation (15 trainable weights)."""
+
+    def __init__(self, stats: FeatureStats, n_policies: int) -> None:
+        super().__init__(stats, n_policies)
+        self.weights = nn.Parameter(torch.zeros(N_FEATURES))
+
+    def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
+        self.policy_inputs(features, control_points, actions)  # shape checks only
+        return {"theta": self.to_theta(self.weights.expand(features.shape[0], -1))}
+
+
+class PolicyEncoder(nn.Module):
+    """1-D convs along the progress-sorted policy axis, then average pooling of ``pool`` policies.
+
+    [B, N, D] -> [B, latent, G], G = ceil(N / pool).
+    """
+
+    def __init__(self, in_channels: int, hidden: int, latent: int, kernel: int, pool: int) -> None:
+        super().__init__()
+        pad = kernel // 2
+        self.net = nn.Sequential(
+            nn.Conv1d(in_channels, hidden, kernel, padding=pad),
+            nn.ReLU(),
+            nn.Conv1d(hidden, latent, kernel, padding=pad),
+            nn.ReLU(),
+            nn.AvgPool1d(pool, ceil_mode=True),
+        )
+        self.pool = pool
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x.transpose(1, 2))
+
+
+def pooled_length(n: int, pool: int) -> int:
+    return -(-n // pool)
+
+
+class Conv1DCNN(RewardModel):
+    """1DCNN (Rosbach et al. 2019): encoder, then fully connected layers over all pooled latents.
+
+    The first FC layer has latent * ceil(N / pool) inputs, so the parameter count grows with N.
+    """
+
+    def __init__(
+        self,
+        stats: FeatureStats,
+        n_policies: int,
+        hidden: int,
+        latent: int,
+        kernel: int,
+        pool: int,
+        fc_hidden: int,
+    ) -> None:
+        super().__init__(stats, n_policies)
+        self.encoder = PolicyEncoder(self.n_channels, hidden, latent, kernel, pool)
+        g = pooled_length(n_policies, pool)
+        self.head = nn.Sequential(
+            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, N_FEATURES)
+        )
+
+    def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
+        assert features.shape[1] == self.n_policies, f"1DCNN was built for N={self.n_policies} policies"
+        h = self.encoder(self.policy_inputs(features, control_points, actions))
+        return {"theta": self.to_theta(self.head(h))}
+
+
+class Bi1DCNN(RewardModel):
+    """Bi1DCNN: encoder, then strided 1-D convs across the pooled policies' latent features (each halves
+    the policy axis), then a fully connected layer over what is left (fewer weights than 1DCNN)."""
+
+    def __init__(
+        self,
+        stats: FeatureStats,
+        n_policies: int,
+        hidden: int,
+        latent: int,
+        kernel: int,
+        pool: int,
+        fc_hidden: int,
+        cross_layers: int = 2,
+    ) -> None:
+        super().__init__(stats, n_policies)
+        self.encoder = PolicyEncoder(self.n_channels, hidden, latent, kernel, pool)
+        layers: list[nn.Module] = []
+        g = pooled_length(n_policies, pool)
+        for _ in range(cross_layers):
+            layers += [nn.Conv1d(latent, latent, kernel, stride=2, padding=kernel // 2), nn.ReLU()]
+            g = (g + 2 * (kernel // 2) - kernel) // 2 + 1
+        self.cross = nn.Sequential(*layers)
+        self.head = nn.Sequential(
+            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, N_FEATURES)
+        )
+
+    def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
+        assert features.shape[1] == self.n_policies, f"Bi1DCNN was built for N={self.n_policies} policies"
+        h = self.cross(self.encoder(self.policy_inputs(features, control_points, actions)))
+        return {"theta": self.to_theta(self.head(h))}
+
+
+class PACNN(RewardModel):
+    """Policy attention CNN.
+
+    encoder h [B, L, G] -> attention encoder (1-D conv, ReLU, per-position FC) -> softmax over the G
+    pooled positions -> alpha [B, G]; attended a = sum_g alpha_g h_g. Following SAGAN (Zhang et al. 2018,
+    the paper's [zhang2018self]) the context is residual: context = mean_g h_g + gamma * a with a learned
+    scalar gamma initialised to 0, so training starts from plain average pooling and gradually moves
+    weight onto the attended, non-local evidence. context [B, L] -> FC -> ReLU -> FC -> theta.
+    Works for any N (no N-dependent weights). PACNN+S is the same network trained with the extra
+    semi-supervised attention loss (see irlsim.irl.objectives.attention_loss).
+    """
+
+    def __init__(
+        self,
+        stats: FeatureStats,
+        n_policies: int,
+        hidden: int,
+        latent: int,
+        kernel: int,
+        pool: int,
+        attention_hidden: int,
+        head_hidden: int,
+    ) -> None:
+        super().__init__(stats, n_policies)
+        self.pool = pool
+        self.latent = latent
+        self.encoder = PolicyEncoder(self.n_channels, hidden, latent, kernel, pool)
+        self.attention_encoder = nn.Sequential(
+            nn.Conv1d(latent, attention_hidden, kernel, padding=kernel // 2),
+            nn.ReLU(),
+            nn.Conv1d(attention_hidden, 1, 1),  # a fully connected layer applied at each pooled position
+        )
+        self.gamma = nn.Parameter(torch.zeros(()))
+        self.head = nn.Sequential(
+            nn.Linear(latent, head_hidden), nn.ReLU(), nn.Linear(head_hidden, N_FEATURES)
+        )
+
+    def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
+        n = features.shape[1]
+        h = self.encoder(self.policy_inputs(features, control_points, actions))  # [B, L, G]
+        alpha = torch.softmax(self.attention_encoder(h).squeeze(1), dim=-1)  # [B, G]
+        attended = torch.einsum("blg,bg->bl", h, alpha)
+        context = h.mean(-1) + self.gamma * attended
+        theta = self.to_theta(self.head(context))
+        return {
+            "theta": theta,
+            "context": context,
+            "attention_pooled": alpha,
+            "attention": upsample_attention(alpha, n, self.pool),
+        }
+
+
+def upsample_attention(alpha: torch.Tensor, n: int, pool: int) -> torch.Tensor:
+    """[B, G] pooled attention -> [B, N]: each group's weight spread evenly over its (<= pool) policies."""
+    g = alpha.shape[-1]
+    sizes = torch.full((g,), pool, dtype=alpha.dtype, device=alpha.device)
+    sizes[-1] = n - pool * (g - 1)
+    return (alpha / sizes).repeat_interleave(pool, dim=-1)[..., :n]
+
+
+class PTACNN(nn.Module):
+    """Temporal attention network (stage 2, on a frozen PACNN).
+
+    contexts [B, H, Cc], thetas [B, H, 15] (oldest first, raw units) -> per step input
+    [context, theta * theta_scale] (theta in normalised units) -> 2-layer LSTM -> last hidden state ->
+    4 FC layers -> softmax weights w [B, H]; theta_next = sum_h w_h theta_h, a convex combination of the
+    history's thetas (so it stays >= 0 and in raw units).
+    """
+
+    theta_scale: torch.Tensor
+
+    def __init__(
+        self,
+        context_dim: int,
+        history: int,
+        theta_scale: torch.Tensor,
+        lstm_hidden: int,
+        lstm_layers: int,
+        fc_hidden: int,
+    ) -> None:
+        super().__init__()
+        self.context_dim = context_dim
+        self.history = history
+        self.register_buffer("theta_scale", torch.as_tensor(theta_scale, dtype=torch.float32).clone())
+        self.lstm = nn.LSTM(context_dim + N_FEATURES, lstm_hidden, num_layers=lstm_layers, batch_first=True)
+        self.fc = nn.Sequential(
+            nn.Linear(lstm_hidden, fc_hidden),
+            nn.ReLU(),
+            nn.Linear(fc_hidden, fc_hidden),
+            nn.ReLU(),
+            nn.Linear(fc_hidden, fc_hidden),
+            nn.ReLU(),
+            nn.Linear(fc_hidden, history),
+        )
+
+    def forward(self, contexts: torch.Tensor, thetas: torch.Tensor) -> dict[str, torch.Tensor]:
+        b = contexts.shape[0]
+        assert contexts.shape == (b, self.history, self.context_dim), f"contexts {tuple(contexts.shape)}"
+        assert thetas.shape == (b, self.history, N_FEATURES), f"thetas {tuple(thetas.shape)}"
+        out, _ = self.lstm(torch.cat([contexts, thetas * self.theta_scale], dim=-1))
+        weights = torch.softmax(self.fc(out[:, -1]), dim=-1)
+        return {"theta": torch.einsum("bh,bhf->bf", weights, thetas), "weights": weights}

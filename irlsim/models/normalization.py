@@ -1,0 +1,87 @@
+"""Per-channel input statistics that travel inside a model (as buffers) and its checkpoint.
+
+A policy's input vector has D = 15 + 3K + 2K channels, in this order: the 15 path-integral features,
+the K control points flattened (lateral offset [m], yaw [rad], progress [m] per point), the K actions
+flattened (two per point). Models normalise with ``(x - mean) / std``; the std of the 15 features also
+converts a theta predicted for normalised features back to raw feature units (theta_raw = theta_n / std).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from irlsim import N_FEATURES
+
+#: a channel with a smaller std than this is left unscaled (std := 1): it is (almost) constant
+MIN_STD = 1e-6
+
+
+@dataclass(frozen=True)
+class FeatureStats:
+    """mean, std: [D] float64, D = 15 + 5K; k: control points per policy."""
+
+    mean: np.ndarray
+    std: np.ndarray
+    k: int
+
+    def __post_init__(self) -> None:
+        d = N_FEATURES + 5 * self.k
+        assert self.mean.shape == (d,) and self.std.shape == (d,), f"stats must be [{d}] for K={self.k}"
+
+    @property
+    def n_channels(self) -> int:
+        return N_FEATURES + 5 * self.k
+
+    @classmethod
+    def identity(cls, k: int = 10) -> FeatureStats:
+        d = N_FEATURES + 5 * k
+        return cls(np.zeros(d), np.ones(d), k)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"mean": self.mean.tolist(), "std": self.std.tolist(), "k": self.k}
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> FeatureStats:
+        return cls(
+            np.asarray(d["mean"], dtype=np.float64), np.asarray(d["std"], dtype=np.float64), int(d["k"])
+        )
+
+
+def policy_inputs_np(features: np.ndarray, control_points: np.ndarray, actions: np.ndarray) -> np.ndarray:
+    """Concatenate per-policy channels: [..., N, 15], [..., N, K, 3], [..., N, K, 2] -> [..., N, D]."""
+    lead = features.shape[:-1]
+    return np.concatenate([features, control_points.reshape(*lead, -1), actions.reshape(*lead, -1)], axis=-1)
+
+
+def compute_feature_stats(split: Any, max_cycles: int = 0, chunk: int = 256) -> FeatureStats:
+    """Channel mean and std over all policies of the (first ``max_cycles``, 0 = all) cycles of ``split``.
+
+    Chunked float64 sums, so it is memory-bounded on memory-mapped splits.
+    """
+    n = split.features.shape[0] if max_cycles <= 0 else min(max_cycles, split.features.shape[0])
+    k = split.control_points.shape[2]
+    d = N_FEATURES + 5 * k
+    s1, s2, count = np.zeros(d), np.zeros(d), 0
+    for start in range(0, n, chunk):
+        sl = slice(start, min(start + chunk, n))
+        x = (
+            policy_inputs_np(
+                np.asarray(split.features[sl]),
+                np.asarray(split.control_points[sl]),
+                np.asarray(split.actions[sl]),
+            )
+            .reshape(-1, d)
+            .astype(np.float64)
+        )
+        s1 += x.sum(0)
+        s2 += (x * x).sum(0)
+        count += x.shape[0]
+    if count == 0:
+        return FeatureStats.identity(k)
+    mean = s1 / count
+    std = np.sqrt(np.maximum(s2 / count - mean * mean, 0.0))
+    std = np.where(std < MIN_STD, 1.0, std)
+    return FeatureStats(mean, std, k)

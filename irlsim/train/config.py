@@ -1,0 +1,154 @@
+"""Config dataclasses of the two training stages (load with ``irlsim.config.load_config(cls, path)``).
+
+TOML layout: top-level keys are the fields below; network sizes go in a ``[model]`` table
+(see :class:`irlsim.models.ModelConfig`). ``Stage1Config.smoke()`` / ``Stage2Config.smoke()`` are the tiny
+presets the tests use.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from irlsim.config import require
+from irlsim.models.registry import MODEL_NAMES, STAGE1_MODELS, STAGE2_BASE, ModelConfig
+
+
+@dataclass(frozen=True)
+class Stage1Config:
+    """Stage 1: LIRL and the per-cycle deep models, trained on the (shuffled) train split."""
+
+    models: tuple[str, ...] = STAGE1_MODELS
+    """which stage-1 models to train (each into <out>/<model>/)"""
+    epochs: int = 20
+    """passes over the train cycles that have a demonstration"""
+    batch_size: int = 32
+    """planning cycles per mini-batch"""
+    lr: float = 1e-3
+    """Adam learning rate"""
+    weight_decay: float = 0.0
+    """Adam (L2) weight decay"""
+    grad_clip: float = 10.0
+    """max gradient norm per step (0 = no clipping)"""
+    attention_loss_weight: float = 1.0
+    """weight of the semi-supervised attention loss of PACNN+S (L1 distance, in [0, 2])"""
+    attention_tau: float = 0.5
+    """[m] temperature of the attention target softmax(-distance / tau) of PACNN+S"""
+    validate_every: int = 5
+    """[epochs] validation (ED, OPD on the sequential validation split) every this many epochs"""
+    history: int = 10
+    """[cycles] H: validation uses the mean of the last H predicted thetas within an episode"""
+    seed: int = 0
+    """seed of the weight initialisation and the shuffling"""
+    threads: int = 2
+    """torch CPU threads (torch.set_num_threads)"""
+    max_cycles: int = 0
+    """use only the first this many cycles of the train split (0 = all)"""
+    eval_batch: int = 64
+    """cycles per forward pass when predicting whole splits (memory bound)"""
+    tensorboard: bool = True
+    """also log to <out>/<model>/tensorboard if tensorboard is installed (silently skipped otherwise)"""
+    model: ModelConfig = field(default_factory=ModelConfig)
+    """network sizes"""
+
+    def validate(self) -> None:
+        for m in self.models:
+            require(m in STAGE1_MODELS, f"models: '{m}' is not a stage-1 model ({', '.join(STAGE1_MODELS)})")
+        require(self.epochs >= 0, "epochs must be >= 0")
+        require(self.batch_size >= 1, "batch_size must be >= 1")
+        require(self.lr > 0, "lr must be > 0")
+        require(self.weight_decay >= 0, "weight_decay must be >= 0")
+        require(self.grad_clip >= 0, "grad_clip must be >= 0")
+        require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")
+        require(self.attention_tau > 0, "attention_tau must be > 0 [m]")
+        require(self.validate_every >= 1, "validate_every must be >= 1")
+        require(self.history >= 1, "history must be >= 1")
+        require(self.threads >= 1, "threads must be >= 1")
+        require(self.max_cycles >= 0, "max_cycles must be >= 0")
+        require(self.eval_batch >= 1, "eval_batch must be >= 1")
+        self.model.validate()
+
+    @classmethod
+    def smoke(cls) -> Stage1Config:
+        return cls(
+            epochs=3,
+            batch_size=8,
+            lr=1e-2,
+            validate_every=1,
+            threads=1,
+            tensorboard=False,
+            model=ModelConfig(
+                hidden_channels=8,
+                latent=8,
+                attention_hidden=4,
+                head_hidden=16,
+                fc_hidden=16,
+                lstm_hidden=8,
+                tan_fc_hidden=8,
+            ),
+        )
+
+
+@dataclass(frozen=True)
+class Stage2Config:
+    """Stage 2: PTACNN(+S) on the frozen PACNN(+S) of stage 1, trained with the NLL of cycle t+1."""
+
+    models: tuple[str, ...] = tuple(STAGE2_BASE)
+    """which stage-2 models to train (PTACNN needs <runs>/PACNN, PTACNN+S needs <runs>/PACNN+S)"""
+    epochs: int = 20
+    """passes over the train split's (history, next cycle) pairs"""
+    batch_size: int = 64
+    """histories per mini-batch"""
+    lr: float = 1e-3
+    """Adam learning rate"""
+    weight_decay: float = 0.0
+    """Adam (L2) weight decay"""
+    grad_clip: float = 10.0
+    """max gradient norm per step (0 = no clipping)"""
+    validate_every: int = 5
+    """[epochs] validation on the sequential validation split every this many epochs"""
+    seed: int = 0
+    """seed of the weight initialisation and the shuffling"""
+    threads: int = 2
+    """torch CPU threads"""
+    max_cycles: int = 0
+    """use only the first this many cycles of the train split (0 = all)"""
+    eval_batch: int = 64
+    """cycles per forward pass of the frozen PACNN (memory bound)"""
+    tensorboard: bool = True
+    """also log to TensorBoard if installed"""
+    model: ModelConfig = field(default_factory=ModelConfig)
+    """sizes of the temporal network (lstm_hidden, lstm_layers, tan_fc_hidden, history = H [cycles]);
+    the context size comes from the frozen PACNN checkpoint"""
+
+    def validate(self) -> None:
+        for m in self.models:
+            require(m in STAGE2_BASE, f"models: '{m}' is not a stage-2 model ({', '.join(STAGE2_BASE)})")
+        require(self.epochs >= 0, "epochs must be >= 0")
+        require(self.batch_size >= 1, "batch_size must be >= 1")
+        require(self.lr > 0, "lr must be > 0")
+        require(self.weight_decay >= 0, "weight_decay must be >= 0")
+        require(self.grad_clip >= 0, "grad_clip must be >= 0")
+        require(self.validate_every >= 1, "validate_every must be >= 1")
+        require(self.threads >= 1, "threads must be >= 1")
+        require(self.max_cycles >= 0, "max_cycles must be >= 0")
+        require(self.eval_batch >= 1, "eval_batch must be >= 1")
+        self.model.validate()
+
+    @property
+    def history(self) -> int:
+        return self.model.history
+
+    @classmethod
+    def smoke(cls) -> Stage2Config:
+        return cls(
+            epochs=3,
+            batch_size=16,
+            lr=1e-2,
+            validate_every=1,
+            threads=1,
+            tensorboard=False,
+            model=ModelConfig(lstm_hidden=8, tan_fc_hidden=8, history=4),
+        )
+
+
+assert set(STAGE1_MODELS) | set(STAGE2_BASE) == set(MODEL_NAMES)

@@ -1,0 +1,225 @@
+"""Evaluation: Table I of the paper (model, trainable parameters, EVD, ED, OPD, DEMO) and plots.
+
+Protocol (DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
+t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
+temporal mixture over the H-cycle history ending at t. Metrics are averaged over cycles that have a
+demonstration. Two reference rows: 'untrained PACNN' (seed 0, default-initialised, same sizes and
+normalisation as the trained PACNN) and 'random policy' (a uniformly random policy per cycle; ED is the
+mean distance over the policy set, OPD the distance of the random pick, no EVD).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+
+from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
+from irlsim.models.normalization import FeatureStats, compute_feature_stats
+from irlsim.models.registry import MODEL_NAMES, build_model, count_parameters, format_parameters
+from irlsim.train.common import (
+    CHECKPOINT_NAME,
+    METRICS_NAME,
+    LoadedModel,
+    as_dataset,
+    get_split,
+    load_model,
+    model_config_from,
+    predict_split,
+    read_metrics,
+)
+from irlsim.train.stage2 import predict_temporal
+from irlsim.utils import atomic_path, atomic_write_text, write_json
+
+METRIC_KEYS = ("evd", "ed", "opd", "demo")
+
+
+def predict_sequential(loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64) -> np.ndarray:
+    """Thetas [C, 15] a model uses on a sequential split (history mean or temporal mixture)."""
+    episode = np.asarray(split.episode)
+    if loaded.base is None:
+        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H)
+    base = predict_split(loaded.base, split, chunk)
+    return predict_temporal(loaded.model, base["context"], base["theta"], episode)[0]
+
+
+def random_policy_metrics(split: Any, seed: int = 0, chunk: int = 256) -> dict[str, np.ndarray]:
+    """Per-cycle metrics of picking a uniformly random policy: ED = mean distance, OPD = random pick."""
+    rng = np.random.default_rng(seed)
+    c, n = split.distances.shape
+    ed, opd = np.zeros(c), np.zeros(c)
+    for start in range(0, c, chunk):
+        d = np.asarray(split.distances[start : start + chunk], dtype=np.float64)
+        ed[start : start + len(d)] = d.mean(1)
+        opd[start : start + len(d)] = d[np.arange(len(d)), rng.integers(0, n, len(d))]
+    demo_index = np.asarray(split.demo_index)
+    valid = demo_index >= 0
+    demo = np.full(c, np.nan)
+    rows = np.flatnonzero(valid)
+    for start in range(0, len(rows), chunk):
+        r = rows[start : start + chunk]
+        demo[r] = np.asarray(split.distances[r])[np.arange(len(r)), demo_index[r]]
+    return {"evd": np.full(c, np.nan), "ed": ed, "opd": opd, "demo": demo, "valid": valid}
+
+
+def _row(model: str, params: str, n_params: list[int], metrics: dict[str, np.ndarray]) -> dict[str, Any]:
+    s = summarize(metrics)
+    return {
+        "model": model,
+        "parameters": params,
+        "parameter_counts": n_params,
+        **{k: s[k] for k in METRIC_KEYS},
+        "cycles": int(metrics["valid"].sum()),
+    }
+
+
+def _fmt(v: float) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3f}"
+
+
+def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str:
+    lines = [
+        f"# Results on the {split_name} split (history H = {H})",
+        "",
+        "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['model']} | {r['parameters']} | " + " | ".join(_fmt(r[k]) for k in METRIC_KEYS) + " |"
+        )
+    lines += [
+        "",
+        "EVD: expected value difference (relative); ED: expected distance of p(pi|theta) to the "
+        "demonstration; OPD: distance of the optimal policy; DEMO: distance of the demonstration "
+        "(lower bound of OPD). Means over cycles with a demonstration.",
+        "",
+    ]
+    return "\n".join(lines)
+
+
+def _savefig(fig: Any, path: Path) -> None:
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
+
+
+def plot_convergence(runs_dir: Path, models: list[str], path: Path) -> None:
+    """Train EVD per epoch and validation ED per validation epoch, one line per model (metrics.csv)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
+    for m in models:
+        rows = read_metrics(runs_dir / m / METRICS_NAME)
+        if not rows:
+            continue
+        ep = np.array([r["epoch"] for r in rows])
+        evd = np.array([r.get("train/evd", np.nan) for r in rows])
+        ed = np.array([r.get("val/ed", np.nan) for r in rows])
+        ax1.plot(ep, evd, label=m)
+        ok = np.isfinite(ed)
+        ax2.plot(ep[ok], ed[ok], marker="o", label=m)
+    ax1.set(title="training: EVD on train", xlabel="epoch", ylabel="EVD")
+    ax2.set(title="validation: ED on validation", xlabel="epoch", ylabel="ED [m]")
+    for ax in (ax1, ax2):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+    _savefig(fig, path)
+    plt.close(fig)
+
+
+def plot_opd(per_model: dict[str, np.ndarray], demo: np.ndarray, path: Path) -> None:
+    """Distribution of OPD per model with DEMO (the lower bound) [m]."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6, 4))
+    finite = [v[np.isfinite(v)] for v in [*per_model.values(), demo]]
+    hi = max([float(np.quantile(v, 0.99)) for v in finite if len(v)] + [1e-3])
+    bins = np.linspace(0.0, hi, 40)
+    for name, v in per_model.items():
+        ax.hist(v[np.isfinite(v)], bins=bins.tolist(), histtype="step", density=True, label=name)
+    ax.hist(
+        demo[np.isfinite(demo)],
+        bins=bins.tolist(),
+        histtype="stepfilled",
+        alpha=0.3,
+        color="k",
+        density=True,
+        label="DEMO (lower bound)",
+    )
+    ax.set(
+        title="test: distance of the optimal policy to the demonstration", xlabel="OPD [m]", ylabel="density"
+    )
+    ax.legend(fontsize=8)
+    _savefig(fig, path)
+    plt.close(fig)
+
+
+def evaluate_models(
+    dataset: Any,
+    runs_dir: str | Path,
+    out_dir: str | Path,
+    H: int = 10,
+    split: str = "test",
+    threads: int = 2,
+) -> list[dict[str, Any]]:
+    """Evaluate every trained model in ``runs_dir/<model>/checkpoint.pt`` on ``split``.
+
+    Writes ``out_dir/results.md``, ``results.json``, ``convergence.png`` and ``opd_distribution.png``
+    (all atomically); returns the Table-I rows (model, parameters, parameter_counts, evd, ed, opd, demo,
+    cycles), trained models in registry order, then 'untrained PACNN' and 'random policy'.
+    """
+    torch.set_num_threads(threads)
+    dataset = as_dataset(dataset)
+    runs_dir, out_dir = Path(runs_dir), Path(out_dir)
+    data = get_split(dataset, split)
+    rows, opd = [], {}
+    trained = [m for m in MODEL_NAMES if (runs_dir / m / CHECKPOINT_NAME).exists()]
+    loaded: dict[str, LoadedModel] = {}
+    for name in trained:
+        lm = loaded[name] = load_model(runs_dir / name / CHECKPOINT_NAME)
+        metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
+        a, b = lm.parameters
+        params = (
+            format_parameters(a) if lm.base is None else f"{format_parameters(a)} + {format_parameters(b)}"
+        )
+        rows.append(_row(name, params, [a] if lm.base is None else [a, b], metrics))
+        opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+
+    # reference: untrained PACNN with the trained one's sizes and normalisation
+    ref = next((loaded[m] for m in ("PACNN", "PACNN+S", *trained) if m in loaded), None)
+    if ref is not None:
+        entry = ref.checkpoint["base"] if ref.base is not None else ref.checkpoint
+        stats, cfg = FeatureStats.from_dict(entry["feature_stats"]), model_config_from(entry["model_config"])
+    else:
+        stats, cfg = compute_feature_stats(data), None
+    torch.manual_seed(0)
+    untrained = build_model("PACNN", cfg, data.features.shape[1], stats).eval()
+    lm = LoadedModel("PACNN", untrained, None, None, {"parameters": count_parameters(untrained)})
+    metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
+    rows.append(
+        _row(
+            "untrained PACNN",
+            format_parameters(count_parameters(untrained)),
+            [count_parameters(untrained)],
+            metrics,
+        )
+    )
+    rnd = random_policy_metrics(data)
+    rows.append(_row("random policy", "0", [0], rnd))
+    demo = np.where(rnd["valid"], rnd["demo"], np.nan)
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
+    write_json(out_dir / "results.json", {"split": split, "history": H, "rows": rows})
+    plot_convergence(runs_dir, trained, out_dir / "convergence.png")
+    plot_opd(opd, demo, out_dir / "opd_distribution.png")
+    return rows

@@ -1,0 +1,192 @@
+"""Stage 2: train PTACNN / PTACNN+S on the frozen PACNN / PACNN+S of stage 1.
+
+Reads top to bottom: load the frozen PACNN -> its context vectors and thetas for every cycle of the
+(sequential) train and validation splits -> H-cycle histories that never cross an episode boundary
+(the first cycles of an episode repeat the episode's first cycle) -> train the temporal network with the
+NLL of the next cycle t+1 given the history ending at t -> checkpoint + metrics.csv each epoch.
+
+Validation (and evaluation) convention: at cycle t every model may use cycles <= t; PTACNN's theta for
+cycle t is its mixture over the history ending at t (the current cycle included), the same information
+the stage-1 models' history mean uses.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from pathlib import Path
+from typing import Any, cast
+
+import numpy as np
+import torch
+
+from irlsim.config import to_dict
+from irlsim.errors import IrlsimError
+from irlsim.irl.objectives import cycle_metrics, evaluate_thetas, history_indices, summarize
+from irlsim.models.networks import PTACNN
+from irlsim.models.normalization import FeatureStats
+from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
+from irlsim.train.common import (
+    CHECKPOINT_NAME,
+    MetricsLog,
+    as_dataset,
+    check_finite,
+    dataset_meta,
+    get_split,
+    predict_split,
+    read_checkpoint,
+    rebuild_stage1,
+    save_checkpoint,
+    to_tensor,
+)
+from irlsim.train.config import Stage2Config
+from irlsim.utils import progress
+
+
+@torch.no_grad()
+def predict_temporal(
+    model: torch.nn.Module, contexts: np.ndarray, thetas: np.ndarray, episode: np.ndarray, chunk: int = 1024
+) -> tuple[np.ndarray, np.ndarray]:
+    """PTACNN over a sequential split: for each cycle t the mixture over the history ending at t.
+
+    contexts [C, Cc], thetas [C, 15] (frozen PACNN outputs), episode [C] -> (theta [C, 15], weights [C, H]).
+    """
+    model.eval()
+    hist = history_indices(episode, cast(PTACNN, model).history)
+    out_t, out_w = [], []
+    for start in range(0, len(hist), chunk):
+        h = hist[start : start + chunk]
+        out = model(to_tensor(contexts[h]), to_tensor(thetas[h]))
+        out_t.append(out["theta"].numpy())
+        out_w.append(out["weights"].numpy())
+    if not out_t:
+        return np.zeros((0, 15), np.float32), np.zeros((0, hist.shape[1]), np.float32)
+    return np.concatenate(out_t), np.concatenate(out_w)
+
+
+def next_cycle_pairs(episode: np.ndarray, demo_index: np.ndarray) -> np.ndarray:
+    """Rows t whose next row t+1 is in the same episode and has a demonstration -> [M] int64."""
+    episode, demo_index = np.asarray(episode), np.asarray(demo_index)
+    t = np.arange(len(episode) - 1)
+    return t[(episode[1:] == episode[:-1]) & (demo_index[1:] >= 0)]
+
+
+def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path) -> dict[str, Any]:
+    """Train (or resume) one temporal model into ``runs_dir/<name>/``; returns its summary."""
+    torch.set_num_threads(cfg.threads)
+    base_name = STAGE2_BASE[name]
+    base_path = runs_dir / base_name / CHECKPOINT_NAME
+    if not base_path.exists():
+        raise IrlsimError(f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 first")
+    base_ckpt = read_checkpoint(base_path)
+    base = rebuild_stage1(base_ckpt)
+    for p in base.parameters():
+        p.requires_grad_(False)
+    base_entry = {
+        k: base_ckpt[k]
+        for k in ("model", "model_config", "n_policies", "feature_stats", "state_dict", "parameters")
+    }
+    model_cfg = dataclasses.replace(cfg.model, latent=int(base_ckpt["model_config"]["latent"]))
+    H = model_cfg.history
+
+    # frozen PACNN outputs for every cycle of the sequential splits
+    train, validation = get_split(dataset, "train"), get_split(dataset, "validation")
+    n_cycles = train.features.shape[0] if not cfg.max_cycles else min(cfg.max_cycles, train.features.shape[0])
+    tr = predict_split(base, train, cfg.eval_batch, desc=f"{base_name} on train")
+    va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation")
+    train_episode = np.asarray(train.episode)[:n_cycles]
+    hist = history_indices(train_episode, H)
+    pairs = next_cycle_pairs(train_episode, np.asarray(train.demo_index)[:n_cycles])
+    if len(pairs) == 0:
+        raise IrlsimError(
+            "the train split has no (cycle, next cycle with a demonstration) pair: collect more"
+        )
+
+    ckpt_path = runs_dir / name / CHECKPOINT_NAME
+    ckpt = read_checkpoint(ckpt_path) if ckpt_path.exists() else None
+    if ckpt and (
+        ckpt["model"] != name
+        or ckpt["model_config"] != to_dict(model_cfg)
+        or ckpt["base"]["state_dict"].keys() != base_entry["state_dict"].keys()
+        or any(not torch.equal(ckpt["base"]["state_dict"][k], v) for k, v in base_entry["state_dict"].items())
+    ):
+        raise IrlsimError(
+            f"checkpoint {ckpt_path} was trained on another {base_name} or with other sizes: "
+            "delete it to retrain"
+        )
+    torch.manual_seed(cfg.seed)
+    model = build_model(name, model_cfg, 1, FeatureStats.from_dict(base_ckpt["feature_stats"]))
+    optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    start_epoch = 0
+    if ckpt:
+        model.load_state_dict(ckpt["state_dict"])
+        optimizer.load_state_dict(ckpt["optimizer"])
+        start_epoch = int(ckpt["epoch"])
+    log = MetricsLog(runs_dir / name, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
+    meta = dataset_meta(dataset)
+
+    def checkpoint(epochs_done: int) -> dict[str, Any]:
+        return {
+            "model": name,
+            "stage": 2,
+            "config": to_dict(cfg),
+            "model_config": to_dict(model_cfg),
+            "state_dict": model.state_dict(),
+            "optimizer": optimizer.state_dict(),
+            "epoch": epochs_done,
+            "feature_stats": base_ckpt["feature_stats"],
+            "parameters": count_parameters(model),
+            "base": base_entry,
+            "metrics": log.rows,
+            **meta,
+        }
+
+    for epoch in progress(range(start_epoch, cfg.epochs), desc=f"stage 2 {name}", unit="epoch"):
+        t0 = time.perf_counter()
+        model.train()
+        order = np.random.default_rng([cfg.seed, epoch]).permutation(pairs)
+        sums = {"train/nll": 0.0, "train/evd": 0.0}
+        for start in range(0, len(order), cfg.batch_size):
+            mb_t = np.sort(order[start : start + cfg.batch_size])
+            mb_next = mb_t + 1
+            out = model(to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
+            m = cycle_metrics(
+                out["theta"],
+                to_tensor(train.features[mb_next]),
+                to_tensor(train.distances[mb_next]),
+                to_tensor(train.demo_index[mb_next], torch.int64),
+            )
+            loss = m["nll"].mean()
+            check_finite(loss, name, epoch, cfg.lr, "stage2")
+            optimizer.zero_grad()
+            loss.backward()
+            if cfg.grad_clip > 0:
+                torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_clip)
+            optimizer.step()
+            sums["train/nll"] += m["nll"].detach().sum().item()
+            sums["train/evd"] += m["evd"].detach().sum().item()
+        row: dict[str, Any] = {"epoch": epoch + 1, **{k: v / len(order) for k, v in sums.items()}}
+        if (epoch + 1) % cfg.validate_every == 0 or epoch + 1 == cfg.epochs:
+            thetas, _ = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
+            row.update({f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()})
+        row["time/epoch_s"] = time.perf_counter() - t0
+        log.add(row)
+        save_checkpoint(ckpt_path, checkpoint(epoch + 1))
+    log.close()
+    if not ckpt_path.exists():
+        save_checkpoint(ckpt_path, checkpoint(0))
+    return {
+        "checkpoint": str(ckpt_path),
+        "epochs": max(cfg.epochs, start_epoch),
+        "parameters": count_parameters(model),
+        "base_parameters": int(base_ckpt["parameters"]),
+        "final": log.rows[-1] if log.rows else {},
+    }
+
+
+def train_stage2(dataset: Any, cfg: Stage2Config, runs_dir: str | Path) -> dict[str, Any]:
+    """Train every model of ``cfg.models`` into ``runs_dir/<model>/`` on the frozen stage-1 checkpoints
+    ``runs_dir/PACNN`` / ``runs_dir/PACNN+S``. Resumes from existing checkpoints. Returns {model: summary}."""
+    dataset = as_dataset(dataset)
+    runs_dir = Path(runs_dir)
+    return {name: train_one_stage2(name, dataset, cfg, runs_dir) for name in cfg.models}
