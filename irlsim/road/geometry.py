@@ -7,7 +7,8 @@ Yaw is ENU: radians, 0 = east, counter-clockwise. SUMO angles are degrees, 0 = n
 
 The reference line is the concatenation of the middle lane's shapes, internal (junction) lanes included,
 resampled every ``REF_STEP`` metres. Projection xy -> (s, d) is onto that polyline; (s, d) -> xy uses the
-same segment's normal, so a round trip is exact up to the tiny wedge outside each vertex (< 3 mm here).
+normal interpolated between vertex normals, and the projection inverts exactly that, so a round trip is
+exact (float precision).
 """
 
 from __future__ import annotations
@@ -149,6 +150,10 @@ class Road:
         self._seg_len = np.linalg.norm(seg, axis=1)  # [M]
         self._seg_dir = seg / self._seg_len[:, None]
         self._seg_normal = np.stack([-self._seg_dir[:, 1], self._seg_dir[:, 0]], axis=1)  # left normal
+        # vertex normals (mean of the adjacent segments'); to_xy interpolates them, so the frame is
+        # continuous and to_frenet can invert it exactly
+        vn = self._seg_normal + np.roll(self._seg_normal, 1, axis=0)
+        self._vtx_normal = vn / np.linalg.norm(vn, axis=1)[:, None]
         self.ref_s = np.concatenate([[0.0], np.cumsum(self._seg_len)[:-1]])  # [M] s of each vertex
         self.lap_length = float(np.sum(self._seg_len))  # [m]
         self._seg_heading = np.arctan2(self._seg_dir[:, 1], self._seg_dir[:, 0])
@@ -246,9 +251,47 @@ class Road:
             j = np.argmin(dist2, axis=1)
             rows = np.arange(len(q))
             seg = idx[rows, j]
-            out_s[i : i + chunk] = (self.ref_s[seg] + t[rows, j]) % self.lap_length
-            out_d[i : i + chunk] = (rel[rows, j] * self._seg_normal[seg]).sum(-1)
+            out_s[i : i + chunk], out_d[i : i + chunk] = self._project_smooth(q, seg, t[rows, j])
         return out_s.reshape(shape), out_d.reshape(shape)
+
+    def _project_smooth(
+        self, q: np.ndarray, seg: np.ndarray, t_clip: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Exact inverse of :meth:`to_xy` near segment ``seg``: the foot t where q - P(t) is parallel to
+        the interpolated normal N(t) (a quadratic in t), tried on seg, then its neighbours.
+
+        With piecewise-constant normals, points in the wedge outside a vertex have no exact (s, d) and the
+        round trip misses by |d| x (turn angle per vertex), ~1.5 cm on the outer lane's curves.
+        """
+        m = len(self.ref_xy)
+        best_t = np.full(len(q), np.nan)
+        best_seg = seg.copy()
+        for off in (0, -1, 1):
+            jj = (seg + off) % m
+            a, u, ln = self.ref_xy[jj], self._seg_dir[jj], self._seg_len[jj]
+            n0 = self._vtx_normal[jj]
+            k = (self._vtx_normal[(jj + 1) % m] - n0) / ln[:, None]
+            r = q - a
+            c0 = _cross(r, n0)
+            c1 = _cross(r, k) - _cross(u, n0)
+            c2 = -_cross(u, k)
+            # the root near -c0/c1 (numerically stable form; the other root is ~1/c2 away)
+            sq = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
+            tt = -2.0 * c0 / (c1 + np.where(c1 >= 0, 1.0, -1.0) * sq)
+            ok = np.isnan(best_t) & (tt >= -1e-9) & (tt <= ln + 1e-9)
+            best_t = np.where(ok, tt, best_t)
+            best_seg = np.where(ok, jj, best_seg)
+        best_t = np.where(np.isnan(best_t), t_clip, np.clip(best_t, 0.0, self._seg_len[best_seg]))
+        foot = self.ref_xy[best_seg] + self._seg_dir[best_seg] * best_t[:, None]
+        n = self._normal_at(best_seg, best_t)
+        s = (self.ref_s[best_seg] + best_t) % self.lap_length
+        return s, ((q - foot) * n).sum(-1)
+
+    def _normal_at(self, seg: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Unit left normal [..., 2] at distance t along segment seg, linear between vertex normals."""
+        f = (t / self._seg_len[seg])[..., None]
+        n = self._vtx_normal[seg] * (1.0 - f) + self._vtx_normal[(seg + 1) % len(self.ref_xy)] * f
+        return n / np.linalg.norm(n, axis=-1, keepdims=True)
 
     def segment_of(self, s: np.ndarray) -> np.ndarray:
         """Index of the reference segment containing route position(s) s (wrapped)."""
@@ -263,7 +306,7 @@ class Road:
         seg = self.segment_of(sw)
         t = sw - self.ref_s[seg]
         base = self.ref_xy[seg] + self._seg_dir[seg] * t[..., None]
-        xy = base + self._seg_normal[seg] * d[..., None]
+        xy = base + self._normal_at(seg, t) * d[..., None]
         return xy[..., 0], xy[..., 1]
 
     def heading(self, s: np.ndarray) -> np.ndarray:
@@ -361,6 +404,10 @@ class Road:
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), c.lane) for c in self.checkpoints],
         }
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _smooth_closed(pts: np.ndarray, half_window: float) -> np.ndarray:

@@ -1,0 +1,108 @@
+"""Scenario configuration: traffic, clocks, ego start and episode limits. SI units inside."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from irlsim.config import require
+
+MAX_VEHICLES = 15  # the scenario's cap on background vehicles (DESIGN.md section 3)
+
+
+@dataclass(frozen=True)
+class ScenarioConfig:
+    """One SUMO episode on the oval.
+
+    Load from TOML with ``irlsim.config.load_config(ScenarioConfig, path)`` (unknown keys are errors).
+    """
+
+    n_vehicles: int = 15
+    """number of background vehicles kept around the ego, 0..15"""
+    spawn_distance: float = 200.0
+    """[m] background vehicles start within +-spawn_distance of the ego; recycled ones reappear about
+    this far ahead"""
+    spawn_jitter: float = 40.0
+    """[m] recycled vehicles reappear at spawn_distance +- spawn_jitter ahead of the ego"""
+    spawn_clearance: float = 25.0
+    """[m] no vehicle is inserted closer than this (route frame, any lane) to the ego's front bumper"""
+    insert_gap: float = 25.0
+    """[m] minimum front-to-front distance to any background vehicle in the same lane at insertion"""
+    stop_line_keep_out: float = 40.0
+    """[m] no insertion within this distance before a stop line (a vehicle must be able to stop there)"""
+    bg_speed_min: float = 25.0 / 3.6
+    """[m/s] lowest constant speed of a background vehicle"""
+    bg_speed_max: float = 35.0 / 3.6
+    """[m/s] highest constant speed of a background vehicle"""
+    recycle_behind: float = 150.0
+    """[m] a background vehicle further than this behind the ego is removed and re-inserted ahead"""
+    step: float = 0.1
+    """[s] SUMO simulation step"""
+    cycle: float = 0.2
+    """[s] planning cycle: the driver plans every cycle / step simulation steps"""
+    horizon: float = 5.0
+    """[s] planning horizon of the drivers' trajectories"""
+    ego_target_speed: float = 70.0 / 3.6
+    """[m/s] the ego's desired speed where the road is free"""
+    ego_start_s: float = 10.0
+    """[m] route-frame position of the ego's front bumper at reset (0 = start of edge A_S1)"""
+    ego_start_lane: int = 1
+    """loop lane of the ego at reset (0 outer .. 2 inner)"""
+    ego_start_speed: float = 10.0
+    """[m/s] the ego's speed at reset"""
+    ego_length: float = 4.5
+    """[m] ego box length for the project's collision check (vtype 'ego' in sumo_net/vtypes.add.xml)"""
+    ego_width: float = 1.8
+    """[m] ego box width"""
+    laps: int = 2
+    """the episode ends after this many laps of the ego (unwrapped route progress / lap length)"""
+    max_time: float = 600.0
+    """[s] the episode ends (time-out) after this much simulated time"""
+    stop_speed: float = 0.1
+    """[m/s] below this the ego (or a background vehicle) counts as stopped"""
+    stop_zone: float = 15.0
+    """[m] a stop counts for a stop line when the front bumper is at most this far before the line"""
+    exit_margin: float = 0.0
+    """[m] the ego has taken an exit when, in an exit's ramp zone, d < -(road half width + exit_margin)"""
+    end_on_collision: bool = True
+    """end the episode at the first ego collision"""
+
+    def validate(self) -> None:
+        require(
+            0 <= self.n_vehicles <= MAX_VEHICLES,
+            f"n_vehicles must be in 0..{MAX_VEHICLES}, got {self.n_vehicles}",
+        )
+        require(self.spawn_distance > 0, f"spawn_distance must be > 0 m, got {self.spawn_distance}")
+        require(0 <= self.spawn_jitter < self.spawn_distance, "spawn_jitter must be in [0, spawn_distance)")
+        require(
+            self.insert_gap > 0 and self.spawn_clearance > 0, "insert_gap and spawn_clearance must be > 0 m"
+        )
+        require(
+            0 < self.bg_speed_min <= self.bg_speed_max <= 27.0,
+            f"need 0 < bg_speed_min <= bg_speed_max <= 27 m/s, got {self.bg_speed_min}, {self.bg_speed_max}",
+        )
+        require(self.recycle_behind > 0, f"recycle_behind must be > 0 m, got {self.recycle_behind}")
+        require(self.step > 0, f"step must be > 0 s, got {self.step}")
+        n = self.cycle / self.step
+        require(abs(n - round(n)) < 1e-9 and round(n) >= 1, "cycle must be a positive multiple of step")
+        require(self.horizon >= self.cycle, "horizon must be >= cycle")
+        require(0 < self.ego_target_speed <= 27.78, "ego_target_speed must be in (0, 27.78] m/s")
+        require(
+            self.ego_start_lane in (0, 1, 2), f"ego_start_lane must be 0, 1 or 2, got {self.ego_start_lane}"
+        )
+        require(self.ego_start_speed >= 0, "ego_start_speed must be >= 0 m/s")
+        require(self.ego_length > 0 and self.ego_width > 0, "ego_length and ego_width must be > 0 m")
+        require(self.laps >= 1, f"laps must be >= 1, got {self.laps}")
+        require(self.max_time > 0, f"max_time must be > 0 s, got {self.max_time}")
+        require(self.stop_speed > 0 and self.stop_zone > 0, "stop_speed and stop_zone must be > 0")
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @property
+    def steps_per_cycle(self) -> int:
+        return int(round(self.cycle / self.step))
+
+    @property
+    def horizon_steps(self) -> int:
+        """T - 1: the number of steps a driver's trajectory covers."""
+        return int(round(self.horizon / self.step))

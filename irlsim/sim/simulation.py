@@ -1,0 +1,392 @@
+"""The one owner of the SUMO simulation: start, reset, step, observe, execute a trajectory, close.
+
+libsumo by default (in-process, thousands of steps per second); ``gui=True`` runs sumo-gui through traci
+for a user with a display (same API). SUMO is imported and located only in :meth:`Simulation.start`.
+libsumo holds one simulation per process: starting a second :class:`Simulation` closes the first.
+
+Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by
+``moveToXY(keepRoute=2)`` at the state it is given; :meth:`execute` runs the first ``cycle / step``
+states of a driver's trajectory (state j at the j-th step), and the ego's state becomes the executed
+trajectory state, so the next plan starts exactly where the last one left off.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from irlsim.errors import IrlsimError
+from irlsim.road import Road, load_road, wrap_angle, yaw_to_sumo_angle
+from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
+from irlsim.sim.collision import obb_collide
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.episode import CourseMarks, Episode
+from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
+from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
+
+EGO = "ego"
+_ACTIVE: Simulation | None = None  # the libsumo simulation of this process
+
+
+class Simulation:
+    """SUMO episode on the oval with background traffic and a trajectory-driven ego.
+
+    Typical loop::
+
+        with Simulation(road, cfg) as sim:
+            obs = sim.reset(seed)
+            while not sim.done:
+                sim.execute(driver.plan(obs))
+                obs = sim.observe()
+            print(sim.stats)
+    """
+
+    def __init__(
+        self,
+        road: Road | None = None,
+        cfg: ScenarioConfig | None = None,
+        *,
+        gui: bool = False,
+        net_file: str | Path | None = None,
+        vtypes_file: str | Path | None = None,
+    ):
+        self.road = road if road is not None else load_road(net_file)
+        self.cfg = cfg if cfg is not None else ScenarioConfig()
+        self.gui = gui
+        self.vtypes_file = Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE
+        self.marks = CourseMarks.from_road(self.road)
+        self._edges = LoopEdges.from_road(self.road)
+        self._api: Any = None
+        self.seed: int | None = None
+        self.episode: Episode | None = None
+        self.traffic: BackgroundTraffic | None = None
+        self.ego: EgoState | None = None
+        self.vehicles = VehicleStates.empty()
+        self.odometry: list[EgoState] = []
+        self._colliding: set[str] = set()
+        self._sumo_pairs: set[tuple[str, str]] = set()
+        self._wall = 0.0
+        self._sumo_wall = 0.0
+
+    # ------------------------------------------------------------------ process
+    def command(self, seed: int) -> list[str]:
+        """The SUMO command line (binary first) for an episode with ``seed``."""
+        binary = sumo_binary("sumo-gui" if self.gui else "sumo")
+        if not self.vtypes_file.is_file():
+            raise IrlsimError(f"vehicle types {self.vtypes_file} not found: restore sumo_net/ from git")
+        cmd = [
+            binary,
+            "--net-file",
+            str(self.road.net_file),
+            "--additional-files",
+            str(self.vtypes_file),
+            "--step-length",
+            f"{self.cfg.step}",
+            "--seed",
+            str(seed),
+            "--begin",
+            "0",
+            "--no-step-log",
+            "true",
+            "--no-warnings",
+            "true",
+            "--collision.action",
+            "warn",
+            "--collision.check-junctions",
+            "true",
+            "--collision.mingap-factor",
+            "0",
+            "--time-to-teleport",
+            "-1",
+        ]
+        if self.gui:
+            cmd += ["--start", "true", "--delay", str(int(self.cfg.step * 1000))]
+        return cmd
+
+    def start(self, seed: int = 0) -> None:
+        """Start SUMO (no-op when running). Raises a one-line :class:`IrlsimError` on failure."""
+        global _ACTIVE
+        if self._api is not None:
+            return
+        if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
+        cmd = self.command(seed)
+        if self.gui:
+            import traci
+
+            api: Any = traci
+        else:
+            import libsumo
+
+            api = libsumo
+            if _ACTIVE is not None and _ACTIVE is not self:
+                _ACTIVE.close()  # libsumo: one simulation per process
+        try:
+            api.start(cmd)
+        except Exception as e:  # libsumo / traci raise their own exception types
+            msg = str(e).strip().splitlines()
+            raise IrlsimError(
+                f"SUMO failed to start on {self.road.net_file} ({msg[-1] if msg else type(e).__name__}): "
+                "rebuild the network with 'irlsim net --force'"
+            ) from None
+        self._api = api
+        if not self.gui:
+            _ACTIVE = self
+
+    def close(self) -> None:
+        """Stop SUMO; safe to call more than once."""
+        global _ACTIVE
+        api, self._api = self._api, None
+        if api is not None:
+            try:
+                api.close()
+            except Exception:  # already gone (closed by another owner or crashed): nothing to release
+                pass
+        if _ACTIVE is self:
+            _ACTIVE = None
+
+    def __enter__(self) -> Simulation:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:
+            pass
+
+    @property
+    def running(self) -> bool:
+        return self._api is not None
+
+    # ------------------------------------------------------------------ episode
+    def reset(self, seed: int) -> Observation:
+        """Start a new episode with ``seed`` (SUMO's --seed and the traffic's numpy Generator)."""
+        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise IrlsimError(f"seed must be an integer >= 0, got {seed!r}")
+        seed = int(seed)
+        if self._api is None:
+            self.start(seed)
+        else:
+            try:
+                self._api.load(self.command(seed)[1:])
+            except Exception as e:
+                raise IrlsimError(
+                    f"SUMO failed to reload ({e}): rebuild the network with 'irlsim net --force'"
+                ) from None
+        api, cfg, road = self._api, self.cfg, self.road
+        self.seed = seed
+        rng = np.random.default_rng(seed)
+        route_laps = int(cfg.max_time * 30.0 / road.lap_length) + 3
+        self.traffic = BackgroundTraffic(api, road, cfg, rng, route_laps, self._edges)
+        self.traffic.add_routes()
+        # the ego: inserted where it starts, then placed exactly by moveToXY
+        s0, d0 = cfg.ego_start_s, float(road.lane_center(cfg.ego_start_lane))
+        loc = self._edges.locate(s0, road.lap_length)
+        if loc is None:
+            raise IrlsimError(f"ego_start_s = {s0} m lies in a junction: choose a position on a loop edge")
+        eid, pos = loc
+        api.vehicle.add(
+            EGO,
+            f"loop@{eid}",
+            typeID="ego",
+            departLane=str(cfg.ego_start_lane),
+            departPos=f"{pos:.3f}",
+            departSpeed=f"{cfg.ego_start_speed:.3f}",
+        )
+        api.vehicle.setSpeedMode(EGO, 0)
+        x, y = road.to_xy(np.array(s0), np.array(d0))
+        t = float(api.simulation.getTime())
+        start = EgoState(
+            t=t,
+            x=float(x),
+            y=float(y),
+            yaw=float(road.heading(np.array(s0))),
+            v=cfg.ego_start_speed,
+            a=0.0,
+            s=s0,
+            d=d0,
+            d_dot=0.0,
+            d_ddot=0.0,
+            lane=cfg.ego_start_lane,
+        )
+        self.traffic.spawn(s0, VehicleStates.empty(), initial=True)
+        self.episode = Episode(
+            self.marks,
+            cfg.laps,
+            cfg.max_time,
+            stop_speed=cfg.stop_speed,
+            stop_zone=cfg.stop_zone,
+            exit_margin=cfg.exit_margin,
+            end_on_collision=cfg.end_on_collision,
+        )
+        self.odometry = []
+        self._colliding, self._sumo_pairs = set(), set()
+        self._wall = self._sumo_wall = 0.0
+        self._steps = 0
+        self.ego = start
+        self._advance(start, bookkeeping=False)  # inserts everyone and places the ego
+        if EGO not in api.vehicle.getIDList():
+            raise IrlsimError("SUMO could not insert the ego: choose another ego_start_s / ego_start_lane")
+        self.episode.update(self.ego)
+        self.odometry.append(self.ego)
+        return self.observe()
+
+    def _advance(self, state: EgoState, bookkeeping: bool = True) -> None:
+        """Place the ego at ``state``, advance SUMO one step, read the vehicles, update the books."""
+        api = self._api
+        t0 = time.perf_counter()
+        api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
+        t1 = time.perf_counter()
+        api.simulationStep()
+        self._sumo_wall += time.perf_counter() - t1
+        self.ego = state = dataclasses.replace(state, t=float(api.simulation.getTime()))
+        self.vehicles = self._read_vehicles()
+        assert self.traffic is not None and self.episode is not None
+        self.traffic.after_step(state.t, state.s % self.road.lap_length, self.vehicles)
+        new_obb = self._ego_collisions(state)
+        new_sumo = self._sumo_collisions()
+        teleports = int(api.simulation.getStartingTeleportNumber())
+        if bookkeeping:
+            self.episode.update(state, collisions=new_obb, sumo_collisions=new_sumo, teleports=teleports)
+            self.odometry.append(state)
+            self._steps += 1
+        self._wall += time.perf_counter() - t0
+
+    def _read_vehicles(self) -> VehicleStates:
+        v_api = self._api.vehicle
+        ids = tuple(v for v in v_api.getIDList() if v != EGO)
+        m = len(ids)
+        arr = np.empty((6, m))
+        sizes = self.traffic.sizes if self.traffic is not None else {}
+        for i, vid in enumerate(ids):
+            x, y = v_api.getPosition(vid)
+            size = sizes.get(vid)
+            if size is None:
+                size = sizes[vid] = (v_api.getLength(vid), v_api.getWidth(vid))
+            arr[:, i] = (x, y, v_api.getAngle(vid), v_api.getSpeed(vid), size[0], size[1])
+        yaw = wrap_angle(np.radians(90.0 - arr[2]))  # SUMO angle (deg, north, clockwise) -> ENU yaw
+        s, d = self.road.to_frenet(arr[0], arr[1])
+        return VehicleStates(ids, arr[0], arr[1], yaw, arr[3], s, d, arr[4], arr[5])
+
+    def _ego_collisions(self, ego: EgoState) -> int:
+        """New ego-vehicle overlaps (oriented boxes) this step; one per contiguous overlap per vehicle."""
+        veh = self.vehicles
+        if veh.count == 0:
+            self._colliding = set()
+            return 0
+        near = np.flatnonzero((np.abs(veh.x - ego.x) < 20.0) & (np.abs(veh.y - ego.y) < 20.0))
+        now: set[str] = set()
+        if len(near):
+            hit = obb_collide(
+                ego.x,
+                ego.y,
+                ego.yaw,
+                self.cfg.ego_length,
+                self.cfg.ego_width,
+                veh.x[near],
+                veh.y[near],
+                veh.yaw[near],
+                veh.length[near],
+                veh.width[near],
+            )
+            now = {veh.ids[i] for i in near[hit]}
+        new = len(now - self._colliding)
+        self._colliding = now
+        return new
+
+    def _sumo_collisions(self) -> int:
+        """New collisions SUMO reports with the ego (de-duplicated over consecutive steps); background
+        vehicles' collisions among themselves go to the traffic figures."""
+        pairs = set()
+        for c in self._api.simulation.getCollisions():
+            pairs.add((c.collider, c.victim))
+        new = pairs - self._sumo_pairs
+        self._sumo_pairs = pairs
+        assert self.traffic is not None
+        self.traffic.counts["collisions"] += sum(1 for p in new if EGO not in p)
+        return sum(1 for p in new if EGO in p)
+
+    # ------------------------------------------------------------------ driving
+    def step(self, state: EgoState | None = None) -> None:
+        """Advance one step with the ego placed at ``state`` (None: the ego stands where it is)."""
+        self._require_episode()
+        assert self.ego is not None
+        if state is None:
+            state = dataclasses.replace(self.ego, v=0.0, a=0.0, d_dot=0.0, d_ddot=0.0)
+        self._advance(state)
+
+    def execute(self, traj: Trajectory, n_steps: int | None = None) -> None:
+        """Drive states 1..n_steps of ``traj`` (default: one planning cycle), stopping early when done."""
+        self._require_episode()
+        assert self.ego is not None
+        n = self.cfg.steps_per_cycle if n_steps is None else int(n_steps)
+        if len(traj.x) <= n:
+            raise ValueError(f"trajectory has {len(traj.x)} states, needs more than {n}")
+        if abs(traj.t0 - self.ego.t) > 0.5 * self.cfg.step or abs(traj.dt - self.cfg.step) > 1e-9:
+            raise ValueError(
+                f"trajectory (t0={traj.t0:.3f} s, dt={traj.dt}) does not start at the ego's time "
+                f"{self.ego.t:.3f} s with dt={self.cfg.step}: plan from the latest observation"
+            )
+        for j in range(1, n + 1):
+            self._advance(traj.state(j))
+            if self.done:
+                break
+
+    def observe(self) -> Observation:
+        """The ego's state, the other vehicles (front bumpers, route frame), route target and stop line."""
+        self._require_episode()
+        assert self.ego is not None and self.episode is not None
+        idx, target_s = self.episode.target(self.ego.s)
+        return Observation(
+            ego=self.ego,
+            vehicles=self.vehicles,
+            target_checkpoint=idx,
+            target_s=target_s,
+            stop_s=self.episode.stop_s(self.ego.s),
+            lap_length=self.road.lap_length,
+            info={"lane_required": self.road.checkpoints[idx].lane, "laps": self.episode.laps_completed},
+        )
+
+    def _require_episode(self) -> None:
+        if self._api is None or self.episode is None:
+            raise RuntimeError(
+                "no episode running: call reset(seed) first (after close(), reset starts SUMO again)"
+            )
+
+    # ------------------------------------------------------------------ results
+    @property
+    def done(self) -> bool:
+        return self.episode is not None and self.episode.done
+
+    @property
+    def time(self) -> float:
+        return 0.0 if self.ego is None else self.ego.t
+
+    @property
+    def stats(self) -> dict[str, Any]:
+        """Figures of the current episode (``sim/...`` keys, ``end_reason``), timing included."""
+        if self.episode is None or self.traffic is None:
+            return {}
+        out = self.episode.stats()
+        out.update(self.traffic.stats())
+        steps = max(self._steps, 1)
+        out["sim/steps_per_s"] = round(steps / self._wall, 1) if self._wall > 0 else 0.0
+        out["sim/sumo_steps_per_s"] = round(steps / self._sumo_wall, 1) if self._sumo_wall > 0 else 0.0
+        out["seed"] = self.seed
+        return out
+
+    def odometry_arrays(self) -> dict[str, np.ndarray]:
+        """The ego's recorded states (one per step, reset included) as arrays [steps + 1] per field."""
+        names = [f.name for f in dataclasses.fields(EgoState)]
+        return {n: np.array([getattr(e, n) for e in self.odometry]) for n in names}
+
+
+TIMING_KEYS = ("sim/steps_per_s", "sim/sumo_steps_per_s")

@@ -1,0 +1,215 @@
+"""Background traffic around the ego: spawning, recycling, pending insertions, stop-line monitoring.
+
+Works through the SUMO API module it is handed (``libsumo`` or ``traci``, same functions). Vehicles
+drive a route that repeats the loop many times (one route per start edge), at a constant speed set with
+``setMaxSpeed`` (vehicle type ``bg``: sigma 0, no lane changes); SUMO's car following and the
+``allway_stop`` junctions make them slow down and stop. Route-frame distances are wrapped to
+[-lap/2, lap/2) around the ego.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from irlsim.road import HALF_ROAD, Road
+from irlsim.road.geometry import LOOP_EDGES
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.types import VehicleStates
+
+BG_TYPE = "bg"
+
+
+@dataclass
+class _Tracked:
+    s: float  # unwrapped route position of the front bumper [m]
+    stopped: list[bool]  # per stop line: stood still in its zone since last passing it
+
+
+@dataclass
+class LoopEdges:
+    """Route-frame extent of each loop edge (middle lane) to map s -> (edge, lane position)."""
+
+    ids: tuple[str, ...]
+    s0: np.ndarray  # [E] [m]
+    s1: np.ndarray  # [E] [m]
+    length: np.ndarray  # [E] SUMO edge length [m]
+
+    @staticmethod
+    def from_road(road: Road) -> LoopEdges:
+        s0, s1, ln = [], [], []
+        for eid in LOOP_EDGES:
+            edge = road.net.getEdge(eid)
+            shape = np.asarray(edge.getLane(1).getShape())
+            s, _ = road.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
+            s0.append(float(s[0]))
+            s1.append(float(s[1]) if s[1] > s[0] else float(s[1]) + road.lap_length)
+            ln.append(float(edge.getLength()))
+        return LoopEdges(LOOP_EDGES, np.array(s0), np.array(s1), np.array(ln))
+
+    def locate(self, s: float, lap: float, margin: float = 1.0) -> tuple[str, float] | None:
+        """(edge id, lane position [m]) of wrapped route position s; None inside a junction (or within
+        ``margin`` of an edge end, where insertion is fragile)."""
+        s = s % lap
+        for eid, a, b, ln in zip(self.ids, self.s0, self.s1, self.length, strict=False):
+            for ss in (s, s + lap):
+                if a + margin <= ss <= b - margin:
+                    return eid, (ss - a) / (b - a) * ln
+        return None
+
+
+@dataclass
+class BackgroundTraffic:
+    """Keeps ``cfg.n_vehicles`` background vehicles around the ego; see the module docstring."""
+
+    api: Any
+    road: Road
+    cfg: ScenarioConfig
+    rng: np.random.Generator
+    route_laps: int
+    edges: LoopEdges
+    counter: int = 0
+    pending: set[str] = field(default_factory=set)
+    tracked: dict[str, _Tracked] = field(default_factory=dict)
+    sizes: dict[str, tuple[float, float]] = field(default_factory=dict)
+    counts: dict[str, int] = field(default_factory=dict)
+    off_loop: set[str] = field(default_factory=set)
+    failures: list[dict[str, Any]] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        for k in ("recycled", "resampled", "stop_lines_passed", "stop_lines_compliant", "collisions"):
+            self.counts.setdefault(k, 0)
+
+    # ------------------------------------------------------------------ routes and insertion
+    def add_routes(self) -> None:
+        """One route per loop edge: the loop from that edge, repeated ``route_laps`` times."""
+        n = len(LOOP_EDGES)
+        for i, eid in enumerate(LOOP_EDGES):
+            edges = [LOOP_EDGES[(i + k) % n] for k in range(n * self.route_laps)]
+            self.api.route.add(f"loop@{eid}", edges)
+
+    def _spot_free(self, s: float, lane: int, ego_s: float, occupied: list[tuple[float, int]]) -> bool:
+        lap = self.road.lap_length
+        if abs(_wrap(s - ego_s, lap)) < self.cfg.spawn_clearance:
+            return False
+        for sl in self.road.stop_lines:  # a vehicle must have room to stop at the line
+            if -2.0 <= (sl.s - s) % lap <= self.cfg.stop_line_keep_out or (s - sl.s) % lap < 2.0:
+                return False
+        return all(ln != lane or abs(_wrap(s - so, lap)) >= self.cfg.insert_gap for so, ln in occupied)
+
+    def _insert(self, s: float, lane: int, speed: float) -> str | None:
+        loc = self.edges.locate(s, self.road.lap_length)
+        if loc is None:
+            return None
+        eid, pos = loc
+        vid = f"bg{self.counter}"
+        self.counter += 1
+        self.api.vehicle.add(
+            vid,
+            f"loop@{eid}",
+            typeID=BG_TYPE,
+            departLane=str(lane),
+            departPos=f"{pos:.3f}",
+            departSpeed=f"{speed:.3f}",
+        )
+        self.api.vehicle.setMaxSpeed(vid, speed)
+        self.pending.add(vid)
+        return vid
+
+    def spawn(self, ego_s: float, vehicles: VehicleStates, initial: bool) -> None:
+        """Insert vehicles until ``n_vehicles`` are running or pending: spread around the ego at reset,
+        about ``spawn_distance`` ahead later. Spots that break a gap rule are re-drawn (20 tries each)."""
+        missing = self.cfg.n_vehicles - (vehicles.count + len(self.pending))
+        if missing <= 0:
+            return
+        occupied = [
+            (float(s), int(ln)) for s, ln in zip(vehicles.s, self.road.lane_of_d(vehicles.d), strict=False)
+        ]
+        c = self.cfg
+        for _ in range(missing):
+            for _try in range(20):
+                if initial:
+                    ds = self.rng.uniform(-min(c.spawn_distance, 0.9 * c.recycle_behind), c.spawn_distance)
+                else:
+                    ds = self.rng.uniform(
+                        c.spawn_distance - c.spawn_jitter, c.spawn_distance + c.spawn_jitter
+                    )
+                s = (ego_s + ds) % self.road.lap_length
+                lane = int(self.rng.integers(0, 3))
+                speed = float(self.rng.uniform(c.bg_speed_min, c.bg_speed_max))
+                if self._spot_free(s, lane, ego_s, occupied) and self._insert(s, lane, speed):
+                    occupied.append((s, lane))
+                    break
+
+    # ------------------------------------------------------------------ per step
+    def after_step(self, t: float, ego_s: float, vehicles: VehicleStates) -> None:
+        """Drop insertions SUMO left pending (re-drawn later), recycle vehicles far behind the ego, track
+        stop lines and the loop, then top the traffic up again."""
+        api = self.api
+        if self.pending:
+            still = set(api.simulation.getPendingVehicles()) & self.pending
+            for vid in still:
+                api.vehicle.remove(vid)
+                self.counts["resampled"] += 1
+            self.pending = set()
+        lap = self.road.lap_length
+        ids = vehicles.ids
+        rel = _wrap(vehicles.s - ego_s, lap)
+        recycle = rel < -self.cfg.recycle_behind
+        for i in np.flatnonzero(recycle):
+            api.vehicle.remove(ids[i])
+            self.counts["recycled"] += 1
+        keep = ~recycle
+        kept = VehicleStates(
+            tuple(v for v, k in zip(ids, keep, strict=False) if k),
+            *(getattr(vehicles, n)[keep] for n in ("x", "y", "yaw", "v", "s", "d", "length", "width")),
+        )
+        self._track(t, kept)
+        self.spawn(ego_s, kept, initial=False)
+
+    def _track(self, t: float, veh: VehicleStates) -> None:
+        """Per vehicle: unwrapped progress, stops in each stop line's zone, lines passed, off-loop."""
+        lap = self.road.lap_length
+        old = self.tracked
+        self.tracked = {}
+        if veh.count == 0:
+            return
+        n_lines = len(self.road.stop_lines)
+        prev = np.array([old[v].s if v in old else s for v, s in zip(veh.ids, veh.s, strict=False)])
+        stopped = np.array([old[v].stopped if v in old else [False] * n_lines for v in veh.ids], dtype=bool)
+        s_new = prev + _wrap(veh.s - prev, lap)
+        lines = np.array([sl.s for sl in self.road.stop_lines])  # [L]
+        passed = np.ceil((s_new[:, None] - lines) / lap) - np.ceil((prev[:, None] - lines) / lap)  # [M, L]
+        if passed.any():
+            for i, k in zip(*np.nonzero(passed > 0), strict=False):
+                self.counts["stop_lines_passed"] += 1
+                self.counts["stop_lines_compliant"] += int(stopped[i, k])
+                if not stopped[i, k]:
+                    self.failures.append({"t": t, "vehicle": veh.ids[i], "stop_line": int(k)})
+            stopped &= ~(passed > 0)
+        stopped |= (veh.v[:, None] < self.cfg.stop_speed) & (
+            (lines - s_new[:, None]) % lap <= self.cfg.stop_zone
+        )
+        for i, vid in enumerate(veh.ids):
+            self.tracked[vid] = _Tracked(float(s_new[i]), stopped[i].tolist())
+        off = np.abs(veh.d) > HALF_ROAD + 0.3
+        if off.any():
+            self.off_loop.update(veh.ids[i] for i in np.flatnonzero(off))
+
+    def stats(self) -> dict[str, int]:
+        c = self.counts
+        return {
+            "sim/bg_stop_lines_passed": c["stop_lines_passed"],
+            "sim/bg_stop_lines_compliant": c["stop_lines_compliant"],
+            "sim/bg_off_loop": len(self.off_loop),
+            "sim/bg_collisions": c["collisions"],
+            "sim/bg_recycled": c["recycled"],
+            "sim/bg_resampled": c["resampled"],
+        }
+
+
+def _wrap(ds: Any, lap: float) -> Any:
+    """Route distance wrapped into [-lap/2, lap/2)."""
+    return (np.asarray(ds) + lap / 2) % lap - lap / 2

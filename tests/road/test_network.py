@@ -1,0 +1,95 @@
+"""The SUMO network of the oval: topology, reproducible build, route-frame geometry, route distances."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+
+from irlsim.road.geometry import EXIT_EDGES, LOOP_EDGES
+from irlsim.road.network import NET_SOURCES, SUMO_NET_DIR, build_net
+
+
+def test_loop_has_three_lanes(road):
+    for eid in LOOP_EDGES:
+        assert road.net.getEdge(eid).getLaneNumber() == 3
+
+
+def test_exits_branch_from_lane_zero(road):
+    exits = set()
+    for eid in LOOP_EDGES:
+        for k, lane in enumerate(road.net.getEdge(eid).getLanes()):
+            for c in lane.getOutgoing():
+                if c.getTo().getID() in EXIT_EDGES:
+                    assert k == 0, f"exit {c.getTo().getID()} reachable from lane {k}"
+                    exits.add(c.getTo().getID())
+    assert len(exits) >= 2
+    assert len(road.exits) >= 2
+
+
+def test_two_allway_stops(road):
+    stops = [n for n in road.net.getNodes() if n.getType() == "allway_stop"]
+    assert len(stops) == 2
+    assert len(road.stop_lines) == 2
+
+
+def test_build_is_byte_identical(tmp_path):
+    for s in NET_SOURCES:
+        shutil.copy(SUMO_NET_DIR / s, tmp_path / s)
+    first = build_net(tmp_path, force=True).read_bytes()
+    second = build_net(tmp_path, force=True).read_bytes()
+    assert first == second
+    assert b"generated on" not in first
+
+
+def _lane_samples(road, lane, step: float = 1.0) -> np.ndarray:
+    pts = np.asarray(lane.getShape())
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    si = np.linspace(0.0, s[-1], max(2, int(s[-1] / step) + 1))
+    return np.stack([np.interp(si, s, pts[:, 0]), np.interp(si, s, pts[:, 1])], axis=1)
+
+
+def test_frenet_round_trip_every_lane(road):
+    """xy -> (s, d) -> xy within 1 cm on every lane near the loop, internal (junction) lanes included;
+    loop lanes land in their own lane."""
+    checked = 0
+    for edge in road.net.getEdges(withInternal=True):
+        for lane in edge.getLanes():
+            xy = _lane_samples(road, lane)
+            s, d = road.to_frenet(xy[:, 0], xy[:, 1])
+            near = np.abs(d) < 8.0  # ramps far from the loop are outside the route frame's reach
+            x2, y2 = road.to_xy(s, d)
+            err = np.hypot(x2 - xy[:, 0], y2 - xy[:, 1])[near]
+            assert err.size == 0 or err.max() < 0.01, f"{lane.getID()}: round trip error {err.max():.4f} m"
+            checked += int(near.sum())
+            on_loop = edge.getID() in LOOP_EDGES or any(
+                edge.getID().startswith(f":{n}_") for n in ("S1", "S2")
+            )
+            if on_loop:
+                assert np.all(road.lane_of_d(d) == lane.getIndex()), lane.getID()
+    assert checked > 6000
+
+
+def test_route_distance_equals_sumolib(road):
+    rng = np.random.default_rng(0)
+    edges = list(LOOP_EDGES)
+    for _ in range(60):
+        a, b = rng.choice(edges, 2)
+        la, lb = road.net.getEdge(a).getLength(), road.net.getEdge(b).getLength()
+        pa, pb = rng.uniform(0, la), rng.uniform(0, lb)
+        _, cost = road.net.getShortestPath(road.net.getEdge(a), road.net.getEdge(b), fromPos=pa, toPos=pb)
+        assert road.route_distance(a, pa, b, pb) == pytest.approx(cost, abs=1e-6)
+
+
+def test_route_distance_once_round_the_loop(road):
+    e = road.net.getEdge("X1_B")
+    _, cost = road.net.getShortestPath(e, e, fromPos=300.0, toPos=100.0)
+    d = road.route_distance("X1_B", 300.0, "X1_B", 100.0)
+    assert d == pytest.approx(cost, abs=1e-6)
+    assert 2000.0 < d < 2500.0
+
+
+def test_exit_unreachable_target(road):
+    assert road.route_distance("exit1", 10.0, "A_S1", 10.0) == np.inf

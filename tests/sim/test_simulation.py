@@ -1,0 +1,151 @@
+"""The SUMO episode, headless with libsumo: traffic, ego placement, collisions, bookkeeping, determinism."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.drivers import SimpleDriver, frenet_trajectory
+from irlsim.sim.simulation import TIMING_KEYS, Simulation
+from irlsim.sim.types import Trajectory
+
+
+def _drive(sim, driver, seed, min_steps=0, laps=None):
+    obs = sim.reset(seed)
+    while not sim.done:
+        sim.execute(driver.plan(obs))
+        obs = sim.observe()
+        if len(sim.odometry) > min_steps and (laps is None or sim.episode.laps_completed >= laps):
+            break
+    return obs
+
+
+@pytest.fixture(scope="module")
+def lap_run(sim, road):
+    """SimpleDriver with 15 background vehicles: at least 3,000 steps and one lap."""
+    _drive(sim, SimpleDriver(road, sim.cfg), seed=7, min_steps=3000, laps=1)
+    return dict(sim.stats), list(sim.traffic.failures), sim.odometry_arrays()
+
+
+def test_simple_driver_lap_without_collision_stopping_at_both_lines(lap_run):
+    st, _, odo = lap_run
+    assert st["sim/steps"] >= 3000 and st["sim/laps"] >= 1
+    assert st["sim/collisions"] == 0 and st["sim/sumo_collisions"] == 0
+    assert st["sim/exits"] == 0 and st["sim/offroad_steps"] == 0
+    assert st["sim/stop_lines_passed"] >= 2
+    assert st["sim/stop_lines_compliant"] == st["sim/stop_lines_passed"]
+    assert st["sim/checkpoints_passed"] >= 4
+    assert len(odo["t"]) == st["sim/steps"] + 1
+    np.testing.assert_allclose(np.diff(odo["t"]), 0.1, atol=1e-9)
+
+
+def test_background_traffic_over_3000_steps(lap_run):
+    st, failures, _ = lap_run
+    assert st["sim/teleports"] == 0
+    assert st["sim/bg_stop_lines_passed"] >= 15
+    assert failures == [], f"background vehicles passed stop lines without stopping: {failures[:3]}"
+    assert st["sim/bg_stop_lines_compliant"] == st["sim/bg_stop_lines_passed"]
+    assert st["sim/bg_off_loop"] == 0
+    assert st["sim/bg_collisions"] == 0
+
+
+def test_traffic_is_kept_full_and_recycled_ahead(sim, road):
+    """A ghost ego 12 m inside the loop at 20 m/s overtakes everyone: vehicles that fall behind are
+    recycled ahead, the count stays at n_vehicles, none ends up far behind."""
+    obs = sim.reset(1)
+    assert obs.vehicles.count == 15
+    for k in range(300):
+        n = 51
+        d = np.linspace(obs.ego.d, 12.0, n) if k == 0 else np.full(n, 12.0)
+        sim.execute(frenet_trajectory(road, obs.ego, 0.1, np.full(n, 20.0), d))
+        obs = sim.observe()
+    st = sim.stats
+    assert st["sim/bg_recycled"] > 10 and st["sim/collisions"] == 0 and st["sim/teleports"] == 0
+    assert obs.vehicles.count >= 14  # one may be between removal and insertion
+    rel = (obs.vehicles.s - obs.ego.s + road.lap_length / 2) % road.lap_length - road.lap_length / 2
+    assert rel.min() >= -sim.cfg.recycle_behind - 5.0
+    assert rel.max() <= sim.cfg.spawn_distance + sim.cfg.spawn_jitter + 5.0
+
+
+def _jump(road, obs, s1, d1) -> Trajectory:
+    """A 3-state trajectory that puts the ego at (s1, d1) at the next step."""
+    e = obs.ego
+    s = np.array([e.s, s1, s1 + 1.0])
+    d = np.array([e.d, d1, d1])
+    x, y = road.to_xy(s, d)
+    z = np.zeros(3)
+    return Trajectory(e.t, 0.1, x, y, road.heading(s), np.full(3, 5.0), z, s, d, z, z, road.lane_of_d(d))
+
+
+def _target(road, obs, lane):
+    veh = obs.vehicles
+    lanes = road.lane_of_d(veh.d)
+    i = int(np.flatnonzero(lanes == lane)[0])
+    s1 = obs.ego.s + (veh.s[i] - obs.ego.s) % road.lap_length + veh.v[i] * 0.1  # where it is after the step
+    return i, s1, float(veh.d[i])
+
+
+def test_ego_placed_through_a_vehicle_is_a_collision(sim, road):
+    obs = sim.reset(3)
+    _, s1, d1 = _target(road, obs, lane=0)
+    sim.execute(_jump(road, obs, s1, d1), n_steps=1)
+    st = sim.stats
+    assert st["sim/collisions"] == 1 and st["end_reason"] == "collision"
+    assert st["sim/sumo_collisions"] >= 1
+
+
+def test_ego_two_lanes_away_is_no_collision(sim, road):
+    obs = sim.reset(3)
+    _, s1, d1 = _target(road, obs, lane=0)
+    assert not np.any(
+        (np.abs((obs.vehicles.s - s1 + 1000) % road.lap_length - 1000) < 15)
+        & (road.lane_of_d(obs.vehicles.d) == 2)
+    ), "seed 3 should leave lane 2 free beside the target"
+    sim.execute(_jump(road, obs, s1, d1 + 6.4), n_steps=1)
+    st = sim.stats
+    assert st["sim/collisions"] == 0 and st["end_reason"] is None
+
+
+def test_same_seed_same_figures(sim, road):
+    drv = SimpleDriver(road, sim.cfg)
+    runs = []
+    for seed in (11, 11, 12):
+        _drive(sim, drv, seed, min_steps=400)
+        st = {k: v for k, v in sim.stats.items() if k not in TIMING_KEYS}
+        runs.append((st, sim.odometry_arrays(), sim.observe().vehicles))
+    (a, oa, va), (b, ob, vb), (_, oc, vc) = runs
+    assert a == b
+    for k in oa:
+        np.testing.assert_array_equal(oa[k], ob[k])
+    np.testing.assert_array_equal(va.x, vb.x)
+    assert va.ids == vb.ids
+    assert not (len(va.x) == len(vc.x) and np.array_equal(va.x, vc.x))
+
+
+def test_executed_state_is_the_trajectory_state(sim, road):
+    obs = sim.reset(5)
+    tr = SimpleDriver(road, sim.cfg).plan(obs)
+    sim.execute(tr)
+    e = sim.observe().ego
+    want = tr.state(2)
+    assert (e.x, e.y, e.v, e.s, e.d) == (want.x, want.y, want.v, want.s, want.d)
+    assert e.t == pytest.approx(want.t)
+    with pytest.raises(ValueError, match="does not start"):
+        sim.execute(tr)  # stale plan
+
+
+def test_lifecycle(road):
+    s = Simulation(road, ScenarioConfig(n_vehicles=2))
+    with pytest.raises(RuntimeError, match="reset"):
+        s.observe()
+    with s:
+        obs = s.reset(0)
+        assert obs.vehicles.count == 2 and obs.stop_s > obs.ego.s and obs.target_s > obs.ego.s
+        s.step()
+    s.close()
+    s.close()  # safe twice
+    from irlsim.errors import IrlsimError
+
+    with pytest.raises(IrlsimError, match="seed"):
+        s.reset(-1)
