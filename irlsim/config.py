@@ -128,3 +128,21 @@ def require(cond: bool, message: str) -> None:
     """Raise an IrlsimError with ``message`` unless ``cond`` holds (config validation helper)."""
     if not cond:
         raise IrlsimError(f"config: {message}")
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """``["epochs=3", "model.latent=16", "models=['LIRL']"]`` -> dotted-key overrides (TOML values).
+
+    A value that is not valid TOML is taken as a string, so ``name=foo`` works without quotes.
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, raw = item.partition("=")
+        if not sep or not key.strip():
+            raise IrlsimError(f"--set '{item}' must look like key=value (e.g. --set epochs=5)")
+        try:
+            value = tomllib.loads(f"v = {raw}")["v"]
+        except tomllib.TOMLDecodeError:
+            value = raw
+        out[key.strip()] = value
+    return out

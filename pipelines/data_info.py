@@ -1,0 +1,26 @@
+"""``irlsim data info <dataset>``: counts per split, per-feature statistics, the DEMO distribution."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "inspect a dataset: 'irlsim data info data/<name>'"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("action", choices=("info",), help="what to do (info)")
+    p.add_argument("path", type=Path, help="dataset folder")
+    p.add_argument("--json", type=Path, default=None, help="also write the figures to this JSON file")
+
+
+def run(args: argparse.Namespace) -> int:
+    from irlsim.data.info import dataset_info, format_info
+    from irlsim.utils import write_json
+
+    info = dataset_info(args.path)
+    print(format_info(info))
+    if args.json:
+        write_json(args.json, info)
+        print(f"wrote {args.json}")
+    return 0

@@ -1,0 +1,35 @@
+"""``irlsim evaluate``: Table I (model, trainable parameters, EVD, ED, OPD, DEMO) on the sequential test
+split with a history of H cycles, convergence plots and the OPD distribution per model."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--data", type=Path, required=True, help="dataset folder")
+    p.add_argument("--runs", type=Path, required=True, help="runs folder with <model>/checkpoint.pt")
+    p.add_argument("--out", type=Path, default=None, help="output folder (default: <runs>/eval)")
+    p.add_argument("--split", default="test", help="split to evaluate on (default: test)")
+    p.add_argument("--history", type=int, default=10, help="H: history of predicted thetas [cycles]")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+
+
+def run(args: argparse.Namespace) -> int:
+    from irlsim.data.reader import open_dataset
+    from irlsim.errors import IrlsimError
+    from irlsim.train.evaluate import evaluate_models, results_markdown
+
+    if args.history < 1:
+        raise IrlsimError(f"--history must be >= 1, got {args.history}")
+    out = args.out or args.runs / "eval"
+    if not args.runs.is_dir():
+        raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
+    rows = evaluate_models(open_dataset(args.data), args.runs, out, H=args.history, split=args.split,
+                           threads=args.threads)
+    print(results_markdown(rows, args.split, args.history))
+    print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
+    return 0
