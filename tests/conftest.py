@@ -24,3 +24,21 @@ def sim(road):
     s = Simulation(road, ScenarioConfig(laps=10, max_time=2000.0))
     yield s
     s.close()
+
+
+#: a tiny collection config shared by the collect, chain and drive tests (real SUMO, real Parquet)
+TINY_COLLECT = [
+    "--set", "train_episodes=2", "--set", "validation_episodes=1", "--set", "test_episodes=1",
+    "--set", "max_cycles=40", "--set", "planner.n_policies=120", "--set", "scenario.n_vehicles=4",
+    "--set", "workers=1",
+]
+
+
+@pytest.fixture(scope="session")
+def tiny_dataset(tmp_path_factory):
+    """A real dataset collected by the expert in SUMO: 2 train, 1 validation, 1 test episode of 40 cycles."""
+    from irlsim.cli import main
+
+    out = tmp_path_factory.mktemp("data") / "tiny"
+    assert main(["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT]) == 0
+    return out

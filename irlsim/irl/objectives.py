@@ -163,9 +163,9 @@ def evaluate_thetas(thetas: np.ndarray, split: Any, chunk: int = 256) -> dict[st
             sl = slice(start, min(start + chunk, n_cycles))
             m = cycle_metrics(
                 torch.as_tensor(thetas[sl], dtype=torch.float64),
-                torch.as_tensor(np.asarray(split.features[sl]), dtype=torch.float64),
-                torch.as_tensor(np.asarray(split.distances[sl]), dtype=torch.float64),
-                torch.as_tensor(np.asarray(split.demo_index[sl]), dtype=torch.int64),
+                torch.tensor(np.asarray(split.features[sl]), dtype=torch.float64),
+                torch.tensor(np.asarray(split.distances[sl]), dtype=torch.float64),
+                torch.tensor(np.asarray(split.demo_index[sl]), dtype=torch.int64),
             )
             for k, v in m.items():
                 out[k].append(v.numpy())

@@ -1,0 +1,150 @@
+"""Collecting demonstrations: drive the expert in SUMO and record every planning cycle's policy set.
+
+One episode runs in one process (one libsumo per process). Each cycle the expert samples its policy set,
+executes its chosen policy for one planning cycle; the odometry of what it actually drove is projected
+onto each cycle's policy set once the horizon has been driven (``DemoProjector``), and the episode is
+written as a pair of Parquet files (``EpisodeWriter``). The episode's content depends only on its seed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from irlsim.config import require
+from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW
+from irlsim.planner.config import PlannerConfig
+from irlsim.sim.config import ScenarioConfig
+
+SPLITS = ("train", "validation", "test")
+#: episode seeds: seed * SEED_STRIDE + SPLIT_OFFSET[split] + i, so splits never share a seed
+SEED_STRIDE = 1_000_000
+SPLIT_OFFSET = {"train": 0, "validation": 100_000, "test": 200_000}
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    """Projection of the odometry onto the policy set (DESIGN.md section 5)."""
+
+    alpha: float = ALPHA
+    """discount per 0.1 s step of the distance's time weights alpha^t"""
+    w_yaw: float = W_YAW
+    """[m/rad^2] weight of the squared yaw difference"""
+    max_distance: float = MAX_DEMO_DISTANCE
+    """[m] cycles whose closest policy is farther than this have no demonstration"""
+
+    def validate(self) -> None:
+        require(0 < self.alpha <= 1, f"demo.alpha must be in (0, 1], got {self.alpha}")
+        require(self.w_yaw >= 0, "demo.w_yaw must be >= 0")
+        require(self.max_distance > 0, "demo.max_distance must be > 0 m")
+
+
+@dataclass(frozen=True)
+class CollectConfig:
+    """``irlsim collect``: which episodes to drive and how. Nested tables: [scenario], [planner], [demo]."""
+
+    seed: int = 0
+    """base seed; episode i of a split uses seed * 1e6 + split offset (train 0, validation 1e5, test 2e5) + i"""
+    workers: int = 2
+    """worker processes, one libsumo simulation each (1 = in this process)"""
+    train_episodes: int = 4
+    """episodes of the train split (training shuffles their cycles)"""
+    validation_episodes: int = 1
+    """episodes of the validation split (sequential playback)"""
+    test_episodes: int = 1
+    """episodes of the test split (sequential playback)"""
+    max_cycles: int = 0
+    """stop an episode after this many planning cycles (0 = until laps, collision, exit or time-out)"""
+    scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
+    """traffic, clocks and episode limits (irlsim.sim.config.ScenarioConfig)"""
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
+    demo: DemoConfig = field(default_factory=DemoConfig)
+    """demonstration projection"""
+
+    def validate(self) -> None:
+        require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
+        for s in SPLITS:
+            n = getattr(self, f"{s}_episodes")
+            require(0 <= n < 100_000, f"{s}_episodes must be in 0..99999, got {n}")
+        require(self.train_episodes >= 1, "train_episodes must be >= 1")
+        require(self.max_cycles >= 0, f"max_cycles must be >= 0, got {self.max_cycles}")
+        require(abs(self.planner.dt - self.scenario.step) < 1e-9, "planner.dt must equal scenario.step")
+        require(abs(self.planner.cycle - self.scenario.cycle) < 1e-9, "planner.cycle must equal scenario.cycle")
+        require(abs(self.planner.horizon - self.scenario.horizon) < 1e-9,
+                "planner.horizon must equal scenario.horizon")
+        self.demo.validate()
+
+    def episodes(self, split: str) -> list[tuple[int, int]]:
+        """(episode id, seed) of every episode of ``split``."""
+        n = getattr(self, f"{split}_episodes")
+        return [(i, self.seed * SEED_STRIDE + SPLIT_OFFSET[split] + i) for i in range(n)]
+
+
+@dataclass(frozen=True)
+class EpisodeJob:
+    dataset: str
+    split: str
+    episode: int
+    seed: int
+    config: CollectConfig
+
+
+def collect_episode(job: EpisodeJob) -> dict[str, Any]:
+    """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
+
+    Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``).
+    """
+    import time
+
+    from irlsim.data.demos import DemoProjector
+    from irlsim.data.writer import EpisodeWriter
+    from irlsim.planner.expert import ExpertDriver
+    from irlsim.road import load_road
+    from irlsim.sim.simulation import Simulation
+    from irlsim.utils import seed_everything, write_json
+
+    cfg = job.config
+    seed_everything(job.seed)
+    road = load_road()
+    driver = ExpertDriver(road, cfg.planner)
+    steps = cfg.scenario.steps_per_cycle
+    projector = DemoProjector(
+        lap_length=road.lap_length, horizon=cfg.planner.horizon, dt=cfg.planner.dt,
+        alpha=cfg.demo.alpha, w_yaw=cfg.demo.w_yaw, max_demo_distance=cfg.demo.max_distance,
+    )
+    t_start = time.perf_counter()
+    n_cycles = 0
+    out = Path(job.dataset)
+    with Simulation(road, cfg.scenario) as sim, \
+        EpisodeWriter(out, job.split, job.episode) as writer:
+        obs = sim.reset(job.seed)
+        e = obs.ego
+        projector.push_odometry(e.t, e.s, e.d, e.yaw)
+        while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
+            traj = driver.plan(obs)
+            ps, idx = driver.last_policy_set, driver.last_index
+            projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
+            ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
+            writer.add_cycle(n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint)
+            sim.execute(traj, steps)
+            for j in range(1, steps + 1):  # the states the ego actually drove this cycle
+                st = traj.state(j)
+                projector.push_odometry(st.t, st.s, st.d, st.yaw)
+            writer.add_demos(projector.pop_ready())
+            n_cycles += 1
+            obs = sim.observe()
+            e = obs.ego
+        writer.add_demos(projector.finish())
+        stats = dict(sim.stats)
+        wall = time.perf_counter() - t_start
+        stats.update({
+            "collect/split": job.split, "collect/episode": job.episode, "collect/seed": job.seed,
+            "collect/cycles": n_cycles, "collect/wall_s": round(wall, 3),
+            "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
+        })
+        # written before the cycles file (the episode's completion marker): a finished episode has both
+        write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
+    return stats

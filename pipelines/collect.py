@@ -1,0 +1,104 @@
+"""``irlsim collect``: drive the expert in SUMO and write a Parquet dataset of policy sets and demonstrations.
+
+Episodes run in ``--workers`` processes (one libsumo each). Every file is written under a temporary name
+and renamed; an episode is finished once its cycles file exists. Killing the command at any moment leaves
+only complete files, and running it again resumes by skipping finished episodes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing as mp
+import time
+from pathlib import Path
+
+HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--config", type=Path, default=None, help="TOML config (configs/collect/*.toml)")
+    p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
+    p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a config field, e.g. --set planner.n_policies=500 (repeatable)")
+
+
+def _run_job(job):  # top level: picklable for spawn workers
+    from irlsim.data.collection import collect_episode
+
+    return collect_episode(job)
+
+
+def run(args: argparse.Namespace) -> int:
+    from irlsim.config import load_config, parse_overrides, to_dict
+    from irlsim.data.collection import SPLITS, CollectConfig, EpisodeJob
+    from irlsim.data.writer import episode_done, remove_partial, write_manifest
+    from irlsim.errors import IrlsimError
+    from irlsim.road.network import build_net
+    from irlsim.utils import check_non_negative, progress
+
+    overrides = parse_overrides(args.set)
+    if args.workers is not None:
+        if args.workers < 1:
+            raise IrlsimError(f"--workers must be >= 1, got {args.workers}")
+        overrides["workers"] = args.workers
+    if args.seed is not None:
+        check_non_negative("seed", args.seed)
+        overrides["seed"] = args.seed
+    cfg = load_config(CollectConfig, args.config, overrides)
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    manifest_path = out / "manifest.json"
+    if manifest_path.is_file():
+        try:
+            old = json.loads(manifest_path.read_text())
+        except json.JSONDecodeError:
+            raise IrlsimError(f"{manifest_path} is corrupt: delete it and re-run the same command") from None
+        if old.get("config") != to_dict(cfg):
+            raise IrlsimError(
+                f"{out} was collected with another config: choose another --out or delete {out}"
+            )
+    build_net()  # once, before the workers start (they only read it)
+
+    jobs, seeds = [], {}
+    for split in SPLITS:
+        remove_partial(out, split)
+        seeds[split] = [s for _, s in cfg.episodes(split)]
+        for episode, seed in cfg.episodes(split):
+            if not episode_done(out, split, episode):
+                jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
+    total = sum(len(v) for v in seeds.values())
+    print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
+    # the manifest of an unfinished run lists the config, so a re-run with another config is refused
+    write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": {s: [] for s in SPLITS}})
+
+    t0 = time.perf_counter()
+    cycles = 0
+    bar = progress(total=len(jobs), desc="episodes", unit="ep")
+    if cfg.workers == 1 or len(jobs) <= 1:
+        results = map(_run_job, jobs)
+        pool = None
+    else:
+        pool = mp.get_context("spawn").Pool(min(cfg.workers, len(jobs)))
+        results = pool.imap_unordered(_run_job, jobs)
+    try:
+        for stats in results:
+            cycles += stats["collect/cycles"]
+            bar.update(1)
+            bar.set_postfix(cycles=cycles, rate=f"{cycles / (time.perf_counter() - t0):.1f}/s")
+    finally:
+        bar.close()
+        if pool is not None:
+            pool.terminate()
+            pool.join()
+    splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
+    manifest = write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": splits})
+    wall = time.perf_counter() - t0
+    if jobs:
+        print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")
+    print(f"wrote {out}/<split>/episode_*.{{cycles,policies}}.parquet and {manifest}")
+    print(f"inspect with: irlsim data info {out}")
+    return 0
