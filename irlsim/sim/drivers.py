@@ -188,8 +188,15 @@ class SimpleDriver:
 
 
 #: driver name -> factory(road, cfg); the planner registers 'expert' here
+def _expert(road: Road, cfg: ScenarioConfig) -> Any:
+    from irlsim.planner.expert import make_expert_driver  # lazy: the planner imports this module
+
+    return make_expert_driver(road, cfg)
+
+
 DRIVERS: dict[str, Callable[[Road, ScenarioConfig], Any]] = {
     "simple": lambda road, cfg: SimpleDriver(road, cfg),
+    "expert": _expert,
 }
 
 

@@ -1,0 +1,306 @@
+"""Reward-agnostic sampling of ~2,500 policies per cycle in the route frame, fully vectorised.
+
+Structure (why it is fast): a policy is a pair (lateral profile j, longitudinal profile l). Longitudinal
+profiles (s, v, a over time) and lateral profiles (d over time) are sampled separately as small banks
+(L ~ 80 and J ~ 40 profiles of T = 51 states) and combined by index arrays ``lon_idx``, ``lat_idx`` [N].
+Every feature is lon-only, lat-only, or a sum over time of products of a lateral and a longitudinal
+series, which is an exact [J, T] @ [T, L] matrix product (proximity and the collision label too, since
+exp(-a - b) = exp(-a) exp(-b) and a box test is a product of two interval tests). So the cost is
+O((J + L) T M) plus O(N T) gathers, not O(N T M). Exit-taking profiles, whose offset follows the ramp
+and so depends on s, are lateral profiles bound to one longitudinal profile each.
+
+Longitudinal actions (two stages, [0, split] and [split, horizon]): a target acceleration per stage
+(``cfg.accels_stage1/2`` plus "reach v_target"), reached from the current acceleration by a cubic
+smoothstep of ``cfg.accel_ramp`` seconds, so a(t) is continuous and starts at the ego's a; v is clamped
+at 0 (a car that stops stands). Plus up to three quintic stop profiles that bring the front bumper to
+rest exactly ``cfg.stop_margin`` before an active stop line (fastest, middle, gentlest feasible).
+
+Lateral actions (two stages): a quintic from the ego's (d, d_dot, d_ddot) to a stage-1 target (lane
+centres 0/1/2 with durations ``cfg.lat_durations``, staying at d, or a partial swerve of ``cfg.swerves``
+off the current lane centre), then from the state at ``split`` a quintic to a stage-2 lane centre. Near
+an exit (lane 0, ``cfg.exit_reach``) exit-taking profiles move to lane 0 and then follow the ramp.
+
+Feasibility: |a| <= max(|a_min|, a_max) by construction, 0 <= v <= v_max, |d_ddot + v^2 kappa| <=
+a_lat_max and |d_dot| <= tan(max_slip) v + 0.05 m/s; infeasible pairs are dropped. The count is then made
+exactly ``cfg.n_policies``: essential pairs (lane keeping at every speed profile, every lateral profile
+with cruise / reach-target / stop profiles, all exit-taking pairs) are kept, the others are subsampled
+evenly; a small set is padded by repeating pairs. Policies are finally sorted by progress (stable).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from irlsim.planner.config import PlannerConfig
+from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.sim.types import Observation
+
+F32 = np.float32
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """Cubic 3x^2 - 2x^3 on [0, 1], 0 below, 1 above."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def quintic(p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, dur: np.ndarray,
+            t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Quintic from (p0, v0, a0) at t = 0 to (p1, 0, 0) at t = dur, held at p1 afterwards.
+
+    Parameters broadcast against each other ([P, 1]); ``t`` is [T]. Returns position, velocity,
+    acceleration and jerk, each [P, T].
+    """
+    h = p1 - p0
+    T = dur
+    c3 = (20 * h - 12 * v0 * T - 3 * a0 * T**2) / (2 * T**3)
+    c4 = (-30 * h + 16 * v0 * T + 3 * a0 * T**2) / (2 * T**4)
+    c5 = (12 * h - 6 * v0 * T - a0 * T**2) / (2 * T**5)
+    tt = np.minimum(t, T)
+    inside = t < T
+    p = p0 + v0 * tt + 0.5 * a0 * tt**2 + c3 * tt**3 + c4 * tt**4 + c5 * tt**5
+    v = np.where(inside, v0 + a0 * tt + 3 * c3 * tt**2 + 4 * c4 * tt**3 + 5 * c5 * tt**4, 0.0)
+    a = np.where(inside, a0 + 6 * c3 * tt + 12 * c4 * tt**2 + 20 * c5 * tt**3, 0.0)
+    j = np.where(inside, 6 * c3 + 24 * c4 * tt + 60 * c5 * tt**2, 0.0)
+    return p, v, a, j
+
+
+@dataclass
+class LonBank:
+    """L longitudinal profiles, each array [L, T] (s relative to the ego's s)."""
+
+    s: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    kind: np.ndarray  # [L] int8: 0 sampled accelerations, 1 reach v_target / cruise, 2 stop at the line
+
+
+@dataclass
+class LatBank:
+    """J lateral profiles, each array [J, T]: offset d and its time derivatives."""
+
+    d: np.ndarray
+    dd: np.ndarray
+    ddd: np.ndarray
+    dddd: np.ndarray
+    target: np.ndarray  # [J] final target offset [m] (lat_overshoot)
+    bound_lon: np.ndarray  # [J] int: the lon profile an exit profile is bound to; -1 = combines freely
+    keep: np.ndarray  # [J] bool: the lane-keeping profile (essential)
+
+
+class Sampler:
+    """Builds the longitudinal and lateral banks of one cycle. Pure numpy, deterministic."""
+
+    def __init__(self, road: Road, cfg: PlannerConfig):
+        self.road = road
+        self.cfg = cfg
+        T = cfg.n_steps
+        self.t = np.arange(T) * cfg.dt  # [T] s
+        ts, tau = cfg.stage_split, cfg.accel_ramp
+        # acceleration basis: a(t) = a0 b0 + a1 b1 + a2 b2; integrals by a fine trapezoid, exact enough
+        fine = np.linspace(0.0, cfg.horizon, (T - 1) * 50 + 1)
+        fb = self._basis(fine, ts, tau)
+        cum = np.concatenate([np.zeros((3, 1)), np.cumsum(0.5 * (fb[:, 1:] + fb[:, :-1]) * (fine[1] - fine[0]),
+                                                          axis=1)], axis=1)
+        self._b = self._basis(self.t, ts, tau)  # [3, T]
+        self._B = cum[:, ::50]  # [3, T]  integral of each basis function from 0 to t
+        self._i_split = int(round(ts / cfg.dt))
+
+    @staticmethod
+    def _basis(t: np.ndarray, ts: float, tau: float) -> np.ndarray:
+        h1 = smoothstep(t / tau)
+        h2 = smoothstep((t - ts) / tau)
+        return np.stack([1.0 - h1, h1 - h2, h2])
+
+    # ------------------------------------------------------------------ longitudinal
+    def lon_bank(self, v0: float, a0: float, stops: tuple[float, ...] = ()) -> LonBank:
+        """Longitudinal profiles from speed ``v0`` [m/s], acceleration ``a0`` [m/s^2].
+
+        ``stops`` [m]: distances from the ego's front bumper to points where it may have to stand (the
+        active stop line, the tail of a standing queue); each within ``stop_reach`` gets stop profiles.
+        """
+        cfg = self.cfg
+        a0 = float(np.clip(a0, cfg.a_min, cfg.a_max))
+        b, B = self._b, self._B
+        isp = self._i_split
+        a1 = np.array(list(cfg.accels_stage1) + [np.nan])
+        # 'reach v_target' at the end of stage 1 (nan marks it): v(ts) = v0 + a0 B0 + a1 B1
+        a1[-1] = (cfg.v_target - v0 - a0 * B[0, isp]) / B[1, isp]
+        a1 = np.clip(a1, cfg.a_min, cfg.a_max)
+        n1 = len(a1)
+        a2_fixed = np.array(cfg.accels_stage2)
+        A1 = np.repeat(a1, len(a2_fixed) + 1)
+        A2 = np.tile(np.append(a2_fixed, np.nan), n1)
+        # 'reach v_target' at the horizon: v(T) = v0 + a0 B0(T) + a1 B1(T) + a2 B2(T)
+        reach = np.isnan(A2)
+        A2[reach] = (cfg.v_target - v0 - a0 * B[0, -1] - A1[reach] * B[1, -1]) / B[2, -1]
+        A2 = np.clip(A2, cfg.a_min, cfg.a_max)
+        # kind 1 (essential): reach v_target in both stages, or cruise at the current acceleration 0
+        row_reach = np.arange(len(A1)) // (len(a2_fixed) + 1) == n1 - 1
+        cruise = (~row_reach) & (~reach) & (A1 == 0.0) & (A2 == 0.0)
+        kind = np.where((row_reach & reach) | cruise, 1, 0).astype(np.int8)
+        a_raw = a0 * b[0] + A1[:, None] * b[1] + A2[:, None] * b[2]  # [L, T]
+        v_raw = v0 + a0 * B[0] + A1[:, None] * B[1] + A2[:, None] * B[2]
+        # a car that reaches standstill stands until its acceleration turns positive
+        stopped = np.minimum.accumulate(v_raw, axis=1) <= 0.0
+        v = np.maximum(v_raw, 0.0)
+        a = np.where(stopped & (v_raw <= 0.0), 0.0, a_raw)
+        ok = v.max(axis=1) <= max(cfg.v_max, v0 + 1e-6)
+        v, a, kind = v[ok], a[ok], kind[ok]
+        s = np.concatenate([np.zeros((len(v), 1)), np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * cfg.dt, axis=1)],
+                           axis=1)
+        for dist in stops:
+            if math.isfinite(dist) and dist < cfg.stop_reach:
+                sv, sa, ss = self._stop_profiles(v0, a0, max(dist, 0.0))
+                v = np.concatenate([v, sv])
+                a = np.concatenate([a, sa])
+                s = np.concatenate([s, ss])  # exact quintic positions
+                kind = np.concatenate([kind, np.full(len(sv), 2, np.int8)])
+        # drop duplicates (clipped reach-target actions coincide with sampled ones)
+        _, first = np.unique(np.round(v, 4), axis=0, return_index=True)
+        keep = np.sort(first)
+        return LonBank(s=s[keep], v=v[keep], a=a[keep], kind=kind[keep])
+
+    def _stop_profiles(self, v0: float, a0: float, dist: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Up to 3 quintic stops at exactly ``dist`` metres: the fastest, a middle and the gentlest
+        feasible duration (v >= 0, no overshoot, a within limits). Falls back to the hardest braking."""
+        cfg = self.cfg
+        if v0 < 1e-3 and dist < 0.05:
+            z = np.zeros((1, len(self.t)))
+            return z, z.copy(), z.copy()
+        durs = np.geomspace(0.3, 30.0, 64)[:, None]
+        tau = np.linspace(0.0, 1.0, 101)[None, :]
+        p, v, a, _ = quintic(0.0, v0, a0, dist, durs, tau * durs)
+        feas = (v.min(axis=1) >= -1e-3) & (p.max(axis=1) <= dist + 0.02) & \
+               (a.min(axis=1) >= cfg.a_min) & (a.max(axis=1) <= cfg.a_max)
+        cand = np.flatnonzero(feas)
+        if len(cand) == 0:
+            # cannot stop at the line: brake as hard as allowed (the stop_line feature will cost it)
+            d = np.array([max(dist, v0**2 / (2 * -cfg.a_min) * 1.05)])
+            durs_f = np.geomspace(0.3, 30.0, 256)[:, None]
+            p, v, a, _ = quintic(0.0, v0, a0, d, durs_f, tau * durs_f)
+            feas = (v.min(axis=1) >= -1e-3) & (a.min(axis=1) >= cfg.a_min) & (a.max(axis=1) <= cfg.a_max)
+            cand = np.flatnonzero(feas) if feas.any() else np.array([255])
+            dist = float(d[0])
+            durs = durs_f
+        pick = np.unique(cand[[0, len(cand) // 2, -1]])
+        ps, vs, as_, _ = quintic(0.0, v0, a0, dist, durs[pick], self.t[None, :])
+        return np.maximum(vs, 0.0), as_, ps
+
+    # ------------------------------------------------------------------ lateral
+    def lat_bank(self, d0: float, dd0: float, ddd0: float) -> LatBank:
+        """Generic lateral profiles from the ego's offset ``d0`` [m], ``dd0`` [m/s], ``ddd0`` [m/s^2]."""
+        cfg = self.cfg
+        centres = (np.arange(3) - 1.0) * LANE_WIDTH
+        cur = float(centres[np.argmin(np.abs(centres - d0))])
+        t1_targets, t1_durs = [], []
+        for c in centres:
+            for dur in cfg.lat_durations:
+                t1_targets.append(c)
+                t1_durs.append(dur)
+        t1_targets.append(d0)  # stay (a lane-centre target when the ego is on one)
+        t1_durs.append(cfg.lat_durations[0])
+        for sgn in (-1.0, 1.0):  # partial swerves, inside the loop's outer lane centres
+            for mag in cfg.swerves:
+                tgt = cur + sgn * mag
+                if abs(tgt) <= LANE_WIDTH + 1e-6:
+                    t1_targets.append(tgt)
+                    t1_durs.append(cfg.stage_split)
+        n1 = len(t1_targets)
+        D1 = np.repeat(np.array(t1_targets), 3)[:, None]
+        DUR = np.repeat(np.array(t1_durs), 3)[:, None]
+        D2 = np.tile(centres, n1)[:, None]
+        t = self.t
+        isp = self._i_split
+        p1, v1, a1, j1 = quintic(d0, dd0, ddd0, D1, DUR, t[None, :])
+        # stage 2 from the stage-1 state at the split, to a lane centre at the horizon
+        t2 = np.maximum(t - t[isp], 0.0)[None, :]
+        dur2 = cfg.horizon - cfg.stage_split
+        p2, v2, a2, j2 = quintic(p1[:, isp:isp + 1], v1[:, isp:isp + 1], a1[:, isp:isp + 1], D2, dur2, t2)
+        late = t[None, :] > t[isp]
+        d = np.where(late, p2, p1)
+        dd = np.where(late, v2, v1)
+        ddd = np.where(late, a2, a1)
+        dddd = np.where(late, j2, j1)
+        _, first = np.unique(np.round(d, 3), axis=0, return_index=True)
+        keep_idx = np.sort(first)
+        d, dd, ddd, dddd = d[keep_idx], dd[keep_idx], ddd[keep_idx], dddd[keep_idx]
+        target = D2[keep_idx, 0]
+        # the lane-keeping profile: to the current lane centre, shortest duration, stays there
+        is_keep = (np.abs(D1[keep_idx, 0] - cur) < 1e-9) & (np.abs(target - cur) < 1e-9) & \
+                  (DUR[keep_idx, 0] == cfg.lat_durations[0])
+        return LatBank(d=d, dd=dd, ddd=ddd, dddd=dddd, target=target,
+                       bound_lon=np.full(len(d), -1, np.int64), keep=is_keep)
+
+    def exit_bank(self, d0: float, dd0: float, ddd0: float, s0: float, lon: LonBank) -> LatBank | None:
+        """Exit-taking profiles (one per longitudinal profile) when an exit starts within reach."""
+        cfg = self.cfg
+        road = self.road
+        if d0 > -LANE_WIDTH / 2:  # only from lane 0
+            return None
+        for ex in road.exits:
+            rel = (ex.s_start - s0 + road.lap_length / 2) % road.lap_length - road.lap_length / 2
+            if -(ex.ramp_s[-1] - ex.s_start) < rel < cfg.exit_reach:
+                break
+        else:
+            return None
+        p, v, a, j = quintic(d0, dd0, ddd0, -LANE_WIDTH, cfg.stage_split, self.t[None, :])
+        s_abs = ex.s_start + rel + lon.s  # [L, T] in the exit's own unwrapped frame
+        ramp = np.interp(s_abs, ex.ramp_s, ex.ramp_d, left=-LANE_WIDTH, right=ex.ramp_d[-1]) + LANE_WIDTH
+        d = p + ramp
+        dd = np.gradient(d, cfg.dt, axis=1)
+        ddd = np.gradient(dd, cfg.dt, axis=1)
+        dddd = np.gradient(ddd, cfg.dt, axis=1)
+        dd[:, 0], ddd[:, 0], dddd[:, 0] = dd0, ddd0, j[0, 0]
+        taken = d.min(axis=1) < -HALF_ROAD
+        if not taken.any():
+            return None
+        idx = np.flatnonzero(taken)
+        return LatBank(d=d[idx], dd=dd[idx], ddd=ddd[idx], dddd=dddd[idx],
+                       target=np.full(len(idx), np.nan), bound_lon=idx.astype(np.int64),
+                       keep=np.zeros(len(idx), bool))
+
+
+def concat_lat(a: LatBank, b: LatBank | None) -> LatBank:
+    if b is None:
+        return a
+    return LatBank(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in
+                     ("d", "dd", "ddd", "dddd", "target", "bound_lon", "keep")))
+
+
+def select_pairs(feasible: np.ndarray, essential: np.ndarray, n: int) -> np.ndarray:
+    """Indices (into the candidate pairs) of exactly ``n`` pairs: feasible essential ones first, the
+    rest evenly subsampled; repeated cyclically when fewer than ``n`` are feasible. Deterministic."""
+    cand = np.flatnonzero(feasible)
+    if len(cand) == 0:
+        cand = np.array([0])
+    if len(cand) <= n:
+        return np.resize(cand, n)
+    ess = cand[essential[cand]]
+    rest = cand[~essential[cand]]
+    if len(ess) >= n:
+        return ess[np.linspace(0, len(ess) - 1, n).round().astype(np.int64)]
+    k = n - len(ess)
+    pick = rest[np.linspace(0, len(rest) - 1, k).round().astype(np.int64)] if k else rest[:0]
+    return np.sort(np.concatenate([ess, pick]))
+
+
+def stop_distances(obs: Observation, cfg: PlannerConfig) -> tuple[float, ...]:
+    """Distances [m] from the ego's front bumper to where it may have to stand: the active stop line
+    (minus ``stop_margin``) and the tail of the nearest slow (< 2 m/s) vehicle ahead in each lane."""
+    out = []
+    if math.isfinite(obs.stop_s):
+        out.append(float(obs.stop_s - obs.ego.s - cfg.stop_margin))
+    veh = obs.vehicles
+    if veh.count:
+        lap = obs.lap_length
+        ds = (veh.s - obs.ego.s % lap + lap / 2) % lap - lap / 2
+        gap = ds - veh.length
+        for c in (-LANE_WIDTH, 0.0, LANE_WIDTH):  # the nearest slow vehicle ahead in each lane
+            mask = (ds > 0) & (np.abs(veh.d - c) < LANE_WIDTH / 2) & (veh.v < 2.0) & (gap < cfg.stop_reach)
+            if mask.any():
+                out.append(float(gap[mask].min() - cfg.safety_gap - 0.5))
+    return tuple(out)

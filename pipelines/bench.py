@@ -1,0 +1,155 @@
+"""``irlsim bench``: the performance figures of DESIGN.md section 9, as JSON and Markdown.
+
+Each section is a function ``(args) -> dict`` registered in ``SECTIONS`` and selected by its flag
+(``--planner``; ``--collect`` and ``--infer`` are added by their stages the same way). Without a section
+flag every registered section runs. Everything runs on one thread: the thread variables are set before
+numpy is imported. Results go to ``OUT/<section>.json`` and one ``OUT/bench.md`` with all sections found.
+"""
+
+from __future__ import annotations
+
+import os
+
+# one thread, set before numpy / torch are imported (the targets are per core)
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import platform  # noqa: E402
+from collections.abc import Callable  # noqa: E402
+from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
+
+HELP = "time the planner cycle (and, once added, collection and inference); write JSON and Markdown"
+
+#: DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
+TARGETS: dict[str, tuple[str, str, float, str]] = {
+    "planner": ("median_ms", "<=", 5.0, "ms"),
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", type=Path, default=Path("bench"), help="output folder (default: bench/)")
+    parser.add_argument("--planner", action="store_true", help="time the planner cycle (2,500 policies, 15 vehicles)")
+    parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
+
+
+# ---------------------------------------------------------------------------------------------- planner
+def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
+    """Synthetic cycles on the real road: 15 vehicles within +-150 m in random lanes at 25-35 km/h,
+    the ego at 5-20 m/s; a third of them before an active stop line, some before an exit in lane 0."""
+    import numpy as np
+
+    from irlsim.road import LANE_WIDTH, load_road
+    from irlsim.sim.types import EgoState, Observation, VehicleStates
+
+    road = load_road()
+    rng = np.random.default_rng(seed)
+    lap = road.lap_length
+    out = []
+    for k in range(n_obs):
+        if k % 3 == 0:
+            line = road.stop_lines[k % 2].s
+            s0, stop_s = line - rng.uniform(20, 120), line
+        elif k % 3 == 1:
+            s0, stop_s = road.exits[k % 2].s_start - rng.uniform(10, 100), np.inf
+        else:
+            s0, stop_s = rng.uniform(0, lap), np.inf
+        d0 = float(road.lane_center(rng.integers(0, 3)))
+        v0 = float(rng.uniform(5, 20))
+        x, y = road.to_xy(np.array(s0), np.array(d0))
+        ego = EgoState(0.0, float(x), float(y), float(road.heading(np.array(s0))), v0, 0.0, s0, d0, 0.0, 0.0,
+                       int(road.lane_of_d(np.array(d0))))
+        m = 15
+        s = (s0 + rng.uniform(-150, 150, m)) % lap
+        d = (rng.integers(0, 3, m) - 1.0) * LANE_WIDTH
+        vx, vy = road.to_xy(s, d)
+        veh = VehicleStates(tuple(f"bg{i}" for i in range(m)), vx, vy, road.heading(s),
+                            rng.uniform(25 / 3.6, 35 / 3.6, m), s, d, np.full(m, 4.5), np.full(m, 1.8))
+        ahead = [((c.s - s0 % lap) % lap, c.index) for c in road.checkpoints]
+        dist, idx = min(ahead)
+        out.append(Observation(ego, veh, idx, s0 + dist, stop_s, lap))
+    return out
+
+
+def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
+    import numpy as np
+
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.planner.planner import Planner
+    from irlsim.road import load_road
+
+    planner = Planner(load_road(), PlannerConfig())
+    observations = _planner_observations(args.seed)
+    for obs in observations:  # warm-up: caches, first-call allocations
+        planner.plan(obs)
+    ms = []
+    for i in range(max(args.cycles, 1)):
+        planner.plan(observations[i % len(observations)])
+        ms.append(planner.last_ms)
+    arr = np.array(ms)
+    return {
+        "what": "planner cycle: sampling + trajectories + 15 features + control points + labels + sort",
+        "n_policies": planner.cfg.n_policies,
+        "n_vehicles": 15,
+        "n_steps": planner.cfg.n_steps,
+        "cycles": len(ms),
+        "threads": 1,
+        "median_ms": round(float(np.median(arr)), 3),
+        "p90_ms": round(float(np.percentile(arr, 90)), 3),
+        "mean_ms": round(float(arr.mean()), 3),
+        "min_ms": round(float(arr.min()), 3),
+    }
+
+
+#: section name -> function; ``--<name>`` selects it
+SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
+    "planner": bench_planner,
+}
+
+
+def _markdown(results: dict[str, dict[str, Any]]) -> str:
+    lines = [
+        "# irlsim benchmarks",
+        "",
+        f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}, Python {platform.python_version()}; "
+        "one thread.",
+        "",
+        "| section | figure | value | target |",
+        "|---|---|---|---|",
+    ]
+    for name, res in results.items():
+        tgt = TARGETS.get(name)
+        for key, value in res.items():
+            if key in ("what",) or isinstance(value, (dict, list)):
+                continue
+            target = f"{tgt[1]} {tgt[2]:g} {tgt[3]}" if tgt and tgt[0] == key else ""
+            lines.append(f"| {name} | {key} | {value} | {target} |")
+    lines.append("")
+    return "\n".join(lines)
+
+
+def run(args: argparse.Namespace) -> int:
+    from irlsim.errors import IrlsimError
+    from irlsim.utils import atomic_write_text, write_json
+
+    if args.cycles < 1:
+        raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
+    if args.out.exists() and not args.out.is_dir():
+        raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
+    chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)
+    for name in chosen:
+        res = SECTIONS[name](args)
+        write_json(args.out / f"{name}.json", res)
+        print(f"{name}: " + ", ".join(f"{k} {v}" for k, v in res.items() if k != "what"))
+    # bench.md summarises every section result present in the folder (earlier runs included)
+    results = {}
+    for name in SECTIONS:
+        p = args.out / f"{name}.json"
+        if p.is_file():
+            results[name] = json.loads(p.read_text())
+    atomic_write_text(args.out / "bench.md", _markdown(results))
+    print(f"wrote {args.out / 'bench.md'}")
+    return 0
