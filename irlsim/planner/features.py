@@ -33,6 +33,10 @@ width. ``w_t = gamma^t dt`` [s].
 Implementation: per-profile banks (lon [L, T], lat [J, T]); lon-only and lat-only parts are summed per
 bank, the mixed parts (acc_lat, jerk_lat cross terms, mission_lane, proximity) are exact [J, T] @ [T, L]
 products, so a policy's feature is F_lon[l] + F_lat[j] + F_cross[j, l]. float32 throughout.
+
+The mixed parts are evaluated for the candidate pairs only (:class:`Pairs`): the free lateral profiles
+against every lon profile (one matrix product), and each exit profile against its one bound lon profile
+(a row-wise dot product), not the whole [J, L] grid (exit profiles would triple it near an exit).
 """
 
 from __future__ import annotations
@@ -74,6 +78,52 @@ class LonSeries:
     cdot: np.ndarray  # d/dt(v^2 kappa) [m/s^3]
     urg: np.ndarray  # mission urgency u(s) [-]
     prog: np.ndarray  # max(0, goal - s) [m]
+
+
+@dataclass
+class Pairs:
+    """The candidate (lat, lon) pairs of a cycle, C = len(free) * L + len(bound_j) of them, in this
+    order: every free lateral profile (``free``, ascending) with every lon profile (lon index fastest),
+    then each exit profile ``bound_j[k]`` with its bound lon profile ``bound_l[k]``. Pairwise terms are
+    vectors [C] in this order."""
+
+    free: np.ndarray  # [Jf] int64
+    bound_j: np.ndarray  # [Jb] int64
+    bound_l: np.ndarray  # [Jb] int64
+    L: int
+
+    @staticmethod
+    def of(lat: LatBank, n_lon: int) -> Pairs:
+        free = np.flatnonzero(lat.bound_lon < 0)
+        bound = np.flatnonzero(lat.bound_lon >= 0)
+        return Pairs(free, bound, lat.bound_lon[bound], n_lon)
+
+    @property
+    def all_free(self) -> bool:
+        return len(self.bound_j) == 0
+
+    def lat_idx(self) -> np.ndarray:
+        """[C] lateral profile of each pair."""
+        return np.concatenate([np.repeat(self.free, self.L), self.bound_j])
+
+    def lon_idx(self) -> np.ndarray:
+        """[C] longitudinal profile of each pair."""
+        return np.concatenate([np.tile(np.arange(self.L), len(self.free)), self.bound_l])
+
+    def dot(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """sum_k a[j, k] b[l, k] for every pair: a [J, K] (lat), b [L, K] (lon) -> [C]."""
+        if self.all_free:
+            return (a @ b.T).ravel()
+        grid = (a[self.free] @ b.T).ravel()
+        tail = np.einsum("ik,ik->i", a[self.bound_j], b[self.bound_l])
+        return np.concatenate([grid, tail])
+
+    def outer(self, f, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """f(a[j], b[l]) elementwise for every pair: a [J], b [L] -> [C]."""
+        grid = f(a[self.free][:, None], b[None, :]).ravel()
+        if self.all_free:
+            return grid
+        return np.concatenate([grid, f(a[self.bound_j], b[self.bound_l])])
 
 
 def weights(cfg: PlannerConfig) -> np.ndarray:
@@ -130,8 +180,8 @@ def lat_features(lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx:
     F = np.zeros((J, NF), F32)
     F[:, IDX["acc_lat"]] = (lat.ddd**2) @ w
     F[:, IDX["jerk_lat"]] = (lat.dddd**2) @ w
-    centres = np.array([-LANE_WIDTH, 0.0, LANE_WIDTH])
-    dev = np.min(np.abs(d[..., None] - centres), axis=-1)
+    # distance to the nearest lane centre
+    dev = np.minimum(np.minimum(np.abs(d + LANE_WIDTH), np.abs(d)), np.abs(d - LANE_WIDTH))
     right_edge = np.full(d.shape, -HALF_ROAD)
     bound = lat.bound_lon >= 0
     if bound.any():
@@ -158,48 +208,109 @@ def lat_features(lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx:
     return F
 
 
-def cross_features(lat: LatBank, lon: LonBank, series: LonSeries, ctx: Context, w: np.ndarray) -> np.ndarray:
-    """Mixed parts [J, L, 15] (zero except acc_lat, jerk_lat, mission_lane, end_heading)."""
-    J, L = len(lat.d), len(lon.v)
-    X = np.zeros((J, L, NF), F32)
+#: the feature columns :func:`cross_features` returns, in its column order
+CROSS_COLS: tuple[int, ...] = (IDX["acc_lat"], IDX["jerk_lat"], IDX["mission_lane"], IDX["end_heading"])
+
+
+def cross_features(lat: LatBank, lon: LonBank, series: LonSeries, ctx: Context, w: np.ndarray,
+                   pairs: Pairs) -> np.ndarray:
+    """Mixed parts of the candidate pairs [C, 4] float32, columns ``CROSS_COLS`` (acc_lat, jerk_lat,
+    mission_lane, end_heading; the other features have no mixed part)."""
+    X = np.empty((_n_pairs(pairs), len(CROSS_COLS)), F32)
     wd = (lat.ddd * w).astype(F32)
-    X[:, :, IDX["acc_lat"]] = 2.0 * (wd @ series.c.T)
+    X[:, 0] = 2.0 * pairs.dot(wd, series.c)
     wj = (lat.dddd * w).astype(F32)
-    X[:, :, IDX["jerk_lat"]] = 2.0 * (wj @ series.cdot.T)
+    X[:, 1] = 2.0 * pairs.dot(wj, series.cdot)
     lanes_away = (np.abs(lat.d - ctx.req_d) / LANE_WIDTH * w).astype(F32)
-    X[:, :, IDX["mission_lane"]] = lanes_away @ series.urg.T
-    head = np.arctan2(lat.dd[:, -1][:, None], np.maximum(lon.v[:, -1][None, :], 1e-3))
-    X[:, :, IDX["end_heading"]] = head * head
+    X[:, 2] = pairs.dot(lanes_away, series.urg)
+    head = pairs.outer(np.arctan2, lat.dd[:, -1], np.maximum(lon.v[:, -1], 1e-3))
+    X[:, 3] = head * head
     return X
+
+
+def _n_pairs(pairs: Pairs) -> int:
+    return len(pairs.free) * pairs.L + len(pairs.bound_j)
 
 
 @dataclass
 class VehicleTerms:
-    proximity: np.ndarray  # [J, L] float32
-    collision: np.ndarray  # [J, L] bool
-    risk: np.ndarray  # [J, L] float32, time-weighted intrusion into the expert's safety zone (0 = safe)
+    proximity: np.ndarray  # [C] float32 (one per candidate pair, see Pairs)
+    collision: np.ndarray  # [C] bool
+    risk: np.ndarray  # [C] float32, time-weighted intrusion into the expert's safety zone (0 = safe)
+
+
+#: a vehicle farther than this many proximity length scales (sigma_s + half lengths) from every lon
+#: profile at every step is dropped: each of its proximity terms is below exp(-36) ~ 2e-16 (far below
+#: the float32 rounding of any feature that matters), and the collision / safety tests reach far less
+_CULL_SCALES = 6.0
 
 
 def vehicle_terms(lat: LatBank, lon: LonBank, vehicles: VehicleStates, ctx: Context, cfg: PlannerConfig,
-                  w: np.ndarray, stop_lines_s: tuple[float, ...] = ()) -> VehicleTerms:
+                  w: np.ndarray, stop_lines_s: tuple[float, ...] = (),
+                  pairs: Pairs | None = None) -> VehicleTerms:
     """Proximity, predicted collision and safety risk against the vehicles' predictions: constant speed
     along the route frame at constant d, except that a vehicle stands at the next stop line
-    (``stop_lines_s``, wrapped route positions [m]) it reaches."""
-    J, L, T = len(lat.d), len(lon.v), cfg.n_steps
+    (``stop_lines_s``, wrapped route positions [m]) it reaches. Vectors over the candidate pairs."""
+    L, T = len(lon.v), cfg.n_steps
+    pairs = pairs if pairs is not None else Pairs.of(lat, L)
     lap = ctx.lap_length
     if vehicles.count:
         ds0 = (vehicles.s - (ctx.s_ego % lap) + lap / 2) % lap - lap / 2
         near = np.abs(ds0) < cfg.cull_distance
     else:
         near = np.zeros(0, bool)
-    if not near.any():
-        z = np.zeros((J, L), F32)
-        return VehicleTerms(z, np.zeros((J, L), bool), z.copy())
     t = (np.arange(T) * cfg.dt).astype(F32)
+    if near.any():
+        sv_near = _predicted_rear(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T]
+        kept = _cull(near, sv_near, lon, vehicles, cfg)
+        sv = sv_near[kept[near]]
+        near = kept
+    if not near.any():
+        C = _n_pairs(pairs)
+        return VehicleTerms(np.zeros(C, F32), np.zeros(C, bool), np.zeros(C, F32))
+    J = len(lat.d)
     vlen = vehicles.length[near].astype(F32)[:, None, None]
     vwid = vehicles.width[near].astype(F32)[:, None, None]
     vv = vehicles.v[near].astype(F32)[:, None, None]
     # route-frame centres: ego (front bumper s - L/2) minus vehicle's predicted centre: [M, L, T]
+    dS = (lon.s.astype(F32) - cfg.ego_length / 2)[None, :, :] - sv[:, None, :]
+    dD = lat.d.astype(F32)[None, :, :] - vehicles.d[near].astype(F32)[:, None, None]  # [M, J, T]
+    M = int(near.sum())
+    half_l = (cfg.ego_length + vlen) / 2
+    half_w = (cfg.ego_width + vwid) / 2
+    # proximity: sum_m sum_t w_t exp(-(dS/sig_s)^2) exp(-(dD/sig_d)^2) as one matrix product
+    p_lon = np.exp(-np.square(dS / (cfg.proximity_sigma_s + half_l))) * w
+    p_lat = np.exp(-np.square(dD / F32(cfg.proximity_sigma_d)))
+    a_lat = p_lat.transpose(1, 0, 2).reshape(J, M * T)
+    a_lon = p_lon.transpose(1, 0, 2).reshape(L, M * T)
+    prox = pairs.dot(a_lat, a_lon)
+    # predicted collision: route-frame boxes with small margins, t >= 1
+    live = (t > 0)[None, None, :]
+    c_lon = ((np.abs(dS) < half_l + cfg.collision_margin_lon) & live).astype(F32)
+    # a vehicle right behind the ego in its lane follows it (SUMO's car following): it is responsible
+    # for that gap, so it counts for proximity but not for the collision label and the safety zone
+    follower = ((ds0[near] < -cfg.ego_length) &
+                (np.abs(vehicles.d[near] - ctx.d0) < (cfg.ego_width + vehicles.width[near]) / 2))
+    lead_or_side = (~follower).astype(F32)[:, None, None]
+    c_lat = (np.abs(dD) < half_w + cfg.collision_margin_lat) * lead_or_side
+    coll = pairs.dot(c_lat.transpose(1, 0, 2).reshape(J, M * T),
+                     c_lon.transpose(1, 0, 2).reshape(L, M * T)) > 0.5
+    # safety zone: headway ahead of the ego (at its speed), a shorter one behind it (at the other's)
+    v_ego = lon.v.astype(F32)[None, :, :]
+    front = half_l + cfg.safety_gap + cfg.safety_headway * v_ego
+    rear = half_l + 1.0 + cfg.safety_rear_headway * vv
+    omega = (np.exp(-t / 2.0) * (t > 0) * (t <= cfg.safety_time + 1e-6)).astype(F32)
+    ts = slice(1, int(np.flatnonzero(omega)[-1]) + 1) if omega.any() else slice(0, 0)  # the steps omega > 0
+    Ts = ts.stop - ts.start if omega.any() else 0
+    u_lon = ((dS[:, :, ts] > -front[:, :, ts]) & (dS[:, :, ts] < rear)) * omega[ts]
+    u_lat = (np.abs(dD[:, :, ts]) < half_w + cfg.safety_margin_lat) * lead_or_side
+    risk = pairs.dot(u_lat.transpose(1, 0, 2).reshape(J, M * Ts), u_lon.transpose(1, 0, 2).reshape(L, M * Ts))
+    return VehicleTerms(prox.astype(F32), coll, risk.astype(F32))
+
+
+def _predicted_rear(near: np.ndarray, ds0: np.ndarray, vehicles: VehicleStates, lap: float, t: np.ndarray,
+                    stop_lines_s: tuple[float, ...]) -> np.ndarray:
+    """[M, T] float32: predicted route-frame rear position of each near vehicle, relative to the ego."""
     travel = vehicles.v[near].astype(F32)[:, None] * t[None, :]
     if stop_lines_s:
         # a vehicle heading for a stop line is predicted to stand at it (they all stop there)
@@ -211,34 +322,21 @@ def vehicle_terms(lat: LatBank, lon: LonBank, vehicles: VehicleStates, ctx: Cont
         tt = np.minimum(t[None, :], v_m / b)
         braking = np.minimum(v_m * tt - 0.5 * b * tt * tt, dist)
         travel = np.where(dist < 80.0, braking, travel)
-    sv = ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
-    dS = (lon.s.astype(F32) - cfg.ego_length / 2)[None, :, :] - sv[:, None, :]
-    dD = lat.d.astype(F32)[None, :, :] - vehicles.d[near].astype(F32)[:, None, None]  # [M, J, T]
-    M = int(near.sum())
-    half_l = (cfg.ego_length + vlen) / 2
-    half_w = (cfg.ego_width + vwid) / 2
-    # proximity: sum_m sum_t w_t exp(-(dS/sig_s)^2) exp(-(dD/sig_d)^2) as one matrix product
-    p_lon = np.exp(-np.square(dS / (cfg.proximity_sigma_s + half_l))) * w
-    p_lat = np.exp(-np.square(dD / F32(cfg.proximity_sigma_d)))
-    a_lat = p_lat.transpose(1, 0, 2).reshape(J, M * T)
-    a_lon = p_lon.transpose(1, 0, 2).reshape(L, M * T)
-    prox = a_lat @ a_lon.T
-    # predicted collision: route-frame boxes with small margins, t >= 1
-    live = (t > 0)[None, None, :]
-    c_lon = ((np.abs(dS) < half_l + cfg.collision_margin_lon) & live).astype(F32)
-    # a vehicle right behind the ego in its lane follows it (SUMO's car following): it is responsible
-    # for that gap, so it counts for proximity but not for the collision label and the safety zone
-    follower = ((ds0[near] < -cfg.ego_length) &
-                (np.abs(vehicles.d[near] - ctx.d0) < (cfg.ego_width + vehicles.width[near]) / 2))
-    lead_or_side = (~follower).astype(F32)[:, None, None]
-    c_lat = (np.abs(dD) < half_w + cfg.collision_margin_lat) * lead_or_side
-    coll = (c_lat.transpose(1, 0, 2).reshape(J, M * T) @ c_lon.transpose(1, 0, 2).reshape(L, M * T).T) > 0.5
-    # safety zone: headway ahead of the ego (at its speed), a shorter one behind it (at the other's)
-    v_ego = lon.v.astype(F32)[None, :, :]
-    front = half_l + cfg.safety_gap + cfg.safety_headway * v_ego
-    rear = half_l + 1.0 + cfg.safety_rear_headway * vv
-    omega = (np.exp(-t / 2.0) * (t > 0) * (t <= cfg.safety_time + 1e-6)).astype(F32)
-    u_lon = ((dS > -front) & (dS < rear)) * omega
-    u_lat = (np.abs(dD) < half_w + cfg.safety_margin_lat) * lead_or_side
-    risk = u_lat.transpose(1, 0, 2).reshape(J, M * T) @ u_lon.transpose(1, 0, 2).reshape(L, M * T).T
-    return VehicleTerms(prox.astype(F32), coll, risk.astype(F32))
+    return ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
+
+
+def _cull(near: np.ndarray, sv_near: np.ndarray, lon: LonBank, vehicles: VehicleStates,
+          cfg: PlannerConfig) -> np.ndarray:
+    """``near`` without the vehicles that no lon profile comes close to at any step (their proximity
+    terms are below 2e-16, their collision and safety tests false). ``sv_near``: [M, T] predicted rears."""
+    sv = sv_near.astype(np.float64)
+    ego_front = lon.s - cfg.ego_length / 2  # [L, T]
+    lo, hi = ego_front.min(axis=0), ego_front.max(axis=0)  # [T]
+    gap = np.maximum(np.maximum(lo[None, :] - sv, sv - hi[None, :]), 0.0).min(axis=1)  # [M] smallest |dS|
+    half_l = (cfg.ego_length + vehicles.length[near]) / 2
+    reach = np.maximum(_CULL_SCALES * (cfg.proximity_sigma_s + half_l),  # proximity
+                       half_l + cfg.safety_gap + cfg.safety_headway * max(cfg.v_max, float(lon.v.max()))
+                       + 1.0 + cfg.safety_rear_headway * vehicles.v[near] + cfg.collision_margin_lon) + 1.0
+    out = near.copy()
+    out[np.flatnonzero(near)[gap > reach]] = False
+    return out

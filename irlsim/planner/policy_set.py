@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -10,6 +11,61 @@ from irlsim import N_FEATURES
 
 #: labels stored per policy, in this order
 LABEL_NAMES: tuple[str, ...] = ("collision", "offroad", "exit")
+
+
+class WorldSource(Protocol):
+    """Computes the world-frame arrays of a PolicySet on first access (see :class:`LazyWorld`)."""
+
+    shape: tuple[int, int]
+
+    def xy(self) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def yaw(self) -> np.ndarray: ...
+
+
+class LazyWorld:
+    """Marker for ``PolicySet(x=..., y=..., yaw=...)``: pass ``LazyWorld(source)`` for all three and
+    the arrays are computed by ``source`` when first read (x and y together), then kept. The planner
+    uses it: most consumers (the dataset writer, the expert) never read x / y, and yaw only sometimes."""
+
+    __slots__ = ("source",)
+
+    def __init__(self, source: WorldSource):
+        self.source = source
+
+
+class _WorldArray:
+    """Data descriptor of the x / y / yaw fields: a plain array, or computed lazily from a LazyWorld.
+
+    Reading always yields an ``np.ndarray`` [N, T] float64 (the public contract is unchanged); the
+    dataclass machinery (``__init__``, ``fields``, ``replace``, ``==``, pickling) sees ordinary fields.
+    """
+
+    def __set_name__(self, owner: type, name: str) -> None:
+        self.name = name
+        self.slot = "_" + name
+
+    def __get__(self, obj: Any, owner: type | None = None) -> np.ndarray:
+        if obj is None:
+            raise AttributeError(self.name)  # no default: a required dataclass field
+        val = obj.__dict__[self.slot]
+        if isinstance(val, LazyWorld):
+            src = val.source
+            if self.name == "yaw":
+                obj.__dict__["_yaw"] = src.yaw()
+            else:
+                x, y = src.xy()
+                obj.__dict__["_x"], obj.__dict__["_y"] = x, y
+            val = obj.__dict__[self.slot]
+        return val
+
+    def __set__(self, obj: Any, value: Any) -> None:
+        obj.__dict__[self.slot] = value
+
+    @staticmethod
+    def shape_of(obj: Any, name: str) -> tuple[int, ...]:
+        val = obj.__dict__["_" + name]
+        return tuple(val.source.shape) if isinstance(val, LazyWorld) else tuple(np.shape(val))
 
 
 @dataclass(frozen=True)
@@ -22,7 +78,9 @@ class PolicySet:
 
     Arrays (shapes asserted in ``__post_init__``):
         x, y, yaw, v, s, d: [N, T] float64  world position [m], heading [rad, ENU, 0 = east, CCW],
-                                             speed [m/s], route-frame position [m]
+                                             speed [m/s], route-frame position [m]; x, y and yaw may be
+                                             given as a ``LazyWorld`` and are then computed on first
+                                             read (the planner does this: they cost ~40 % of a cycle)
         lane:               [N, T] int8
         progress:           [N] float32      route progress gained over the horizon [m]; sort key
         features:           [N, 15] float32  path-integral feature costs, >= 0 (names: irlsim.FEATURE_NAMES)
@@ -33,9 +91,9 @@ class PolicySet:
     """
 
     t: float
-    x: np.ndarray
-    y: np.ndarray
-    yaw: np.ndarray
+    x: np.ndarray = _WorldArray()  # type: ignore[assignment]
+    y: np.ndarray = _WorldArray()  # type: ignore[assignment]
+    yaw: np.ndarray = _WorldArray()  # type: ignore[assignment]
     v: np.ndarray
     s: np.ndarray
     d: np.ndarray
@@ -47,8 +105,11 @@ class PolicySet:
     labels: np.ndarray
 
     def __post_init__(self) -> None:
-        n, t = self.x.shape
-        for name in ("y", "yaw", "v", "s", "d", "lane"):
+        n, t = self.v.shape
+        for name in ("x", "y", "yaw"):
+            shape = _WorldArray.shape_of(self, name)
+            assert shape == (n, t), f"{name}: {shape} != {(n, t)}"
+        for name in ("s", "d", "lane"):
             assert getattr(self, name).shape == (n, t), f"{name}: {getattr(self, name).shape} != {(n, t)}"
         assert self.progress.shape == (n,), self.progress.shape
         assert self.features.shape == (n, N_FEATURES), self.features.shape
@@ -57,13 +118,19 @@ class PolicySet:
         assert self.actions.shape == (n, self.control_points.shape[1], 2), self.actions.shape
         assert self.labels.shape == (n, len(LABEL_NAMES)), self.labels.shape
 
+    def __getstate__(self) -> dict:
+        """Pickling / copying materialises the lazy x / y / yaw (the source holds the road)."""
+        for name in ("x", "y", "yaw"):
+            getattr(self, name)
+        return dict(self.__dict__)
+
     @property
     def n_policies(self) -> int:
-        return int(self.x.shape[0])
+        return int(self.v.shape[0])
 
     @property
     def n_steps(self) -> int:
-        return int(self.x.shape[1])
+        return int(self.v.shape[1])
 
     def value(self, theta: np.ndarray) -> np.ndarray:
         """V(pi) = -theta^T f^pi for every policy: [N]."""

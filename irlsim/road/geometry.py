@@ -168,6 +168,25 @@ class Road:
         # coarse index for projection: every COARSE-th vertex
         self._coarse = 20
         self._coarse_xy = ref[:: self._coarse]
+        # fast lookups for to_xy / heading (same values as the [M, 2] tables, one contiguous array per
+        # component). The vertices are spaced ~REF_STEP apart, so a vertex index is a division plus a
+        # few corrections (exactly what searchsorted would give), not a binary search.
+        m = len(ref)
+        self._h = self.lap_length / m
+        self._inv_h = 1.0 / self._h
+        dev = np.abs(self.ref_s - np.arange(m) * self._h).max()
+        self._n_fix = int(math.ceil(dev / self._h)) + 1  # correction passes each way
+        self._ref_s_ext = np.concatenate([self.ref_s, [np.inf]])  # sentinel: never step past M - 1
+        self._rx, self._ry = np.ascontiguousarray(ref[:, 0]), np.ascontiguousarray(ref[:, 1])
+        self._ux = np.ascontiguousarray(self._seg_dir[:, 0])
+        self._uy = np.ascontiguousarray(self._seg_dir[:, 1])
+        nxt = np.roll(self._vtx_normal, -1, axis=0)
+        self._n0x = np.ascontiguousarray(self._vtx_normal[:, 0])
+        self._n0y = np.ascontiguousarray(self._vtx_normal[:, 1])
+        self._n1x, self._n1y = np.ascontiguousarray(nxt[:, 0]), np.ascontiguousarray(nxt[:, 1])
+        sh = self._seg_heading
+        self._h_prev = wrap_angle(sh - np.roll(sh, 1))  # heading change from the previous segment
+        self._h_next = wrap_angle(np.roll(sh, -1) - sh)  # heading change to the next segment
 
     def _stop_lines(self) -> tuple[StopLine, ...]:
         out = []
@@ -296,31 +315,55 @@ class Road:
     def segment_of(self, s: np.ndarray) -> np.ndarray:
         """Index of the reference segment containing route position(s) s (wrapped)."""
         sw = np.asarray(s, dtype=np.float64) % self.lap_length
-        return np.clip(np.searchsorted(self.ref_s, sw, side="right") - 1, 0, len(self.ref_s) - 1)
+        return self._segment_of_wrapped(sw)
+
+    def _segment_of_wrapped(self, sw: np.ndarray) -> np.ndarray:
+        """``clip(searchsorted(ref_s, sw, 'right') - 1, 0, M - 1)`` for sw in [0, lap_length], by index
+        arithmetic: a guess from the mean vertex spacing, then ``_n_fix`` exact corrections each way."""
+        m = len(self.ref_s)
+        sw = np.asarray(sw)
+        i = np.minimum((sw * self._inv_h).astype(np.int64), m - 1)  # sw >= 0: truncation is floor
+        ext = self._ref_s_ext
+        for _ in range(self._n_fix):
+            i = i - (ext[i] > sw)
+        i = np.maximum(i, 0)
+        for _ in range(self._n_fix):
+            i = i + (ext[i + 1] <= sw)
+        return i
 
     def to_xy(self, s: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Route frame (s, d) [m] -> world xy [m]; s may be unwrapped (any real); vectorised."""
         s = np.asarray(s, dtype=np.float64)
         d = np.asarray(d, dtype=np.float64)
+        shape = np.broadcast_shapes(s.shape, d.shape)
+        if s.ndim == 0 or d.ndim == 0:  # array arithmetic throughout (0-d arrays out, as before)
+            s, d = (np.broadcast_to(a, shape).reshape(-1) for a in (s, d))
         sw = s % self.lap_length
-        seg = self.segment_of(sw)
+        seg = self._segment_of_wrapped(sw % self.lap_length)
         t = sw - self.ref_s[seg]
-        base = self.ref_xy[seg] + self._seg_dir[seg] * t[..., None]
-        xy = base + self._normal_at(seg, t) * d[..., None]
-        return xy[..., 0], xy[..., 1]
+        # the normal interpolated between vertex normals, as _normal_at (per component, same operations)
+        f = t / self._seg_len[seg]
+        g = 1.0 - f
+        nx = self._n0x[seg] * g + self._n1x[seg] * f
+        ny = self._n0y[seg] * g + self._n1y[seg] * f
+        norm = np.sqrt(nx * nx + ny * ny)
+        x = (self._rx[seg] + self._ux[seg] * t) + nx / norm * d
+        y = (self._ry[seg] + self._uy[seg] * t) + ny / norm * d
+        return x.reshape(shape), y.reshape(shape)
 
     def heading(self, s: np.ndarray) -> np.ndarray:
         """Reference heading [rad, ENU] at s, interpolated between segment headings (smooth in s)."""
-        sw = np.asarray(s, dtype=np.float64) % self.lap_length
-        seg = self.segment_of(sw)
+        s = np.asarray(s, dtype=np.float64)
+        shape = s.shape
+        sw = s.reshape(-1) % self.lap_length  # array arithmetic throughout (0-d array out, as before)
+        seg = self._segment_of_wrapped(sw % self.lap_length)
         frac = (sw - self.ref_s[seg]) / self._seg_len[seg]
-        h0 = self._seg_heading[seg]
-        h1 = self._seg_heading[(seg + 1) % len(self._seg_heading)]
-        # blend around the segment's mid point so the heading is continuous
-        prev = self._seg_heading[seg - 1]
-        lo = h0 + wrap_angle(h0 - prev) * (frac - 0.5) * (frac < 0.5)
-        hi = h0 + wrap_angle(h1 - h0) * (frac - 0.5) * (frac >= 0.5)
-        return wrap_angle(np.where(frac < 0.5, lo, hi))
+        # blend around the segment's mid point so the heading is continuous: towards the previous
+        # segment's heading before it, towards the next one's after it
+        first = frac < 0.5
+        slope = np.where(first, self._h_prev[seg], self._h_next[seg])
+        out = wrap_angle(self._seg_heading[seg] + slope * (frac - 0.5))
+        return out.reshape(shape) if shape else out[0]  # a numpy scalar for a scalar s, as before
 
     def curvature(self, s: np.ndarray) -> np.ndarray:
         """Signed curvature of the reference [1/m] (positive = left turn), smoothed over 5 m."""
