@@ -1,7 +1,7 @@
 """``irlsim bench``: the performance figures of DESIGN.md section 9, as JSON and Markdown.
 
 Each section is a function ``(args) -> dict`` registered in ``SECTIONS`` and selected by its flag
-(``--planner``; ``--collect`` and ``--infer`` are added by their stages the same way). Without a section
+(``--planner``, ``--collect``, ``--infer``). Without a section
 flag every registered section runs. Everything runs on one thread: the thread variables are set before
 numpy is imported. Results go to ``OUT/<section>.json`` and one ``OUT/bench.md`` with all sections found.
 """
@@ -21,18 +21,25 @@ from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
-HELP = "time the planner cycle (and, once added, collection and inference); write JSON and Markdown"
+HELP = "time the planner cycle, collection and inference (DESIGN.md section 9); write JSON and Markdown"
 
 #: DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
 TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
+    "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),
+    "infer": ("infer_median_ms", "<=", 10.0, "ms"),
 }
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("bench"), help="output folder (default: bench/)")
     parser.add_argument("--planner", action="store_true", help="time the planner cycle (2,500 policies, 15 vehicles)")
+    parser.add_argument("--collect", action="store_true",
+                        help="time collection end to end (SUMO + planner + demonstrations + Parquet)")
+    parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
     parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument("--collect-cycles", type=int, default=150,
+                        help="planning cycles per timed collection episode (default 150)")
     parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
 
 
@@ -116,9 +123,23 @@ def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
     }
 
 
+def bench_collect(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks import bench_collect as run_collect
+
+    return run_collect(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
+
+
+def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks import bench_infer as run_infer
+
+    return run_infer(n_policies=2500, seed=args.seed)
+
+
 #: section name -> function; ``--<name>`` selects it
 SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
+    "collect": bench_collect,
+    "infer": bench_infer,
 }
 
 
@@ -127,7 +148,7 @@ def _markdown(results: dict[str, dict[str, Any]]) -> str:
         "# irlsim benchmarks",
         "",
         f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}, Python {platform.python_version()}; "
-        "one thread.",
+        "one thread (collection: one worker, then two; training: two threads).",
         "",
         "| section | figure | value | target |",
         "|---|---|---|---|",
@@ -149,6 +170,8 @@ def run(args: argparse.Namespace) -> int:
 
     if args.cycles < 1:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
+    if args.collect_cycles < 1:
+        raise IrlsimError(f"--collect-cycles must be >= 1, got {args.collect_cycles}")
     if args.out.exists() and not args.out.is_dir():
         raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
     chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)

@@ -1,0 +1,120 @@
+"""Benchmarks of collection and inference (DESIGN.md section 9); the planner's lives in pipelines/bench.py.
+
+Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import statistics
+import tempfile
+import time
+from typing import Any
+
+import numpy as np
+
+#: the paper's scale: one hour of driving
+PAPER_TRAIN_CYCLES = 17_000
+
+
+def _collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
+    from irlsim.config import load_config
+    from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
+
+    out, seed, cycles, n_policies = args
+    cfg = load_config(CollectConfig, None, {"max_cycles": cycles, "planner.n_policies": n_policies,
+                                            "scenario.n_vehicles": 15})
+    return collect_episode(EpisodeJob(out, "train", seed, seed, cfg))
+
+
+def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> dict[str, Any]:
+    """Planning cycles per second per worker, end to end (SUMO + planner + demonstrations + Parquet).
+
+    One episode of ``cycles`` cycles in this process, then two at once in two spawned workers; the
+    wall time of the paper config (17,000 train cycles) with 2 workers is extrapolated from the latter.
+    """
+    from irlsim.road.network import build_net
+
+    build_net()
+    with tempfile.TemporaryDirectory() as tmp:
+        one = _collect_one((tmp + "/one", seed, cycles, n_policies))
+        t0 = time.perf_counter()
+        with mp.get_context("spawn").Pool(2) as pool:
+            two = pool.map(_collect_one, [(tmp + "/two", seed + 1, cycles, n_policies),
+                                          (tmp + "/two", seed + 2, cycles, n_policies)])
+        wall2 = time.perf_counter() - t0
+    total2 = sum(r["collect/cycles"] for r in two)
+    per_worker = [r["collect/cycles_per_s"] for r in two]
+    rate2 = total2 / wall2  # includes the workers' start-up
+    return {
+        "n_policies": n_policies,
+        "vehicles": 15,
+        "cycles_per_episode": cycles,
+        "cycles_per_s_one_worker": one["collect/cycles_per_s"],
+        "cycles_per_s_per_worker_with_2": round(float(np.mean(per_worker)), 2),
+        "cycles_per_s_total_with_2": round(rate2, 2),
+        "paper_train_cycles": PAPER_TRAIN_CYCLES,
+        "paper_wall_min_with_2_workers": round(PAPER_TRAIN_CYCLES / rate2 / 60.0, 1),
+        "target": ">= 25 cycles/s per worker; paper hour <= 10 min with 2 workers",
+    }
+
+
+def bench_infer(n_policies: int = 2500, repeats: int = 50, batch: int = 32, history: int = 10,
+                seed: int = 0) -> dict[str, Any]:
+    """PACNN + PTACNN inference per cycle (one thread) and stage-1 training throughput (cycles/s)."""
+    import torch
+
+    from irlsim.models.registry import ModelConfig, build_model, count_parameters
+    from irlsim.train.common import LoadedModel
+    from irlsim.train.predictor import RewardPredictor
+
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    cfg = ModelConfig(history=history)
+    pacnn = build_model("PACNN", cfg, n_policies, None).eval()
+    ptacnn = build_model("PTACNN", cfg, n_policies, None).eval()
+    loaded = LoadedModel(name="PTACNN", model=ptacnn, base=pacnn, history=history, checkpoint={})
+    pred = RewardPredictor(loaded, threads=1)
+    f = rng.random((n_policies, 15), dtype=np.float32)
+    cp = rng.random((n_policies, 10, 3), dtype=np.float32)
+    a = rng.random((n_policies, 10, 2), dtype=np.float32)
+    for _ in range(5):
+        pred.predict(f, cp, a)
+    ms = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        pred.predict(f, cp, a)
+        ms.append((time.perf_counter() - t0) * 1e3)
+
+    # training throughput: PACNN forward + NLL + backward on mini-batches of cycles, 2 threads
+    from irlsim.irl.objectives import nll
+
+    torch.set_num_threads(2)
+    train_model = build_model("PACNN", cfg, n_policies, None).train()
+    opt = torch.optim.Adam(train_model.parameters(), lr=1e-3)
+    fb = torch.rand(batch, n_policies, 15)
+    cpb = torch.rand(batch, n_policies, 10, 3)
+    ab = torch.rand(batch, n_policies, 10, 2)
+    demo = torch.randint(0, n_policies, (batch,))
+    times = []
+    for i in range(6):
+        t0 = time.perf_counter()
+        out = train_model(fb, cpb, ab)
+        loss = nll(out["theta"], fb, demo).mean()
+        opt.zero_grad()
+        loss.backward()
+        opt.step()
+        if i > 0:
+            times.append(time.perf_counter() - t0)
+    step = statistics.median(times)
+    return {
+        "n_policies": n_policies,
+        "history": history,
+        "pacnn_parameters": count_parameters(pacnn),
+        "ptacnn_parameters": count_parameters(ptacnn),
+        "infer_median_ms": round(statistics.median(ms), 3),
+        "infer_p90_ms": round(float(np.percentile(ms, 90)), 3),
+        "train_cycles_per_s_pacnn_2_threads": round(batch / step, 1),
+        "train_epoch_min_17000_cycles": round(PAPER_TRAIN_CYCLES / (batch / step) / 60.0, 2),
+        "target": "inference <= 10 ms per cycle; one epoch over 17,000 cycles <= 5 min on 2 cores",
+    }
