@@ -2,15 +2,24 @@
 
 ``ExpertDriver`` = hand-tuned ``THETA_EXPERT`` + model-based selection in the spirit of the paper:
 
-1. drop policies labelled predicted collision, off-road or exit, those that cross an active stop line
-   without a full stop (stop_line > 0) when others do not, and those that enter the safety zone of
-   a predicted vehicle (headway ``safety_headway`` ahead, ``safety_rear_headway`` behind; the planner's
-   ``risk``); when nothing is left, keep the least risky of the non-off-road, non-exit ones;
-2. cluster the rest topologically by lane sequence: (lane at the horizon, number of lane changes);
-3. score each cluster by its best progress [m], minus ``lc_cost`` per lane change, minus a mission
-   penalty ``|lane - required lane| * min(mission_cap, mission_scale / remaining distance)`` [m], plus
+1. drop policies labelled off-road or exit, and those that cross an active stop line without a full
+   stop (stop_line > 0) when others do not; drop those labelled predicted collision unless nothing
+   else is left;
+2. risk of each policy: the planner's ``risk`` (time-weighted intrusion into the safety zone of a
+   predicted vehicle, 3 s ahead) plus the following check of ``lane_outlook`` (at 1..5 s the ego must
+   be able to fall back behind the vehicle ahead in its lane, braking 3 m/s^2 with 0.8 s headway), so
+   the expert brakes for slow vehicles early instead of late in every receding horizon;
+3. cluster topologically by (lanes away from the required lane where the policy passes the target
+   checkpoint, or at the horizon if it does not reach it; lane at the horizon; number of lane changes);
+   inside each cluster keep its least risky policies;
+4. score each cluster by the best (progress over the horizon + ``outlook``: what its final lane offers
+   for 5 s more, limited by the predicted vehicle ahead in it) [m], minus ``lc_cost`` per lane change,
+   minus a mission penalty ``lanes away * m(remaining distance)`` [m] (``mission_penalty``: a small
+   ``mission_base`` while the checkpoint is further than ``mission_far``, so the expert overtakes slow
+   vehicles, rising linearly to ``mission_cap`` at ``mission_near``, so it is in the required lane well
+   before the checkpoint), minus ``risk_cost`` per unit of the cluster's least risk, plus
    ``keep_bonus`` for the lane the expert is already heading to (hysteresis);
-4. inside the best cluster execute argmax V = -theta^T f.
+5. inside the best cluster execute argmax V = -theta^T f among its least risky policies.
 When every policy is off-road or takes an exit (never seen), it falls back to the strongest braking.
 
 ``ThetaDriver(planner, theta_fn)`` executes argmax V for any theta (the learned models use it), with an
@@ -61,12 +70,116 @@ class SelectionConfig:
     """[m] cluster score cost per lane change"""
     keep_bonus: float = 3.0
     """[m] cluster score bonus for the lane the expert already heads to (no dithering)"""
-    mission_scale: float = 20000.0
-    """[m^2] mission penalty per lane away from the required lane = min(cap, scale / remaining distance)"""
+    mission_base: float = 4.0
+    """[m] mission penalty per lane away from the required lane while the checkpoint is beyond
+    ``mission_far`` (a tie-breaker: free lanes being equal, drive in the required one)"""
+    mission_far: float = 200.0
+    """[m] remaining distance to the checkpoint below which the mission penalty starts to rise; until
+    here the expert leaves the required lane to overtake (a pass takes ~100-150 m)"""
+    mission_near: float = 110.0
+    """[m] remaining distance at which the mission penalty reaches ``mission_cap``"""
     mission_cap: float = 400.0
-    """[m] cap of the mission penalty per lane"""
+    """[m] mission penalty per lane from ``mission_near`` on (dominates any progress difference)"""
     progress_tol: float = 1.0
     """[m] cluster scores within this of the best count as equal (the fewest lane changes wins)"""
+    risk_cost: float = 100.0
+    """[m] cluster score cost per unit of the cluster's least risk (1 = one step, 0.1 s, inside the
+    safety zone now): a risk-free cluster beats a risky one unless the mission says otherwise"""
+    follow_times: tuple[float, ...] = (1.0, 2.0, 3.0, 4.0, 5.0)
+    """[s] following check: the times along the horizon at which the ego must be able to fall back
+    behind the predicted vehicle ahead in its lane braking ``follow_decel``, keeping ``follow_headway``"""
+    follow_decel: float = 3.0
+    """[m/s^2] following check: the braking it may assume"""
+    follow_headway: float = 0.8
+    """[s] following check: time headway kept (plus ``follow_gap``)"""
+    follow_gap: float = 2.0
+    """[m] following check: bumper gap kept"""
+    follow_scale: float = 5.0
+    """[m] following-check shortfall that counts as one unit of risk"""
+    outlook_time: float = 5.0
+    """[s] the cluster score adds the progress the final lane offers this long after the horizon"""
+
+
+def mission_penalty(sel: SelectionConfig, remaining: float) -> float:
+    """[m] cluster score penalty per lane away from the required lane at ``remaining`` metres to the
+    checkpoint: ``mission_base`` beyond ``mission_far``, ``mission_cap`` within ``mission_near``, linear
+    in between."""
+    x = (sel.mission_far - remaining) / max(sel.mission_far - sel.mission_near, 1e-6)
+    return float(sel.mission_base + (sel.mission_cap - sel.mission_base) * np.clip(x, 0.0, 1.0))
+
+
+def lane_outlook(
+    internals: Any, obs: Observation, sel: SelectionConfig, dt: float, stop_lines: tuple[float, ...],
+    ego_width: float, v_target: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """(shortfall [N] m, outlook [N] m) of every policy against the vehicles predicted ahead of it.
+
+    shortfall: by how much the policy falls short, at worst over the check times
+    ``sel.follow_times`` [s], of a safe following distance to the vehicle predicted ahead of it in its
+    lane then: required gap = headway v + gap + max(0, v^2 - v_m^2) / (2 b) (it could still fall back
+    behind that vehicle braking ``follow_decel``). Vehicles are predicted at constant speed, standing at
+    a stop line within 80 m ahead of them (as the planner predicts them). Without it the expert, whose
+    safety zone looks 3 s ahead, keeps choosing policies that brake late in the horizon, closes in on
+    slow vehicles at full speed and is then pushed out of its lane by the safety zone.
+
+    outlook: the progress the policy's final lane offers for ``sel.outlook_time`` seconds beyond the
+    horizon: v_target * outlook_time, or less where the predicted vehicle ahead in that lane at the
+    horizon (gap g, speed v_m) limits it to max(0, g - follow_gap) + v_m * outlook_time; capped at the
+    active stop line. It extends the 5 s horizon for the choice of lane: leaving a lane blocked by slow
+    vehicles pays off only after the horizon."""
+    lon, lat = internals.lon, internals.lat
+    n = len(internals.lon_idx)
+    veh = obs.vehicles
+    s_end = lon.s[internals.lon_idx, -1]
+    outlook = np.full(n, v_target * sel.outlook_time)
+    if np.isfinite(obs.stop_s):
+        outlook = np.minimum(outlook, np.maximum(obs.stop_s - obs.ego.s - s_end, 0.0))
+    shortfall = np.zeros(n)
+    if veh.count == 0:
+        return shortfall, outlook
+    lap = obs.lap_length
+    ds0 = (veh.s - obs.ego.s % lap + lap / 2) % lap - lap / 2
+    near = (ds0 > -20.0) & (ds0 < 200.0)
+    if not near.any():
+        return shortfall, outlook
+    cols = [min(int(round(t / dt)), lon.s.shape[1] - 1) for t in sel.follow_times]
+    t = np.array([c * dt for c in cols])  # [C]
+    v_m = veh.v[near][:, None]  # [M, 1]
+    travel = v_m * t[None, :]  # [M, C]
+    v_c = np.broadcast_to(v_m, travel.shape).copy()
+    if stop_lines:
+        ahead = np.stack([(sl - veh.s[near]) % lap for sl in stop_lines]).min(axis=0)[:, None]
+        stands = (ahead < 80.0) & (travel >= ahead - 0.3)
+        travel = np.where(stands, np.maximum(ahead - 0.3, 0.0), travel)
+        v_c = np.where(stands, 0.0, v_c)
+    rear = ds0[near][:, None] + travel - veh.length[near][:, None]  # [M, C] rear bumpers
+    s_e = lon.s[:, cols][internals.lon_idx]  # [N, C] front bumper, relative
+    v_e = lon.v[:, cols][internals.lon_idx]
+    d_e = lat.d[:, cols][internals.lat_idx]
+    gap = rear[None] - s_e[:, None, :]  # [N, M, C]
+    same = np.abs(d_e[:, None, :] - veh.d[near][None, :, None]) < (
+        (veh.width[near][None, :, None] + ego_width) / 2 + 0.3)
+    need = (sel.follow_headway * v_e[:, None, :] + sel.follow_gap
+            + np.maximum(v_e[:, None, :] ** 2 - v_c[None] ** 2, 0.0) / (2 * sel.follow_decel))
+    ahead = same & (gap > -2.0)
+    shortfall = np.where(ahead, np.maximum(need - gap, 0.0), 0.0).max(axis=(1, 2))
+    # the lead at the horizon (the last check time) in the final lane
+    g_end = np.where(ahead[:, :, -1], gap[:, :, -1], np.inf)  # [N, M]
+    lead = np.argmin(g_end, axis=1)
+    g_lead = g_end[np.arange(n), lead]
+    limited = np.maximum(g_lead - sel.follow_gap, 0.0) + v_c[lead, -1] * sel.outlook_time
+    outlook = np.where(np.isfinite(g_lead), np.minimum(outlook, limited), outlook)
+    return shortfall, outlook
+
+
+def mission_lanes_away(ps: PolicySet, target_s: float, req: int, final_lane: np.ndarray) -> np.ndarray:
+    """[N] int: |lane - required lane| at the step a policy passes the checkpoint (unwrapped
+    ``target_s``), or at the horizon for a policy that does not reach it."""
+    s = ps.s
+    reach = s[:, -1] > target_s
+    k = np.argmax(s > target_s, axis=1)
+    lane = np.where(reach, ps.lane[np.arange(len(k)), k], final_lane).astype(np.int64)
+    return np.abs(lane - req)
 
 
 def lane_clusters(ps: PolicySet) -> tuple[np.ndarray, np.ndarray]:
@@ -90,11 +203,13 @@ class ExpertDriver:
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self._heading_lane: int | None = None
+        self._stop_lines = tuple(float(sl.s) for sl in road.stop_lines)
 
     def select(self, ps: PolicySet, obs: Observation) -> int:
         """Index of the policy the expert executes (see the module docstring)."""
         internals = self.planner.last
         assert internals is not None
+        sel = self.sel
         lab = ps.labels
         allowed = ~lab[:, 1] & ~lab[:, 2]
         # a full stop at every active stop line is a hard rule, like the labels
@@ -103,29 +218,41 @@ class ExpertDriver:
             allowed &= stops
         if not allowed.any():
             return int(np.argmin(ps.progress))  # sorted by progress: the hardest braking comes first
-        risk = np.where(allowed & ~lab[:, 0], internals.risk, np.inf)
-        if np.isinf(risk).all():
-            risk = np.where(allowed, internals.risk, np.inf)
-        ok = risk <= risk.min() + 1e-6
+        cand = allowed & ~lab[:, 0]
+        if not cand.any():
+            cand = allowed
+        # risk: the planner's safety-zone intrusion plus the shortfall of the following gap at the horizon
+        cfg = self.planner.cfg
+        shortfall, outlook = lane_outlook(internals, obs, sel, cfg.dt, self._stop_lines, cfg.ego_width,
+                                          cfg.v_target)
+        risk = internals.risk.astype(np.float64) + shortfall / sel.follow_scale
+        reach = ps.progress + outlook  # progress over the horizon and what the final lane offers after it
+        risk = np.where(cand, risk, np.inf)
         value = ps.value(self.theta)
         final_lane, n_lc = lane_clusters(ps)
         req = self.road.checkpoints[obs.target_checkpoint].lane
         rem = max(obs.target_s - obs.ego.s, 1.0)
-        mission = np.minimum(self.sel.mission_cap, self.sel.mission_scale / rem)
-        keys = final_lane * 16 + np.minimum(n_lc, 15)
-        best_key, best_score = None, -np.inf
-        for key in np.unique(keys[ok]):  # a handful of clusters
-            members = ok & (keys == key)
-            lane_k, lc_k = int(key // 16), int(key % 16)
-            score = float(ps.progress[members].max()) - self.sel.lc_cost * lc_k - mission * abs(lane_k - req)
+        mission = mission_penalty(sel, rem)
+        # lanes away from the required one where the policy passes the checkpoint (at the horizon if
+        # it does not reach it): a swerve back into the lane just after the checkpoint does not count
+        miss = mission_lanes_away(ps, obs.target_s, req, final_lane)
+        keys = (np.minimum(miss, 15) * 4 + final_lane + 1) * 16 + np.minimum(n_lc, 15)
+        best_key, best_score, best_ok = None, -np.inf, None
+        for key in np.unique(keys[cand]):  # a handful of clusters
+            members = cand & (keys == key)
+            r_min = float(risk[members].min())
+            ok = members & (risk <= r_min + 1e-6)  # the cluster's least risky policies
+            miss_k, lane_k, lc_k = int(key // 64), int(key // 16 % 4) - 1, int(key % 16)
+            score = (float(reach[ok].max()) - sel.lc_cost * lc_k - mission * miss_k
+                     - sel.risk_cost * r_min)
             if self._heading_lane is not None and lane_k == self._heading_lane:
-                score += self.sel.keep_bonus
-            if score > best_score + self.sel.progress_tol or (
-                abs(score - best_score) <= self.sel.progress_tol and best_key is not None and lc_k < best_key % 16
+                score += sel.keep_bonus
+            if score > best_score + sel.progress_tol or (
+                abs(score - best_score) <= sel.progress_tol and best_key is not None and lc_k < best_key % 16
             ):
-                best_key, best_score = key, score
-        members = ok & (keys == best_key)
-        idx = int(np.argmax(np.where(members, value, -np.inf)))
+                best_key, best_score, best_ok = key, score, ok
+        assert best_ok is not None
+        idx = int(np.argmax(np.where(best_ok, value, -np.inf)))
         self._heading_lane = int(final_lane[idx])
         return idx
 
@@ -143,7 +270,8 @@ class ThetaDriver:
     paper's planner does around a learned reward); when that drops all of them it uses all.
     """
 
-    def __init__(self, planner: Planner, theta_fn: Callable[[PolicySet, Observation], Any], safe: bool = False):
+    def __init__(self, planner: Planner, theta_fn: Callable[[PolicySet, Observation], Any],
+                 safe: bool = False):
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe

@@ -19,22 +19,28 @@ class ScenarioConfig:
     n_vehicles: int = 15
     """number of background vehicles kept around the ego, 0..15"""
     spawn_distance: float = 200.0
-    """[m] background vehicles start within +-spawn_distance of the ego; recycled ones reappear about
-    this far ahead"""
+    """[m] background vehicles enter about this far ahead of the ego (recycled ones, and those that could
+    not be placed at reset); at reset they are spread between ``recycle_behind`` behind the ego and
+    spawn_distance + spawn_jitter ahead, as the spawn / recycle cycle leaves them"""
     spawn_jitter: float = 40.0
-    """[m] recycled vehicles reappear at spawn_distance +- spawn_jitter ahead of the ego"""
+    """[m] entering vehicles appear at spawn_distance +- spawn_jitter ahead of the ego"""
     spawn_clearance: float = 25.0
     """[m] no vehicle is inserted closer than this (route frame, any lane) to the ego's front bumper"""
     insert_gap: float = 25.0
     """[m] minimum front-to-front distance to any background vehicle in the same lane at insertion"""
+    insert_spacing: float = 40.0
+    """[m] minimum front-to-front distance to any background vehicle in ANY lane at insertion, so no
+    vehicle enters beside another one (side-by-side 'walls' at near-equal speeds would block all lanes
+    for tens of seconds); a spot that breaks it is re-drawn, a vehicle that finds none enters later"""
     stop_line_keep_out: float = 40.0
     """[m] no insertion within this distance before a stop line (a vehicle must be able to stop there)"""
     bg_speed_min: float = 25.0 / 3.6
     """[m/s] lowest constant speed of a background vehicle"""
     bg_speed_max: float = 35.0 / 3.6
     """[m/s] highest constant speed of a background vehicle"""
-    recycle_behind: float = 150.0
-    """[m] a background vehicle further than this behind the ego is removed and re-inserted ahead"""
+    recycle_behind: float = 600.0
+    """[m] a background vehicle further than this behind the ego is removed and re-inserted ahead (the
+    span recycle_behind + spawn_distance over 15 vehicles sets the traffic density: ~55 m apart)"""
     step: float = 0.1
     """[s] SUMO simulation step"""
     cycle: float = 0.2
@@ -76,6 +82,7 @@ class ScenarioConfig:
         require(
             self.insert_gap > 0 and self.spawn_clearance > 0, "insert_gap and spawn_clearance must be > 0 m"
         )
+        require(self.insert_spacing >= 0, f"insert_spacing must be >= 0 m, got {self.insert_spacing}")
         require(
             0 < self.bg_speed_min <= self.bg_speed_max <= 27.0,
             f"need 0 < bg_speed_min <= bg_speed_max <= 27 m/s, got {self.bg_speed_min}, {self.bg_speed_max}",

@@ -5,6 +5,11 @@ drive a route that repeats the loop many times (one route per start edge), at a 
 ``setMaxSpeed`` (vehicle type ``bg``: sigma 0, no lane changes); SUMO's car following and the
 ``allway_stop`` junctions make them slow down and stop. Route-frame distances are wrapped to
 [-lap/2, lap/2) around the ego.
+
+Spread, not walls: vehicles enter about ``spawn_distance`` ahead of the ego, never within
+``insert_spacing`` of another vehicle in any lane, and are recycled only ``recycle_behind`` (600 m)
+behind it, so 15 vehicles are ~55 m apart along the road. Entering beside each other at near-equal
+speeds, three of them would form a 'wall' across the road that nothing passes for tens of seconds.
 """
 
 from __future__ import annotations
@@ -90,14 +95,22 @@ class BackgroundTraffic:
             edges = [LOOP_EDGES[(i + k) % n] for k in range(n * self.route_laps)]
             self.api.route.add(f"loop@{eid}", edges)
 
-    def _spot_free(self, s: float, lane: int, ego_s: float, occupied: list[tuple[float, int]]) -> bool:
+    def _spot_free(self, s: float, lane: int, ego_s: float, occupied: list[tuple[float, int]],
+                   spacing: bool = True) -> bool:
+        """No insertion near the ego, just before a stop line, within ``insert_gap`` of a vehicle in the
+        same lane or (``spacing``) within ``insert_spacing`` of a vehicle in any lane."""
         lap = self.road.lap_length
         if abs(_wrap(s - ego_s, lap)) < self.cfg.spawn_clearance:
             return False
         for sl in self.road.stop_lines:  # a vehicle must have room to stop at the line
             if -2.0 <= (sl.s - s) % lap <= self.cfg.stop_line_keep_out or (s - sl.s) % lap < 2.0:
                 return False
-        return all(ln != lane or abs(_wrap(s - so, lap)) >= self.cfg.insert_gap for so, ln in occupied)
+        gap_any = self.cfg.insert_spacing if spacing else 0.0
+        for so, ln in occupied:
+            ds = abs(_wrap(s - so, lap))
+            if ds < gap_any or (ln == lane and ds < self.cfg.insert_gap):
+                return False
+        return True
 
     def _insert(self, s: float, lane: int, speed: float) -> str | None:
         loc = self.edges.locate(s, self.road.lap_length)
@@ -119,8 +132,15 @@ class BackgroundTraffic:
         return vid
 
     def spawn(self, ego_s: float, vehicles: VehicleStates, initial: bool) -> None:
-        """Insert vehicles until ``n_vehicles`` are running or pending: spread around the ego at reset,
-        about ``spawn_distance`` ahead later. Spots that break a gap rule are re-drawn (20 tries each)."""
+        """Insert vehicles until ``n_vehicles`` are running or pending.
+
+        Later (``initial=False``) every vehicle enters ``spawn_distance`` +- ``spawn_jitter`` ahead of the
+        ego, at a spot at least ``insert_spacing`` from every vehicle in any lane (20 tries per step; a
+        vehicle that finds no spot enters at a later step). At reset (``initial=True``) the traffic is
+        laid out as that spawn / recycle cycle leaves it: the span from ``recycle_behind`` behind the ego
+        to spawn_distance + spawn_jitter ahead is cut into one slot per vehicle and each vehicle is drawn
+        inside its slot (so they are evenly spread, most of them behind the ego); a slot without a free
+        spot hands its vehicle to a draw over the whole span with the same-lane gap only."""
         missing = self.cfg.n_vehicles - (vehicles.count + len(self.pending))
         if missing <= 0:
             return
@@ -128,20 +148,38 @@ class BackgroundTraffic:
             (float(s), int(ln)) for s, ln in zip(vehicles.s, self.road.lane_of_d(vehicles.d), strict=False)
         ]
         c = self.cfg
-        for _ in range(missing):
-            for _try in range(20):
-                if initial:
-                    ds = self.rng.uniform(-min(c.spawn_distance, 0.9 * c.recycle_behind), c.spawn_distance)
-                else:
-                    ds = self.rng.uniform(
-                        c.spawn_distance - c.spawn_jitter, c.spawn_distance + c.spawn_jitter
-                    )
-                s = (ego_s + ds) % self.road.lap_length
-                lane = int(self.rng.integers(0, 3))
-                speed = float(self.rng.uniform(c.bg_speed_min, c.bg_speed_max))
-                if self._spot_free(s, lane, ego_s, occupied) and self._insert(s, lane, speed):
-                    occupied.append((s, lane))
-                    break
+        lap = self.road.lap_length
+        hi = c.spawn_distance + c.spawn_jitter
+        lo = -min(c.recycle_behind, lap / 2 - hi - 1.0)
+        if initial:
+            edges = np.linspace(lo, hi, missing + 1)
+            # slots in a random order, so which ones give way near the stop lines is random too
+            plan: list[tuple[float, float, bool]] = [
+                (float(edges[k]), float(edges[k + 1]), True) for k in self.rng.permutation(missing)
+            ]
+        else:
+            plan = [(c.spawn_distance - c.spawn_jitter, hi, True)] * missing
+        left = 0
+        for a, b, spacing in plan:
+            if not self._draw(ego_s, a, b, occupied, spacing):
+                left += 1
+        if initial:
+            for _ in range(left):
+                self._draw(ego_s, lo, hi, occupied, spacing=False)
+
+    def _draw(self, ego_s: float, a: float, b: float, occupied: list[tuple[float, int]],
+              spacing: bool) -> bool:
+        """Insert one vehicle at a random spot ds in [a, b] ahead of the ego (20 tries)."""
+        c = self.cfg
+        for _try in range(20):
+            ds = self.rng.uniform(a, b)
+            s = (ego_s + ds) % self.road.lap_length
+            lane = int(self.rng.integers(0, 3))
+            speed = float(self.rng.uniform(c.bg_speed_min, c.bg_speed_max))
+            if self._spot_free(s, lane, ego_s, occupied, spacing) and self._insert(s, lane, speed):
+                occupied.append((s, lane))
+                return True
+        return False
 
     # ------------------------------------------------------------------ per step
     def after_step(self, t: float, ego_s: float, vehicles: VehicleStates) -> None:
