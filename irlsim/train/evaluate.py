@@ -3,8 +3,8 @@
 Protocol (DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
 t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
 temporal mixture over the H-cycle history ending at t. Metrics are averaged over cycles that have a
-demonstration. Two reference rows: 'untrained PACNN' (seed 0, default-initialised, same sizes and
-normalisation as the trained PACNN) and 'random policy' (a uniformly random policy per cycle; ED is the
+demonstration. References: each model's OPD at its initial weights (column 'OPD untrained', same sizes
+and normalisation, seed 0) and a 'random policy' row (a uniformly random policy per cycle; ED is the
 mean distance over the policy set, OPD the distance of the random pick, no EVD).
 """
 
@@ -65,6 +65,23 @@ def random_policy_metrics(split: Any, seed: int = 0, chunk: int = 256) -> dict[s
     return {"evd": np.full(c, np.nan), "ed": ed, "opd": opd, "demo": demo, "valid": valid}
 
 
+def untrained_like(lm: LoadedModel, seed: int = 0) -> LoadedModel:
+    """The same architecture, sizes and feature normalisation as ``lm`` at its initial weights.
+
+    For PTACNN(+S) both the temporal network and its PACNN base are fresh: every parameter the model
+    learned (in stage 1 or 2) is back at initialisation. The reference for "learning is real".
+    """
+    entry = lm.checkpoint["base"] if lm.base is not None else lm.checkpoint
+    stats = FeatureStats.from_dict(entry["feature_stats"])
+    torch.manual_seed(seed)
+    stage1 = build_model(entry["model"], model_config_from(entry["model_config"]), int(entry["n_policies"]), stats)
+    if lm.base is None:
+        return LoadedModel(lm.name, stage1.eval(), None, None, lm.checkpoint)
+    cfg = model_config_from(lm.checkpoint["model_config"])
+    temporal = build_model(lm.name, cfg, 1, stats)
+    return LoadedModel(lm.name, temporal.eval(), stage1.eval(), cfg.history, lm.checkpoint)
+
+
 def _row(model: str, params: str, n_params: list[int], metrics: dict[str, np.ndarray]) -> dict[str, Any]:
     s = summarize(metrics)
     return {
@@ -84,18 +101,20 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
     lines = [
         f"# Results on the {split_name} split (history H = {H})",
         "",
-        "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] |",
-        "|---|---|---|---|---|---|",
+        "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] | OPD untrained [m] |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['model']} | {r['parameters']} | " + " | ".join(_fmt(r[k]) for k in METRIC_KEYS) + " |"
+            f"| {r['model']} | {r['parameters']} | " + " | ".join(_fmt(r[k]) for k in METRIC_KEYS)
+            + f" | {_fmt(r.get('opd_untrained', float('nan')))} |"
         )
     lines += [
         "",
         "EVD: expected value difference (relative); ED: expected distance of p(pi|theta) to the "
         "demonstration; OPD: distance of the optimal policy; DEMO: distance of the demonstration "
-        "(lower bound of OPD). Means over cycles with a demonstration.",
+        "(lower bound of OPD); OPD untrained: the same model at its initial weights. Means over cycles "
+        "with a demonstration.",
         "",
     ]
     return "\n".join(lines)
@@ -175,7 +194,7 @@ def evaluate_models(
 
     Writes ``out_dir/results.md``, ``results.json``, ``convergence.png`` and ``opd_distribution.png``
     (all atomically); returns the Table-I rows (model, parameters, parameter_counts, evd, ed, opd, demo,
-    cycles), trained models in registry order, then 'untrained PACNN' and 'random policy'.
+    cycles, opd_untrained), trained models in registry order, then 'random policy'.
     """
     torch.set_num_threads(threads)
     dataset = as_dataset(dataset)
@@ -191,28 +210,12 @@ def evaluate_models(
         params = (
             format_parameters(a) if lm.base is None else f"{format_parameters(a)} + {format_parameters(b)}"
         )
-        rows.append(_row(name, params, [a] if lm.base is None else [a, b], metrics))
+        row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
+        untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
+        row["opd_untrained"] = summarize(untrained)["opd"]
+        rows.append(row)
         opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
 
-    # reference: untrained PACNN with the trained one's sizes and normalisation
-    ref = next((loaded[m] for m in ("PACNN", "PACNN+S", *trained) if m in loaded), None)
-    if ref is not None:
-        entry = ref.checkpoint["base"] if ref.base is not None else ref.checkpoint
-        stats, cfg = FeatureStats.from_dict(entry["feature_stats"]), model_config_from(entry["model_config"])
-    else:
-        stats, cfg = compute_feature_stats(data), None
-    torch.manual_seed(0)
-    untrained = build_model("PACNN", cfg, data.features.shape[1], stats).eval()
-    lm = LoadedModel("PACNN", untrained, None, None, {"parameters": count_parameters(untrained)})
-    metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
-    rows.append(
-        _row(
-            "untrained PACNN",
-            format_parameters(count_parameters(untrained)),
-            [count_parameters(untrained)],
-            metrics,
-        )
-    )
     rnd = random_policy_metrics(data)
     rows.append(_row("random policy", "0", [0], rnd))
     demo = np.where(rnd["valid"], rnd["demo"], np.nan)

@@ -33,6 +33,8 @@ def test_chain_writes_every_output(tiny_runs):
     assert {"PTACNN+S", "LIRL", "random policy"} <= set(rows)
     for r in rows.values():  # OPD is bounded below by DEMO (the demonstration is the argmin)
         assert r["opd"] >= r["demo"] - 1e-6
+        if r["model"] != "random policy":
+            assert r["opd_untrained"] >= r["demo"] - 1e-6
 
 
 def test_lirl_learns_from_real_demonstrations(tiny_runs):
