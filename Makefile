@@ -47,7 +47,7 @@ evaluate: setup
 	$(IRLSIM) evaluate --data $(DATA) --runs $(RUNS) --out $(RUNS)/eval
 
 drive: setup
-	$(IRLSIM) drive --runs $(RUNS) --model expert,PTACNN+S --episodes 2 --laps 1 --seed 100 --out $(RUNS)/drive
+	$(IRLSIM) drive --runs $(RUNS) --model expert,PACNN+S,PTACNN+S --episodes 2 --laps 1 --seed 100 --config configs/collect/default.toml --out $(RUNS)/drive
 
 bench: setup
 	$(IRLSIM) bench --out bench

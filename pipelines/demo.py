@@ -38,9 +38,12 @@ def steps(args: argparse.Namespace) -> list[list[str]]:
         ["evaluate", "--data", data, "--runs", runs, "--out", f"{runs}/eval"],
     ]
     if not args.skip_drive:
-        out.append(["drive", "--runs", runs, "--model", "expert,PACNN+S,PTACNN+S", *drive_args,
-                    "--seed", str(100 + args.seed), "--config", str(CONFIGS / "collect" / f"{preset}.toml"),
-                    "--out", f"{runs}/drive"])
+        drive = ["drive", "--runs", runs, "--model", "expert,PACNN+S,PTACNN+S", *drive_args,
+                 "--seed", str(100 + args.seed), "--config", str(CONFIGS / "collect" / f"{preset}.toml")]
+        # as in the paper: the learned reward alone, no model-based collision check ...
+        out.append([*drive, "--out", f"{runs}/drive"])
+        # ... and with the expert's model-based filter (collision / off-road / exit labels) added
+        out.append([*drive, "--safety", "--frames", "0", "--out", f"{runs}/drive_safety"])
     return out
 
 
@@ -63,5 +66,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  checkpoints      {args.runs}/<model>/checkpoint.pt, metrics.csv")
     print(f"  Table I          {args.runs}/eval/results.md (.json), convergence.png, opd_distribution.png")
     if not args.skip_drive:
-        print(f"  closed loop      {args.runs}/drive/drive.md (.json), pictures in {args.runs}/drive/")
+        print(f"  closed loop      {args.runs}/drive/drive.md (.json), pictures in {args.runs}/drive/<model>/")
+        print(f"  with --safety    {args.runs}/drive_safety/drive.md (.json)")
     return 0
