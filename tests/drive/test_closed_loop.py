@@ -1,0 +1,134 @@
+"""Closed-loop driving in headless SUMO: the expert, tiny trained models, the CLI and its errors."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from irlsim.drive import EPISODE_KEYS, PictureSpec, drive_episode, load_drive_model
+from irlsim.errors import IrlsimError
+from tests.drive.conftest import TINY_POLICIES, tiny_config
+
+TINY_TOML = f"""
+max_cycles = 60
+[scenario]
+n_vehicles = 3
+max_time = 200.0
+[planner]
+n_policies = {TINY_POLICIES}
+"""
+
+
+def test_short_expert_run_reports_every_figure(road, tmp_path):
+    rec = drive_episode(
+        "expert",
+        road,
+        tiny_config(),
+        seed=100,
+        laps=1,
+        max_cycles=60,
+        show_progress=False,
+        pictures=PictureSpec(tmp_path, frames=3, stills=1),
+    )
+    assert set(EPISODE_KEYS) <= set(rec) and rec["drive/model"] == "expert"
+    assert rec["drive/cycles"] == 60 and rec["drive/end_reason"] == "max_cycles"
+    assert rec["drive/collisions"] == 0 and rec["drive/exits"] == 0
+    assert rec["drive/time_s"] == pytest.approx(12.0) and rec["drive/distance_m"] > 50.0
+    assert 0.0 < rec["drive/rms_jerk_lon"] < 10.0 and rec["drive/plan_ms_mean"] > 0.0
+    assert len(rec["_inference_ms"]) == 60
+    names = sorted(p.rsplit("/", 1)[1] for p in rec["drive/pictures"])
+    assert len(names) == 4 and names.pop(1) == "episode.gif"
+    # the segment is frozen shortly after the ego comes within 60 m of the first stop line (s = 206 m),
+    # so its frames lie before the episode's last cycles; frames are taken every 2nd cycle
+    cycle = int(names[0][len("cycle_") : -len(".png")])
+    assert names[1:] == [f"radar_{cycle:04d}.png", f"temporal_{cycle:04d}.png"]
+    assert cycle % 2 == 0 and cycle < 56
+
+
+def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
+    from irlsim.cli import main
+
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(TINY_TOML)
+    out = tmp_path / "drive"
+    rc = main(
+        [
+            "drive",
+            "--runs",
+            str(tiny_runs),
+            "--model",
+            "LIRL,PTACNN+S",
+            "--episodes",
+            "1",
+            "--laps",
+            "1",
+            "--seed",
+            "7",
+            "--config",
+            str(cfg),
+            "--max-cycles",
+            "25",
+            "--frames",
+            "4",
+            "--out",
+            str(out),
+        ]
+    )
+    assert rc == 0
+    printed = capsys.readouterr().out
+    assert "| PTACNN+S | 1 |" in printed and f"wrote {out}/drive.json" in printed
+    doc = json.loads((out / "drive.json").read_text())
+    assert [s["drive/model"] for s in doc["summary"]] == ["LIRL", "PTACNN+S"]
+    for ep in doc["episodes"]:
+        assert set(EPISODE_KEYS) <= set(ep) and ep["drive/seed"] == 7 and ep["drive/cycles"] >= 1
+        assert ep["drive/inference_ms_mean"] > 0.0 and "_inference_ms" not in ep
+    assert "| LIRL | 1 |" in (out / "drive.md").read_text()
+    for model in ("LIRL", "PTACNN+S"):
+        files = {p.name for p in (out / model).iterdir()}
+        assert "episode.gif" in files and sum(f.startswith("radar_") for f in files) == 3
+
+
+def test_ptacnn_keeps_an_online_history(tiny_runs):
+    m = load_drive_model("PTACNN+S", tiny_runs, TINY_POLICIES)
+    rng = np.random.default_rng(0)
+    f = rng.exponential(1.0, (TINY_POLICIES, 15)).astype(np.float32)
+    cp = rng.normal(0.0, 1.0, (TINY_POLICIES, 10, 3)).astype(np.float32)
+    ac = rng.normal(0.0, 1.0, (TINY_POLICIES, 10, 2)).astype(np.float32)
+    theta, info = m.predictor.predict(f, cp, ac)
+    assert theta.shape == (15,) and info["attention"].shape == (TINY_POLICIES,)
+    assert info["temporal_weights"].shape == (4,) and np.isclose(info["temporal_weights"].sum(), 1.0)
+
+
+def test_bad_models_fail_with_one_line(tiny_runs, tmp_path):
+    with pytest.raises(IrlsimError, match="unknown model 'PACNN-X': choose from expert, LIRL"):
+        load_drive_model("PACNN-X", tiny_runs)
+    with pytest.raises(IrlsimError, match=r"run 'irlsim train --stage 2"):
+        load_drive_model("PTACNN", tmp_path)
+    with pytest.raises(IrlsimError, match="trained on 200 policies per cycle, but the planner samples 1000"):
+        load_drive_model("PACNN+S", tiny_runs, n_policies=1000)
+    with pytest.raises(IrlsimError, match="not found"):
+        load_drive_model(str(tmp_path / "none" / "checkpoint.pt"))
+    from irlsim.cli import main
+
+    assert main(["drive", "--model", "expert", "--episodes", "0"]) == 2
+
+
+@pytest.mark.slow
+def test_expert_lap_meets_the_expert_figures(road):
+    # the demo's configuration (configs/collect/default.toml: 1,000 policies, 15 vehicles) and seed
+    from pathlib import Path
+
+    from irlsim.config import load_config
+    from irlsim.data.collection import CollectConfig
+
+    cfg = load_config(
+        CollectConfig, Path(__file__).resolve().parents[2] / "configs" / "collect" / "default.toml"
+    )
+    rec = drive_episode("expert", road, cfg, seed=100, laps=1, show_progress=False)
+    assert rec["drive/end_reason"] == "laps" and rec["drive/laps"] == 1
+    assert rec["drive/collisions"] == 0 and rec["drive/exits"] == 0
+    assert rec["drive/stop_lines_passed"] == 2 and rec["drive/stop_compliance"] == 1.0
+    assert rec["drive/checkpoints_passed"] == 4 and rec["drive/checkpoint_compliance"] == 1.0
+    assert rec["drive/mean_speed_kmh"] > 30.0
