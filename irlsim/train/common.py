@@ -135,6 +135,39 @@ def model_config_from(d: dict[str, Any]) -> ModelConfig:
     return from_dict(ModelConfig, d)
 
 
+def inference_state(entry: dict[str, Any]) -> dict[str, Any]:
+    """The weights used for inference: the validation-selected ones (``entry['best']``) when the
+    checkpoint has them, else the latest (``entry['state_dict']``, which resuming always uses)."""
+    best = entry.get("best")
+    return best["state_dict"] if best else entry["state_dict"]
+
+
+class BestTracker:
+    """Model selection on the validation split: keeps a copy of the weights of the epoch with the lowest
+    ``metric`` seen so far (ties keep the earlier epoch). ``metric='last'`` keeps nothing."""
+
+    def __init__(self, metric: str, previous: dict[str, Any] | None = None) -> None:
+        self.metric = metric
+        self.best = previous if metric != "last" else None
+
+    def update(self, row: dict[str, Any], model: nn.Module) -> None:
+        value = row.get(self.metric)
+        if self.metric == "last" or value is None or not np.isfinite(value):
+            return
+        if self.best is None or value < self.best["value"]:
+            state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+            self.best = {
+                "metric": self.metric,
+                "value": float(value),
+                "epoch": int(row["epoch"]),
+                "state_dict": state,
+            }
+
+    @property
+    def epoch(self) -> int | None:
+        return None if self.best is None else int(self.best["epoch"])
+
+
 def rebuild_stage1(entry: dict[str, Any]) -> nn.Module:
     """Stage-1 model from a checkpoint (or a stage-2 checkpoint's 'base' entry), in eval mode."""
     model = build_model(
@@ -143,7 +176,7 @@ def rebuild_stage1(entry: dict[str, Any]) -> nn.Module:
         int(entry["n_policies"]),
         FeatureStats.from_dict(entry["feature_stats"]),
     )
-    model.load_state_dict(entry["state_dict"])
+    model.load_state_dict(inference_state(entry))
     return model.eval()
 
 
@@ -178,7 +211,7 @@ def load_model(checkpoint_path: str | Path) -> LoadedModel:
             base = rebuild_stage1(ckpt["base"])
             cfg = model_config_from(ckpt["model_config"])
             model = build_model(name, cfg, 1, FeatureStats.from_dict(ckpt["base"]["feature_stats"]))
-            model.load_state_dict(ckpt["state_dict"])
+            model.load_state_dict(inference_state(ckpt))
             return LoadedModel(name, model.eval(), base, cfg.history, ckpt)
         return LoadedModel(name, rebuild_stage1(ckpt), None, None, ckpt)
     except (KeyError, RuntimeError, TypeError) as e:

@@ -12,6 +12,9 @@ from dataclasses import dataclass, field
 from irlsim.config import require
 from irlsim.models.registry import MODEL_NAMES, STAGE1_MODELS, STAGE2_BASE, ModelConfig
 
+SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
+"""What ``select_by`` may name: a validation metric (lower is better) or 'last' (the final epoch)."""
+
 
 @dataclass(frozen=True)
 class Stage1Config:
@@ -35,6 +38,10 @@ class Stage1Config:
     """[m] temperature of the attention target softmax(-distance / tau) of PACNN+S"""
     validate_every: int = 5
     """[epochs] validation (ED, OPD on the sequential validation split) every this many epochs"""
+    select_by: str = "val/opd"
+    """model selection: inference (evaluate, drive, the frozen base of stage 2) uses the weights of the
+    validated epoch with the lowest value of this metric ('val/opd', 'val/ed', 'val/nll'), or 'last' for
+    the final epoch; resuming always continues from the final epoch"""
     history: int = 10
     """[cycles] H: validation uses the mean of the last H predicted thetas within an episode"""
     seed: int = 0
@@ -61,6 +68,7 @@ class Stage1Config:
         require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")
         require(self.attention_tau > 0, "attention_tau must be > 0 [m]")
         require(self.validate_every >= 1, "validate_every must be >= 1")
+        require(self.select_by in SELECT_METRICS, f"select_by must be one of {', '.join(SELECT_METRICS)}")
         require(self.history >= 1, "history must be >= 1")
         require(self.threads >= 1, "threads must be >= 1")
         require(self.max_cycles >= 0, "max_cycles must be >= 0")
@@ -106,6 +114,10 @@ class Stage2Config:
     """max gradient norm per step (0 = no clipping)"""
     validate_every: int = 5
     """[epochs] validation on the sequential validation split every this many epochs"""
+    select_by: str = "val/opd"
+    """model selection: inference (evaluate, drive, the frozen base of stage 2) uses the weights of the
+    validated epoch with the lowest value of this metric ('val/opd', 'val/ed', 'val/nll'), or 'last' for
+    the final epoch; resuming always continues from the final epoch"""
     seed: int = 0
     """seed of the weight initialisation and the shuffling"""
     threads: int = 2
@@ -129,6 +141,7 @@ class Stage2Config:
         require(self.weight_decay >= 0, "weight_decay must be >= 0")
         require(self.grad_clip >= 0, "grad_clip must be >= 0")
         require(self.validate_every >= 1, "validate_every must be >= 1")
+        require(self.select_by in SELECT_METRICS, f"select_by must be one of {', '.join(SELECT_METRICS)}")
         require(self.threads >= 1, "threads must be >= 1")
         require(self.max_cycles >= 0, "max_cycles must be >= 0")
         require(self.eval_batch >= 1, "eval_batch must be >= 1")

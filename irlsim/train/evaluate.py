@@ -18,8 +18,8 @@ import numpy as np
 import torch
 
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
-from irlsim.models.normalization import FeatureStats, compute_feature_stats
-from irlsim.models.registry import MODEL_NAMES, build_model, count_parameters, format_parameters
+from irlsim.models.normalization import FeatureStats
+from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.train.common import (
     CHECKPOINT_NAME,
     METRICS_NAME,
@@ -74,7 +74,9 @@ def untrained_like(lm: LoadedModel, seed: int = 0) -> LoadedModel:
     entry = lm.checkpoint["base"] if lm.base is not None else lm.checkpoint
     stats = FeatureStats.from_dict(entry["feature_stats"])
     torch.manual_seed(seed)
-    stage1 = build_model(entry["model"], model_config_from(entry["model_config"]), int(entry["n_policies"]), stats)
+    stage1 = build_model(
+        entry["model"], model_config_from(entry["model_config"]), int(entry["n_policies"]), stats
+    )
     if lm.base is None:
         return LoadedModel(lm.name, stage1.eval(), None, None, lm.checkpoint)
     cfg = model_config_from(lm.checkpoint["model_config"])
@@ -101,20 +103,22 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
     lines = [
         f"# Results on the {split_name} split (history H = {H})",
         "",
-        "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] | OPD untrained [m] |",
-        "|---|---|---|---|---|---|---|",
+        "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] | OPD untrained [m] | epoch |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
-            f"| {r['model']} | {r['parameters']} | " + " | ".join(_fmt(r[k]) for k in METRIC_KEYS)
-            + f" | {_fmt(r.get('opd_untrained', float('nan')))} |"
+            f"| {r['model']} | {r['parameters']} | "
+            + " | ".join(_fmt(r[k]) for k in METRIC_KEYS)
+            + f" | {_fmt(r.get('opd_untrained', float('nan')))} | {r.get('selected_epoch', '–')} |"
         )
     lines += [
         "",
         "EVD: expected value difference (relative); ED: expected distance of p(pi|theta) to the "
         "demonstration; OPD: distance of the optimal policy; DEMO: distance of the demonstration "
-        "(lower bound of OPD); OPD untrained: the same model at its initial weights. Means over cycles "
-        "with a demonstration.",
+        "(lower bound of OPD); OPD untrained: the same model at its initial weights; epoch: the "
+        "validation-selected epoch whose weights were evaluated (select_by in the train config). Means "
+        "over cycles with a demonstration.",
         "",
     ]
     return "\n".join(lines)
@@ -194,7 +198,7 @@ def evaluate_models(
 
     Writes ``out_dir/results.md``, ``results.json``, ``convergence.png`` and ``opd_distribution.png``
     (all atomically); returns the Table-I rows (model, parameters, parameter_counts, evd, ed, opd, demo,
-    cycles, opd_untrained), trained models in registry order, then 'random policy'.
+    cycles, opd_untrained, selected_epoch), trained models in registry order, then 'random policy'.
     """
     torch.set_num_threads(threads)
     dataset = as_dataset(dataset)
@@ -213,6 +217,7 @@ def evaluate_models(
         row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
         untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
         row["opd_untrained"] = summarize(untrained)["opd"]
+        row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
         rows.append(row)
         opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
 

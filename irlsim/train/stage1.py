@@ -34,6 +34,7 @@ from irlsim.models.normalization import FeatureStats, compute_feature_stats
 from irlsim.models.registry import SEMI_SUPERVISED, build_model, count_parameters
 from irlsim.train.common import (
     CHECKPOINT_NAME,
+    BestTracker,
     MetricsLog,
     as_dataset,
     check_finite,
@@ -96,6 +97,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
         optimizer.load_state_dict(ckpt["optimizer"])
         start_epoch = int(ckpt["epoch"])
     log = MetricsLog(run_dir, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
+    best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
     semi = name in SEMI_SUPERVISED
     meta = dataset_meta(dataset)
 
@@ -112,6 +114,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
             "feature_stats": stats.to_dict(),
             "parameters": count_parameters(model),
             "metrics": log.rows,
+            "best": best.best,
             **meta,
         }
 
@@ -148,6 +151,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
             row.update(validate_stage1(model, validation, cfg))
         row["time/epoch_s"] = time.perf_counter() - t0
         log.add(row)
+        best.update(row, model)
         save_checkpoint(ckpt_path, checkpoint(epoch + 1))
     log.close()
     if not ckpt_path.exists():  # epochs == 0: still leave an (untrained) checkpoint behind
@@ -156,6 +160,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
         "checkpoint": str(ckpt_path),
         "epochs": max(cfg.epochs, start_epoch),
         "parameters": count_parameters(model),
+        "selected_epoch": best.epoch,
         "final": log.rows[-1] if log.rows else {},
     }
 

@@ -28,11 +28,13 @@ from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
 from irlsim.train.common import (
     CHECKPOINT_NAME,
+    BestTracker,
     MetricsLog,
     as_dataset,
     check_finite,
     dataset_meta,
     get_split,
+    inference_state,
     predict_split,
     read_checkpoint,
     rebuild_stage1,
@@ -83,9 +85,11 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
     for p in base.parameters():
         p.requires_grad_(False)
     base_entry = {
-        k: base_ckpt[k]
-        for k in ("model", "model_config", "n_policies", "feature_stats", "state_dict", "parameters")
+        k: base_ckpt[k] for k in ("model", "model_config", "n_policies", "feature_stats", "parameters")
     }
+    # the frozen base is the validation-selected PACNN (what rebuild_stage1 loaded)
+    base_entry["state_dict"] = inference_state(base_ckpt)
+    base_entry["selected_epoch"] = (base_ckpt.get("best") or {}).get("epoch", base_ckpt["epoch"])
     model_cfg = dataclasses.replace(cfg.model, latent=int(base_ckpt["model_config"]["latent"]))
     H = model_cfg.history
 
@@ -123,6 +127,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
         optimizer.load_state_dict(ckpt["optimizer"])
         start_epoch = int(ckpt["epoch"])
     log = MetricsLog(runs_dir / name, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
+    best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
     meta = dataset_meta(dataset)
 
     def checkpoint(epochs_done: int) -> dict[str, Any]:
@@ -138,6 +143,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
             "parameters": count_parameters(model),
             "base": base_entry,
             "metrics": log.rows,
+            "best": best.best,
             **meta,
         }
 
@@ -171,6 +177,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
             row.update({f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()})
         row["time/epoch_s"] = time.perf_counter() - t0
         log.add(row)
+        best.update(row, model)
         save_checkpoint(ckpt_path, checkpoint(epoch + 1))
     log.close()
     if not ckpt_path.exists():
@@ -180,6 +187,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
         "epochs": max(cfg.epochs, start_epoch),
         "parameters": count_parameters(model),
         "base_parameters": int(base_ckpt["parameters"]),
+        "selected_epoch": best.epoch,
         "final": log.rows[-1] if log.rows else {},
     }
 

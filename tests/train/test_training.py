@@ -80,6 +80,27 @@ def test_resume_equals_uninterrupted(dataset, tmp_path):
     assert res["schema_version"] == 0 and len(res["feature_names"]) == 15
 
 
+def test_inference_uses_the_validation_selected_epoch(dataset, tmp_path):
+    cfg = _cfg(models=("PACNN",), epochs=4, lr=5e-2)
+    train_stage1(dataset, cfg, tmp_path / "best")
+    ckpt = torch.load(tmp_path / "best" / "PACNN" / "checkpoint.pt", weights_only=True)
+    opd = [r["val/opd"] for r in ckpt["metrics"]]
+    assert ckpt["best"]["epoch"] == 1 + int(np.argmin(opd)) and ckpt["best"]["value"] == min(opd)
+    # the selected weights are those of that epoch: retrain just that many epochs and compare
+    train_stage1(dataset, dataclasses.replace(cfg, epochs=ckpt["best"]["epoch"]), tmp_path / "short")
+    short = torch.load(tmp_path / "short" / "PACNN" / "checkpoint.pt", weights_only=True)
+    assert _states_equal(
+        load_model(tmp_path / "best" / "PACNN" / "checkpoint.pt").model.state_dict(), short["state_dict"]
+    )
+    # 'last' keeps no selection: inference uses the final weights
+    train_stage1(dataset, dataclasses.replace(cfg, select_by="last"), tmp_path / "last")
+    last = load_model(tmp_path / "last" / "PACNN" / "checkpoint.pt")
+    assert last.checkpoint["best"] is None
+    assert _states_equal(last.model.state_dict(), ckpt["state_dict"])
+    with pytest.raises(IrlsimError, match="select_by"):
+        dataclasses.replace(cfg, select_by="val/accuracy").validate()
+
+
 def test_corrupt_and_missing_checkpoints_are_one_line_errors(dataset, tmp_path):
     path = tmp_path / "1DCNN" / "checkpoint.pt"
     path.parent.mkdir()
