@@ -14,6 +14,15 @@ from typing import Any
 import numpy as np
 
 
+def _current_umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+_UMASK = _current_umask()
+
+
 @contextmanager
 def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success rename it to ``path`` (atomic on POSIX).
@@ -28,6 +37,8 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     tmp = Path(tmp_name)
     try:
         yield tmp
+        if tmp.exists():  # mkstemp creates 0600; give the result the usual umask-based mode
+            tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
     finally:
         if tmp.exists():
@@ -61,7 +72,7 @@ def write_json(path: str | Path, obj: Any) -> None:
 def seed_everything(seed: int) -> np.random.Generator:
     """Seed Python's and NumPy's global RNGs (and torch's, if imported); return a fresh Generator."""
     random.seed(seed)
-    np.random.seed(seed % (2**32))
+    np.random.seed(seed % (2**32))  # noqa: NPY002 - seeds third-party code that uses the global state
     import sys
 
     if "torch" in sys.modules:
