@@ -22,8 +22,11 @@ def _collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
     from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
 
     out, seed, cycles, n_policies = args
-    cfg = load_config(CollectConfig, None, {"max_cycles": cycles, "planner.n_policies": n_policies,
-                                            "scenario.n_vehicles": 15})
+    cfg = load_config(
+        CollectConfig,
+        None,
+        {"max_cycles": cycles, "planner.n_policies": n_policies, "scenario.n_vehicles": 15},
+    )
     return collect_episode(EpisodeJob(out, "train", seed, seed, cfg))
 
 
@@ -40,8 +43,10 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
         one = _collect_one((tmp + "/one", seed, cycles, n_policies))
         t0 = time.perf_counter()
         with mp.get_context("spawn").Pool(2) as pool:
-            two = pool.map(_collect_one, [(tmp + "/two", seed + 1, cycles, n_policies),
-                                          (tmp + "/two", seed + 2, cycles, n_policies)])
+            two = pool.map(
+                _collect_one,
+                [(tmp + "/two", seed + 1, cycles, n_policies), (tmp + "/two", seed + 2, cycles, n_policies)],
+            )
         wall2 = time.perf_counter() - t0
     total2 = sum(r["collect/cycles"] for r in two)
     per_worker = [r["collect/cycles_per_s"] for r in two]
@@ -59,8 +64,9 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     }
 
 
-def bench_infer(n_policies: int = 2500, repeats: int = 50, batch: int = 32, history: int = 10,
-                seed: int = 0) -> dict[str, Any]:
+def bench_infer(
+    n_policies: int = 2500, repeats: int = 50, batch: int = 32, history: int = 10, seed: int = 0
+) -> dict[str, Any]:
     """PACNN + PTACNN inference per cycle (one thread) and stage-1 training throughput (cycles/s)."""
     import torch
 

@@ -33,13 +33,22 @@ TARGETS: dict[str, tuple[str, str, float, str]] = {
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", type=Path, default=Path("bench"), help="output folder (default: bench/)")
-    parser.add_argument("--planner", action="store_true", help="time the planner cycle (2,500 policies, 15 vehicles)")
-    parser.add_argument("--collect", action="store_true",
-                        help="time collection end to end (SUMO + planner + demonstrations + Parquet)")
+    parser.add_argument(
+        "--planner", action="store_true", help="time the planner cycle (2,500 policies, 15 vehicles)"
+    )
+    parser.add_argument(
+        "--collect",
+        action="store_true",
+        help="time collection end to end (SUMO + planner + demonstrations + Parquet)",
+    )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
     parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
-    parser.add_argument("--collect-cycles", type=int, default=150,
-                        help="planning cycles per timed collection episode (default 150)")
+    parser.add_argument(
+        "--collect-cycles",
+        type=int,
+        default=150,
+        help="planning cycles per timed collection episode (default 150)",
+    )
     parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
 
 
@@ -64,17 +73,37 @@ def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
             s0, stop_s = road.exits[k % 2].s_start - rng.uniform(10, 100), np.inf
         else:
             s0, stop_s = rng.uniform(0, lap), np.inf
-        d0 = float(road.lane_center(rng.integers(0, 3)))
+        d0 = float(road.lane_center(int(rng.integers(0, 3))))
         v0 = float(rng.uniform(5, 20))
         x, y = road.to_xy(np.array(s0), np.array(d0))
-        ego = EgoState(0.0, float(x), float(y), float(road.heading(np.array(s0))), v0, 0.0, s0, d0, 0.0, 0.0,
-                       int(road.lane_of_d(np.array(d0))))
+        ego = EgoState(
+            0.0,
+            float(x),
+            float(y),
+            float(road.heading(np.array(s0))),
+            v0,
+            0.0,
+            s0,
+            d0,
+            0.0,
+            0.0,
+            int(road.lane_of_d(np.array(d0))),
+        )
         m = 15
         s = (s0 + rng.uniform(-150, 150, m)) % lap
         d = (rng.integers(0, 3, m) - 1.0) * LANE_WIDTH
         vx, vy = road.to_xy(s, d)
-        veh = VehicleStates(tuple(f"bg{i}" for i in range(m)), vx, vy, road.heading(s),
-                            rng.uniform(25 / 3.6, 35 / 3.6, m), s, d, np.full(m, 4.5), np.full(m, 1.8))
+        veh = VehicleStates(
+            tuple(f"bg{i}" for i in range(m)),
+            vx,
+            vy,
+            road.heading(s),
+            rng.uniform(25 / 3.6, 35 / 3.6, m),
+            s,
+            d,
+            np.full(m, 4.5),
+            np.full(m, 1.8),
+        )
         ahead = [((c.s - s0 % lap) % lap, c.index) for c in road.checkpoints]
         dist, idx = min(ahead)
         out.append(Observation(ego, veh, idx, s0 + dist, stop_s, lap))
@@ -109,7 +138,7 @@ def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
         ms_world.append((time.perf_counter() - t0) * 1e3)
     return {
         "what": "planner cycle: sampling + trajectories (s, d, v, lane; world x, y, yaw on first read) + "
-                "15 features + control points + labels + sort",
+        "15 features + control points + labels + sort",
         "n_policies": planner.cfg.n_policies,
         "n_vehicles": 15,
         "n_steps": planner.cfg.n_steps,
@@ -147,7 +176,8 @@ def _markdown(results: dict[str, dict[str, Any]]) -> str:
     lines = [
         "# irlsim benchmarks",
         "",
-        f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}, Python {platform.python_version()}; "
+        f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}, "
+        f"Python {platform.python_version()}; "
         "one thread (collection: one worker, then two; training: two threads).",
         "",
         "| section | figure | value | target |",

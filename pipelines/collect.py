@@ -11,7 +11,9 @@ import argparse
 import json
 import multiprocessing as mp
 import time
+from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
 
@@ -21,8 +23,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
     p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
     p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
-    p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override a config field, e.g. --set planner.n_policies=500 (repeatable)")
+    p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a config field, e.g. --set planner.n_policies=500 (repeatable)",
+    )
 
 
 def _run_job(job):  # top level: picklable for spawn workers
@@ -78,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     cycles = 0
     bar = progress(total=len(jobs), desc="episodes", unit="ep")
+    results: Iterator[Any]
     if cfg.workers == 1 or len(jobs) <= 1:
         results = map(_run_job, jobs)
         pool = None

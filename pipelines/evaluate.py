@@ -28,8 +28,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or args.runs / "eval"
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
-    rows = evaluate_models(open_dataset(args.data), args.runs, out, H=args.history, split=args.split,
-                           threads=args.threads)
+    rows = evaluate_models(
+        open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
+    )
     print(results_markdown(rows, args.split, args.history))
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
     return 0

@@ -12,8 +12,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="episode seed (>= 0)")
     parser.add_argument("--time", type=float, default=20.0, help="simulation time of the cycle to draw [s]")
     parser.add_argument("--out", type=Path, default=Path("cycle.png"), help="output PNG")
-    parser.add_argument("--theta", default="expert",
-                        help="'expert' or 15 comma-separated weights (FEATURE_NAMES order) to colour by")
+    parser.add_argument(
+        "--theta",
+        default="expert",
+        help="'expert' or 15 comma-separated weights (FEATURE_NAMES order) to colour by",
+    )
     parser.add_argument("--vehicles", type=int, default=None, help="background vehicles, 0..15 (default 15)")
 
 
@@ -59,8 +62,10 @@ def run(args: argparse.Namespace) -> int:
     assert ps is not None
     fig, ax = plt.subplots(figsize=(12, 6))
     draw_cycle(ax, road, ps, ps.value(theta), chosen=idx, vehicles=obs.vehicles, horizon=cfg.horizon)
-    ax.set_title(f"seed {args.seed}, t = {obs.ego.t:.1f} s: {ps.n_policies} policies coloured by value "
-                 f"(green high, red low), executed in black")
+    ax.set_title(
+        f"seed {args.seed}, t = {obs.ego.t:.1f} s: {ps.n_policies} policies coloured by value "
+        f"(green high, red low), executed in black"
+    )
     ax.legend(loc="upper right")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out) as tmp:

@@ -13,7 +13,9 @@ HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTA
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--stage", type=int, choices=(1, 2), required=True, help="1: per-cycle models, 2: temporal")
+    p.add_argument(
+        "--stage", type=int, choices=(1, 2), required=True, help="1: per-cycle models, 2: temporal"
+    )
     p.add_argument("--config", type=Path, default=None, help="TOML config (default: built-in defaults)")
     p.add_argument("--data", type=Path, required=True, help="dataset folder written by 'irlsim collect'")
     p.add_argument("--out", type=Path, required=True, help="runs folder (one sub-folder per model)")
@@ -39,6 +41,8 @@ def run(args: argparse.Namespace) -> int:
         cfg2 = load_config(tc.Stage2Config, args.config, overrides)
         summary = train_stage2(dataset, cfg2, args.out)
         cfg_dict = to_dict(cfg2)
-    write_json(args.out / f"stage{args.stage}.json", {"config": cfg_dict, "data": str(args.data), "models": summary})
+    write_json(
+        args.out / f"stage{args.stage}.json", {"config": cfg_dict, "data": str(args.data), "models": summary}
+    )
     print(f"stage {args.stage}: trained {', '.join(summary)}; checkpoints and metrics in {args.out}/<model>/")
     return 0

@@ -28,9 +28,20 @@ def sim(road):
 
 #: a tiny collection config shared by the collect, chain and drive tests (real SUMO, real Parquet)
 TINY_COLLECT = [
-    "--set", "train_episodes=2", "--set", "validation_episodes=1", "--set", "test_episodes=1",
-    "--set", "max_cycles=40", "--set", "planner.n_policies=120", "--set", "scenario.n_vehicles=4",
-    "--set", "workers=1",
+    "--set",
+    "train_episodes=2",
+    "--set",
+    "validation_episodes=1",
+    "--set",
+    "test_episodes=1",
+    "--set",
+    "max_cycles=40",
+    "--set",
+    "planner.n_policies=120",
+    "--set",
+    "scenario.n_vehicles=4",
+    "--set",
+    "workers=1",
 ]
 
 

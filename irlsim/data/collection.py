@@ -45,7 +45,8 @@ class CollectConfig:
     """``irlsim collect``: which episodes to drive and how. Nested tables: [scenario], [planner], [demo]."""
 
     seed: int = 0
-    """base seed; episode i of a split uses seed * 1e6 + split offset (train 0, validation 1e5, test 2e5) + i"""
+    """base seed; episode i of a split uses seed * 1e6 + split offset (train 0, validation 1e5,
+    test 2e5) + i"""
     workers: int = 2
     """worker processes, one libsumo simulation each (1 = in this process)"""
     train_episodes: int = 4
@@ -72,9 +73,13 @@ class CollectConfig:
         require(self.train_episodes >= 1, "train_episodes must be >= 1")
         require(self.max_cycles >= 0, f"max_cycles must be >= 0, got {self.max_cycles}")
         require(abs(self.planner.dt - self.scenario.step) < 1e-9, "planner.dt must equal scenario.step")
-        require(abs(self.planner.cycle - self.scenario.cycle) < 1e-9, "planner.cycle must equal scenario.cycle")
-        require(abs(self.planner.horizon - self.scenario.horizon) < 1e-9,
-                "planner.horizon must equal scenario.horizon")
+        require(
+            abs(self.planner.cycle - self.scenario.cycle) < 1e-9, "planner.cycle must equal scenario.cycle"
+        )
+        require(
+            abs(self.planner.horizon - self.scenario.horizon) < 1e-9,
+            "planner.horizon must equal scenario.horizon",
+        )
         self.demo.validate()
 
     def episodes(self, split: str) -> list[tuple[int, int]]:
@@ -112,20 +117,24 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     driver = ExpertDriver(road, cfg.planner)
     steps = cfg.scenario.steps_per_cycle
     projector = DemoProjector(
-        lap_length=road.lap_length, horizon=cfg.planner.horizon, dt=cfg.planner.dt,
-        alpha=cfg.demo.alpha, w_yaw=cfg.demo.w_yaw, max_demo_distance=cfg.demo.max_distance,
+        lap_length=road.lap_length,
+        horizon=cfg.planner.horizon,
+        dt=cfg.planner.dt,
+        alpha=cfg.demo.alpha,
+        w_yaw=cfg.demo.w_yaw,
+        max_demo_distance=cfg.demo.max_distance,
     )
     t_start = time.perf_counter()
     n_cycles = 0
     out = Path(job.dataset)
-    with Simulation(road, cfg.scenario) as sim, \
-        EpisodeWriter(out, job.split, job.episode) as writer:
+    with Simulation(road, cfg.scenario) as sim, EpisodeWriter(out, job.split, job.episode) as writer:
         obs = sim.reset(job.seed)
         e = obs.ego
         projector.push_odometry(e.t, e.s, e.d, e.yaw)
         while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
             traj = driver.plan(obs)
             ps, idx = driver.last_policy_set, driver.last_index
+            assert ps is not None, "the expert keeps the policy set of its last plan()"
             projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
             ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
             writer.add_cycle(n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint)
@@ -140,11 +149,16 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
         writer.add_demos(projector.finish())
         stats = dict(sim.stats)
         wall = time.perf_counter() - t_start
-        stats.update({
-            "collect/split": job.split, "collect/episode": job.episode, "collect/seed": job.seed,
-            "collect/cycles": n_cycles, "collect/wall_s": round(wall, 3),
-            "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
-        })
+        stats.update(
+            {
+                "collect/split": job.split,
+                "collect/episode": job.episode,
+                "collect/seed": job.seed,
+                "collect/cycles": n_cycles,
+                "collect/wall_s": round(wall, 3),
+                "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
+            }
+        )
         # written before the cycles file (the episode's completion marker): a finished episode has both
         write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
     return stats

@@ -115,13 +115,19 @@ class PlannerConfig:
     def validate(self) -> None:
         require(self.n_policies >= 1, f"planner.n_policies must be >= 1, got {self.n_policies}")
         require(self.dt > 0 and self.horizon > self.dt, "planner.horizon must exceed planner.dt > 0")
-        require(abs(self.horizon / self.dt - round(self.horizon / self.dt)) < 1e-6,
-                "planner.horizon must be a multiple of planner.dt")
-        require(abs(self.cycle / self.dt - round(self.cycle / self.dt)) < 1e-6 and self.cycle >= self.dt,
-                "planner.cycle must be a positive multiple of planner.dt")
+        require(
+            abs(self.horizon / self.dt - round(self.horizon / self.dt)) < 1e-6,
+            "planner.horizon must be a multiple of planner.dt",
+        )
+        require(
+            abs(self.cycle / self.dt - round(self.cycle / self.dt)) < 1e-6 and self.cycle >= self.dt,
+            "planner.cycle must be a positive multiple of planner.dt",
+        )
         k = self.n_control_points
-        require(k >= 1 and (self.n_steps - 1) % k == 0,
-                f"planner.n_control_points ({k}) must divide horizon / dt ({self.n_steps - 1})")
+        require(
+            k >= 1 and (self.n_steps - 1) % k == 0,
+            f"planner.n_control_points ({k}) must divide horizon / dt ({self.n_steps - 1})",
+        )
         require(0 < self.gamma <= 1, f"planner.gamma must be in (0, 1], got {self.gamma}")
         require(0 < self.stage_split < self.horizon, "planner.stage_split must lie inside the horizon")
         require(self.a_min < 0 < self.a_max, "planner.a_min < 0 < planner.a_max")
@@ -129,8 +135,10 @@ class PlannerConfig:
             require(self.a_min <= a <= self.a_max, f"planner accelerations must lie in [a_min, a_max]: {a}")
         require(0 < self.v_target <= self.v_max, "planner.v_target must be in (0, v_max]")
         require(self.accel_ramp > 0, "planner.accel_ramp must be > 0")
-        require(all(t > 0 for t in self.lat_durations) and len(self.lat_durations) >= 1,
-                "planner.lat_durations must be positive")
+        require(
+            all(t > 0 for t in self.lat_durations) and len(self.lat_durations) >= 1,
+            "planner.lat_durations must be positive",
+        )
         require(self.a_lat_max > 0 and self.max_slip > 0, "planner lateral limits must be > 0")
         require(self.ego_length > 0 and self.ego_width > 0, "planner ego size must be > 0")
         require(self.proximity_sigma_s > 0 and self.proximity_sigma_d > 0, "proximity sigmas must be > 0")

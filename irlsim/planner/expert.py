@@ -109,8 +109,13 @@ def mission_penalty(sel: SelectionConfig, remaining: float) -> float:
 
 
 def lane_outlook(
-    internals: Any, obs: Observation, sel: SelectionConfig, dt: float, stop_lines: tuple[float, ...],
-    ego_width: float, v_target: float,
+    internals: Any,
+    obs: Observation,
+    sel: SelectionConfig,
+    dt: float,
+    stop_lines: tuple[float, ...],
+    ego_width: float,
+    v_target: float,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shortfall [N] m, outlook [N] m) of every policy against the vehicles predicted ahead of it.
 
@@ -158,9 +163,13 @@ def lane_outlook(
     d_e = lat.d[:, cols][internals.lat_idx]
     gap = rear[None] - s_e[:, None, :]  # [N, M, C]
     same = np.abs(d_e[:, None, :] - veh.d[near][None, :, None]) < (
-        (veh.width[near][None, :, None] + ego_width) / 2 + 0.3)
-    need = (sel.follow_headway * v_e[:, None, :] + sel.follow_gap
-            + np.maximum(v_e[:, None, :] ** 2 - v_c[None] ** 2, 0.0) / (2 * sel.follow_decel))
+        (veh.width[near][None, :, None] + ego_width) / 2 + 0.3
+    )
+    need = (
+        sel.follow_headway * v_e[:, None, :]
+        + sel.follow_gap
+        + np.maximum(v_e[:, None, :] ** 2 - v_c[None] ** 2, 0.0) / (2 * sel.follow_decel)
+    )
     ahead = same & (gap > -2.0)
     shortfall = np.where(ahead, np.maximum(need - gap, 0.0), 0.0).max(axis=(1, 2))
     # the lead at the horizon (the last check time) in the final lane
@@ -193,8 +202,13 @@ class ExpertDriver:
     """The demonstrator: ``plan(obs) -> Trajectory``; ``last_policy_set`` / ``last_index`` keep the
     executed cycle's PolicySet and the index of the executed policy in it."""
 
-    def __init__(self, road: Road, cfg: PlannerConfig | None = None, theta: np.ndarray | None = None,
-                 selection: SelectionConfig | None = None):
+    def __init__(
+        self,
+        road: Road,
+        cfg: PlannerConfig | None = None,
+        theta: np.ndarray | None = None,
+        selection: SelectionConfig | None = None,
+    ):
         self.road = road
         self.planner = Planner(road, cfg)
         self.theta = THETA_EXPERT.copy() if theta is None else np.asarray(theta, dtype=np.float64)
@@ -223,8 +237,9 @@ class ExpertDriver:
             cand = allowed
         # risk: the planner's safety-zone intrusion plus the shortfall of the following gap at the horizon
         cfg = self.planner.cfg
-        shortfall, outlook = lane_outlook(internals, obs, sel, cfg.dt, self._stop_lines, cfg.ego_width,
-                                          cfg.v_target)
+        shortfall, outlook = lane_outlook(
+            internals, obs, sel, cfg.dt, self._stop_lines, cfg.ego_width, cfg.v_target
+        )
         risk = internals.risk.astype(np.float64) + shortfall / sel.follow_scale
         reach = ps.progress + outlook  # progress over the horizon and what the final lane offers after it
         risk = np.where(cand, risk, np.inf)
@@ -243,8 +258,7 @@ class ExpertDriver:
             r_min = float(risk[members].min())
             ok = members & (risk <= r_min + 1e-6)  # the cluster's least risky policies
             miss_k, lane_k, lc_k = int(key // 64), int(key // 16 % 4) - 1, int(key % 16)
-            score = (float(reach[ok].max()) - sel.lc_cost * lc_k - mission * miss_k
-                     - sel.risk_cost * r_min)
+            score = float(reach[ok].max()) - sel.lc_cost * lc_k - mission * miss_k - sel.risk_cost * r_min
             if self._heading_lane is not None and lane_k == self._heading_lane:
                 score += sel.keep_bonus
             if score > best_score + sel.progress_tol or (
@@ -270,8 +284,9 @@ class ThetaDriver:
     paper's planner does around a learned reward); when that drops all of them it uses all.
     """
 
-    def __init__(self, planner: Planner, theta_fn: Callable[[PolicySet, Observation], Any],
-                 safe: bool = False):
+    def __init__(
+        self, planner: Planner, theta_fn: Callable[[PolicySet, Observation], Any], safe: bool = False
+    ):
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
@@ -296,8 +311,11 @@ class ThetaDriver:
 def planner_config_for(scenario_cfg: Any) -> PlannerConfig:
     """A PlannerConfig whose clocks, target speed and ego size match a ScenarioConfig."""
     return PlannerConfig(
-        horizon=float(scenario_cfg.horizon), dt=float(scenario_cfg.step), cycle=float(scenario_cfg.cycle),
-        v_target=float(scenario_cfg.ego_target_speed), ego_length=float(scenario_cfg.ego_length),
+        horizon=float(scenario_cfg.horizon),
+        dt=float(scenario_cfg.step),
+        cycle=float(scenario_cfg.cycle),
+        v_target=float(scenario_cfg.ego_target_speed),
+        ego_length=float(scenario_cfg.ego_length),
         ego_width=float(scenario_cfg.ego_width),
     )
 
@@ -305,4 +323,3 @@ def planner_config_for(scenario_cfg: Any) -> PlannerConfig:
 def make_expert_driver(road: Road, scenario_cfg: Any) -> ExpertDriver:
     """Factory for the sim's driver registry: ``DRIVERS['expert'] = make_expert_driver``."""
     return ExpertDriver(road, planner_config_for(scenario_cfg))
-

@@ -134,8 +134,9 @@ def weights(cfg: PlannerConfig) -> np.ndarray:
     return w
 
 
-def lon_features(lon: LonBank, kappa: np.ndarray, ctx: Context, cfg: PlannerConfig,
-                 w: np.ndarray) -> tuple[np.ndarray, LonSeries]:
+def lon_features(
+    lon: LonBank, kappa: np.ndarray, ctx: Context, cfg: PlannerConfig, w: np.ndarray
+) -> tuple[np.ndarray, LonSeries]:
     """Lon-only feature parts [L, 15] and the series the mixed parts need."""
     L = len(lon.v)
     s, v, a = lon.s, lon.v, lon.a
@@ -166,13 +167,16 @@ def lon_features(lon: LonBank, kappa: np.ndarray, ctx: Context, cfg: PlannerConf
     F[:, IDX["acc_lat"]] = (c * c) @ w
     F[:, IDX["jerk_lat"]] = (cdot * cdot) @ w
     rem = ctx.target_rel - s
-    urg = np.where(rem > 0, np.minimum(cfg.mission_urgency_max, cfg.mission_distance / np.maximum(rem, 1e-3)), 0.0)
+    urg = np.where(
+        rem > 0, np.minimum(cfg.mission_urgency_max, cfg.mission_distance / np.maximum(rem, 1e-3)), 0.0
+    )
     series = LonSeries(c=c.astype(F32), cdot=cdot.astype(F32), urg=urg.astype(F32), prog=prog.astype(F32))
     return F, series
 
 
-def lat_features(lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx: Context,
-                 cfg: PlannerConfig, w: np.ndarray) -> np.ndarray:
+def lat_features(
+    lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx: Context, cfg: PlannerConfig, w: np.ndarray
+) -> np.ndarray:
     """Lat-only feature parts [J, 15]; exit profiles use their bound longitudinal profile."""
     J = len(lat.d)
     d, dd = lat.d, lat.dd
@@ -212,8 +216,9 @@ def lat_features(lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx:
 CROSS_COLS: tuple[int, ...] = (IDX["acc_lat"], IDX["jerk_lat"], IDX["mission_lane"], IDX["end_heading"])
 
 
-def cross_features(lat: LatBank, lon: LonBank, series: LonSeries, ctx: Context, w: np.ndarray,
-                   pairs: Pairs) -> np.ndarray:
+def cross_features(
+    lat: LatBank, lon: LonBank, series: LonSeries, ctx: Context, w: np.ndarray, pairs: Pairs
+) -> np.ndarray:
     """Mixed parts of the candidate pairs [C, 4] float32, columns ``CROSS_COLS`` (acc_lat, jerk_lat,
     mission_lane, end_heading; the other features have no mixed part)."""
     X = np.empty((_n_pairs(pairs), len(CROSS_COLS)), F32)
@@ -245,9 +250,16 @@ class VehicleTerms:
 _CULL_SCALES = 6.0
 
 
-def vehicle_terms(lat: LatBank, lon: LonBank, vehicles: VehicleStates, ctx: Context, cfg: PlannerConfig,
-                  w: np.ndarray, stop_lines_s: tuple[float, ...] = (),
-                  pairs: Pairs | None = None) -> VehicleTerms:
+def vehicle_terms(
+    lat: LatBank,
+    lon: LonBank,
+    vehicles: VehicleStates,
+    ctx: Context,
+    cfg: PlannerConfig,
+    w: np.ndarray,
+    stop_lines_s: tuple[float, ...] = (),
+    pairs: Pairs | None = None,
+) -> VehicleTerms:
     """Proximity, predicted collision and safety risk against the vehicles' predictions: constant speed
     along the route frame at constant d, except that a vehicle stands at the next stop line
     (``stop_lines_s``, wrapped route positions [m]) it reaches. Vectors over the candidate pairs."""
@@ -289,12 +301,15 @@ def vehicle_terms(lat: LatBank, lon: LonBank, vehicles: VehicleStates, ctx: Cont
     c_lon = ((np.abs(dS) < half_l + cfg.collision_margin_lon) & live).astype(F32)
     # a vehicle right behind the ego in its lane follows it (SUMO's car following): it is responsible
     # for that gap, so it counts for proximity but not for the collision label and the safety zone
-    follower = ((ds0[near] < -cfg.ego_length) &
-                (np.abs(vehicles.d[near] - ctx.d0) < (cfg.ego_width + vehicles.width[near]) / 2))
+    follower = (ds0[near] < -cfg.ego_length) & (
+        np.abs(vehicles.d[near] - ctx.d0) < (cfg.ego_width + vehicles.width[near]) / 2
+    )
     lead_or_side = (~follower).astype(F32)[:, None, None]
     c_lat = (np.abs(dD) < half_w + cfg.collision_margin_lat) * lead_or_side
-    coll = pairs.dot(c_lat.transpose(1, 0, 2).reshape(J, M * T),
-                     c_lon.transpose(1, 0, 2).reshape(L, M * T)) > 0.5
+    coll = (
+        pairs.dot(c_lat.transpose(1, 0, 2).reshape(J, M * T), c_lon.transpose(1, 0, 2).reshape(L, M * T))
+        > 0.5
+    )
     # safety zone: headway ahead of the ego (at its speed), a shorter one behind it (at the other's)
     v_ego = lon.v.astype(F32)[None, :, :]
     front = half_l + cfg.safety_gap + cfg.safety_headway * v_ego
@@ -308,8 +323,14 @@ def vehicle_terms(lat: LatBank, lon: LonBank, vehicles: VehicleStates, ctx: Cont
     return VehicleTerms(prox.astype(F32), coll, risk.astype(F32))
 
 
-def _predicted_rear(near: np.ndarray, ds0: np.ndarray, vehicles: VehicleStates, lap: float, t: np.ndarray,
-                    stop_lines_s: tuple[float, ...]) -> np.ndarray:
+def _predicted_rear(
+    near: np.ndarray,
+    ds0: np.ndarray,
+    vehicles: VehicleStates,
+    lap: float,
+    t: np.ndarray,
+    stop_lines_s: tuple[float, ...],
+) -> np.ndarray:
     """[M, T] float32: predicted route-frame rear position of each near vehicle, relative to the ego."""
     travel = vehicles.v[near].astype(F32)[:, None] * t[None, :]
     if stop_lines_s:
@@ -325,8 +346,9 @@ def _predicted_rear(near: np.ndarray, ds0: np.ndarray, vehicles: VehicleStates, 
     return ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
 
 
-def _cull(near: np.ndarray, sv_near: np.ndarray, lon: LonBank, vehicles: VehicleStates,
-          cfg: PlannerConfig) -> np.ndarray:
+def _cull(
+    near: np.ndarray, sv_near: np.ndarray, lon: LonBank, vehicles: VehicleStates, cfg: PlannerConfig
+) -> np.ndarray:
     """``near`` without the vehicles that no lon profile comes close to at any step (their proximity
     terms are below 2e-16, their collision and safety tests false). ``sv_near``: [M, T] predicted rears."""
     sv = sv_near.astype(np.float64)
@@ -334,9 +356,18 @@ def _cull(near: np.ndarray, sv_near: np.ndarray, lon: LonBank, vehicles: Vehicle
     lo, hi = ego_front.min(axis=0), ego_front.max(axis=0)  # [T]
     gap = np.maximum(np.maximum(lo[None, :] - sv, sv - hi[None, :]), 0.0).min(axis=1)  # [M] smallest |dS|
     half_l = (cfg.ego_length + vehicles.length[near]) / 2
-    reach = np.maximum(_CULL_SCALES * (cfg.proximity_sigma_s + half_l),  # proximity
-                       half_l + cfg.safety_gap + cfg.safety_headway * max(cfg.v_max, float(lon.v.max()))
-                       + 1.0 + cfg.safety_rear_headway * vehicles.v[near] + cfg.collision_margin_lon) + 1.0
+    reach = (
+        np.maximum(
+            _CULL_SCALES * (cfg.proximity_sigma_s + half_l),  # proximity
+            half_l
+            + cfg.safety_gap
+            + cfg.safety_headway * max(cfg.v_max, float(lon.v.max()))
+            + 1.0
+            + cfg.safety_rear_headway * vehicles.v[near]
+            + cfg.collision_margin_lon,
+        )
+        + 1.0
+    )
     out = near.copy()
     out[np.flatnonzero(near)[gap > reach]] = False
     return out

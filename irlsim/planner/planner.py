@@ -52,8 +52,9 @@ class _World:
     nobody reads them, and they are most of a cycle's cost. Holds the cycle's arrays, not the road's
     SUMO network: the road is dropped once everything is computed (and before pickling)."""
 
-    def __init__(self, road: Road, s_abs: np.ndarray, lon_idx: np.ndarray, d: np.ndarray, v: np.ndarray,
-                 dd: np.ndarray):
+    def __init__(
+        self, road: Road, s_abs: np.ndarray, lon_idx: np.ndarray, d: np.ndarray, v: np.ndarray, dd: np.ndarray
+    ):
         self.road, self.s_abs, self.cl, self.d, self.v, self.dd = road, s_abs, lon_idx, d, v, dd
         self.shape = d.shape
 
@@ -113,17 +114,22 @@ class Planner:
         cfg, road, ego = self.cfg, self.road, obs.ego
         lap = obs.lap_length
         lon = self.sampler.lon_bank(ego.v, ego.a, stop_distances(obs, cfg))
-        lat = concat_lat(self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot),
-                         self.sampler.exit_bank(ego.d, ego.d_dot, ego.d_ddot, ego.s, lon))
+        lat = concat_lat(
+            self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot),
+            self.sampler.exit_bank(ego.d, ego.d_dot, ego.d_ddot, ego.s, lon),
+        )
         L = len(lon.v)
         s_abs = ego.s + lon.s  # [L, T]
         kappa = road.curvature(s_abs)
         stop_rel = obs.stop_s - ego.s if np.isfinite(obs.stop_s) else np.inf
         ctx = Context(
-            s_ego=ego.s, d0=ego.d, goal=obs.target_s - ego.s + cfg.progress_lookahead,
+            s_ego=ego.s,
+            d0=ego.d,
+            goal=obs.target_s - ego.s + cfg.progress_lookahead,
             target_rel=obs.target_s - ego.s,
             req_d=float(road.lane_center(road.checkpoints[obs.target_checkpoint].lane)),
-            stop_rel=float(stop_rel), lap_length=lap,
+            stop_rel=float(stop_rel),
+            lap_length=lap,
         )
         # ---- candidate pairs: free lateral profiles x all lon profiles, exit profiles x their bound one.
         # Pairwise terms are vectors over the C candidates (see Pairs), gathered at the picked ones.
@@ -163,8 +169,9 @@ class Planner:
         # ---- control points and actions [N, K, .]; the yaw at the K columns only
         cols = self.cp_cols
         s_cols = s_abs[:, cols]
-        yaw_cols = policy_yaw(road.heading(s_cols)[cl], dd_f[:, cols][cj],
-                              np.maximum(lon.v[:, cols], 1e-3)[cl])
+        yaw_cols = policy_yaw(
+            road.heading(s_cols)[cl], dd_f[:, cols][cj], np.maximum(lon.v[:, cols], 1e-3)[cl]
+        )
         rel_yaw = yaw_cols - ego.yaw  # both in [-pi, pi): one conditional shift wraps it
         rel_yaw[rel_yaw >= np.pi] -= 2 * np.pi
         rel_yaw[rel_yaw < -np.pi] += 2 * np.pi
@@ -178,14 +185,32 @@ class Planner:
 
         world = LazyWorld(_World(road, s_abs, cl, d, v, dd))
         ps = PolicySet(
-            t=ego.t, x=world, y=world, yaw=world, v=v, s=s, d=d, lane=lane,  # type: ignore[arg-type]
-            progress=progress, features=feats.astype(F32), control_points=cp, actions=actions,
+            t=ego.t,
+            x=world,  # type: ignore[arg-type]  # LazyWorld: computed on first read
+            y=world,  # type: ignore[arg-type]
+            yaw=world,  # type: ignore[arg-type]
+            v=v,
+            s=s,
+            d=d,
+            lane=lane,
+            progress=progress,
+            features=feats.astype(F32),
+            control_points=cp,
+            actions=actions,
             labels=labels,
         )
         self.last = PlanInternals(
-            obs=obs, lon=lon, lat=lat, lon_idx=cl, lat_idx=cj, risk=veh.risk[sel],
-            exit_profile=lat.bound_lon[cj] >= 0, kind=lon.kind[cl],
-            a=lon.a.astype(F32)[cl], d_dot=dd, d_ddot=lat.ddd.astype(F32)[cj],
+            obs=obs,
+            lon=lon,
+            lat=lat,
+            lon_idx=cl,
+            lat_idx=cj,
+            risk=veh.risk[sel],
+            exit_profile=lat.bound_lon[cj] >= 0,
+            kind=lon.kind[cl],
+            a=lon.a.astype(F32)[cl],
+            d_dot=dd,
+            d_ddot=lat.ddd.astype(F32)[cj],
         )
         self.last_ms = (time.perf_counter() - t0) * 1e3
         return ps
@@ -209,8 +234,10 @@ class Planner:
         mx_c = np.maximum.reduceat(np.abs(c), edges, axis=1)  # [L, B]
         mn_have = np.minimum.reduceat(have, edges, axis=1)
         jf = pairs.free
-        ok_grid = (((mx_ddd[jf][:, None, :] + mx_c[None, :, :]) <= cfg.a_lat_max)
-                   & (mx_dd[jf][:, None, :] <= mn_have[None, :, :])).all(axis=2)
+        ok_grid = (
+            ((mx_ddd[jf][:, None, :] + mx_c[None, :, :]) <= cfg.a_lat_max)
+            & (mx_dd[jf][:, None, :] <= mn_have[None, :, :])
+        ).all(axis=2)
         ok = ok_grid.ravel()
         if not pairs.all_free:
             jb, lb = pairs.bound_j, pairs.bound_l
@@ -259,6 +286,16 @@ class Planner:
         y = by + (ny - by) * d
         yaw = wrap_angle(self.road.heading(s) + np.arctan2(p.lat.dd[j], np.maximum(v, 1e-3)))
         return Trajectory(
-            t0=ego.t, dt=self.cfg.dt, x=x, y=y, yaw=yaw, v=v.copy(), a=p.lon.a[l].copy(), s=s, d=d.copy(),
-            d_dot=p.lat.dd[j].copy(), d_ddot=p.lat.ddd[j].copy(), lane=self.road.lane_of_d(d),
+            t0=ego.t,
+            dt=self.cfg.dt,
+            x=x,
+            y=y,
+            yaw=yaw,
+            v=v.copy(),
+            a=p.lon.a[l].copy(),
+            s=s,
+            d=d.copy(),
+            d_dot=p.lat.dd[j].copy(),
+            d_ddot=p.lat.ddd[j].copy(),
+            lane=self.road.lane_of_d(d),
         )

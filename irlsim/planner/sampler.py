@@ -47,8 +47,14 @@ def smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def quintic(p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, p1: np.ndarray, dur: np.ndarray,
-            t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def quintic(
+    p0: np.ndarray | float,
+    v0: np.ndarray | float,
+    a0: np.ndarray | float,
+    p1: np.ndarray | float,
+    dur: np.ndarray,
+    t: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Quintic from (p0, v0, a0) at t = 0 to (p1, 0, 0) at t = dur, held at p1 afterwards.
 
     Parameters broadcast against each other ([P, 1]); ``t`` is [T]. Returns position, velocity,
@@ -70,8 +76,13 @@ class QuinticGrid:
         self.t1, self.t2, self.t3, self.t4, self.t5 = tt, tt**2, tt**3, tt**4, tt**5
 
 
-def _quintic(p0: np.ndarray | float, v0: np.ndarray | float, a0: np.ndarray | float, p1: np.ndarray | float,
-             g: QuinticGrid) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _quintic(
+    p0: np.ndarray | float,
+    v0: np.ndarray | float,
+    a0: np.ndarray | float,
+    p1: np.ndarray | float,
+    g: QuinticGrid,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`quintic` on a precomputed grid (the same operations, so the same values)."""
     h = p1 - p0
     T, T2 = g.T1, g.T2
@@ -100,7 +111,8 @@ def first_unique_rows(a: np.ndarray) -> np.ndarray:
         return np.arange(n)
     w = _HASH_W.get(t)
     if w is None:
-        w = _HASH_W[t] = np.random.default_rng(12345).uniform(0.5, 1.5, t)
+        w = np.random.default_rng(12345).uniform(0.5, 1.5, size=(t,))
+        _HASH_W[t] = w
     key = (a * w).sum(axis=1)
     _, first, inv = np.unique(key, return_index=True, return_inverse=True)
     if not np.array_equal(a, a[first[inv]]):
@@ -143,18 +155,20 @@ class Sampler:
         # acceleration basis: a(t) = a0 b0 + a1 b1 + a2 b2; integrals by a fine trapezoid, exact enough
         fine = np.linspace(0.0, cfg.horizon, (T - 1) * 50 + 1)
         fb = self._basis(fine, ts, tau)
-        cum = np.concatenate([np.zeros((3, 1)), np.cumsum(0.5 * (fb[:, 1:] + fb[:, :-1]) * (fine[1] - fine[0]),
-                                                          axis=1)], axis=1)
+        cum = np.concatenate(
+            [np.zeros((3, 1)), np.cumsum(0.5 * (fb[:, 1:] + fb[:, :-1]) * (fine[1] - fine[0]), axis=1)],
+            axis=1,
+        )
         self._b = self._basis(self.t, ts, tau)  # [3, T]
         self._B = cum[:, ::50]  # [3, T]  integral of each basis function from 0 to t
         self._i_split = int(round(ts / cfg.dt))
         # cached quintic grids (they depend on the configuration only)
         self._stop_durs = np.geomspace(0.3, 30.0, 64)[:, None]
         self._stop_durs_f = np.geomspace(0.3, 30.0, 256)[:, None]
-        tau = np.linspace(0.0, 1.0, 101)[None, :]
-        self._stop_grid = QuinticGrid(self._stop_durs, tau * self._stop_durs)
-        self._stop_grid_f = QuinticGrid(self._stop_durs_f, tau * self._stop_durs_f)
-        self._lat_grids: dict[float, QuinticGrid] = {}
+        frac = np.linspace(0.0, 1.0, 101)[None, :]
+        self._stop_grid = QuinticGrid(self._stop_durs, frac * self._stop_durs)
+        self._stop_grid_f = QuinticGrid(self._stop_durs_f, frac * self._stop_durs_f)
+        self._lat_grids: dict[tuple[float, ...], QuinticGrid] = {}
         t2 = np.maximum(self.t - self.t[self._i_split], 0.0)[None, :]
         self._lat_grid2 = QuinticGrid(cfg.horizon - cfg.stage_split, t2)
         self._late = self.t[None, :] > self.t[self._i_split]
@@ -211,8 +225,9 @@ class Sampler:
         a = np.where(stopped & (v_raw <= 0.0), 0.0, a_raw)
         ok = v.max(axis=1) <= max(cfg.v_max, v0 + 1e-6)
         v, a, kind = v[ok], a[ok], kind[ok]
-        s = np.concatenate([np.zeros((len(v), 1)), np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * cfg.dt, axis=1)],
-                           axis=1)
+        s = np.concatenate(
+            [np.zeros((len(v), 1)), np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * cfg.dt, axis=1)], axis=1
+        )
         for dist in stops:
             if math.isfinite(dist) and dist < cfg.stop_reach:
                 sv, sa, ss = self._stop_profiles(v0, a0, max(dist, 0.0))
@@ -233,8 +248,12 @@ class Sampler:
             return z, z.copy(), z.copy()
         durs = self._stop_durs
         p, v, a, _ = _quintic(0.0, v0, a0, dist, self._stop_grid)
-        feas = (v.min(axis=1) >= -1e-3) & (p.max(axis=1) <= dist + 0.02) & \
-               (a.min(axis=1) >= cfg.a_min) & (a.max(axis=1) <= cfg.a_max)
+        feas = (
+            (v.min(axis=1) >= -1e-3)
+            & (p.max(axis=1) <= dist + 0.02)
+            & (a.min(axis=1) >= cfg.a_min)
+            & (a.max(axis=1) <= cfg.a_max)
+        )
         cand = np.flatnonzero(feas)
         if len(cand) == 0:
             # cannot stop at the line: brake as hard as allowed (the stop_line feature will cost it)
@@ -274,12 +293,14 @@ class Sampler:
         D2 = np.tile(centres, n1)[:, None]
         isp = self._i_split
         # stage 1: one quintic per (target, duration), each repeated for the 3 stage-2 targets
-        q1 = _quintic(d0, dd0, ddd0, np.array(t1_targets)[:, None],
-                      self._lat_grid(np.array(t1_durs)[:, None]))
+        q1 = _quintic(
+            d0, dd0, ddd0, np.array(t1_targets)[:, None], self._lat_grid(np.array(t1_durs)[:, None])
+        )
         p1, v1, a1, j1 = (np.repeat(q, 3, axis=0) for q in q1)
         # stage 2 from the stage-1 state at the split, to a lane centre at the horizon
-        p2, v2, a2, j2 = _quintic(p1[:, isp:isp + 1], v1[:, isp:isp + 1], a1[:, isp:isp + 1], D2,
-                                  self._lat_grid2)
+        p2, v2, a2, j2 = _quintic(
+            p1[:, isp : isp + 1], v1[:, isp : isp + 1], a1[:, isp : isp + 1], D2, self._lat_grid2
+        )
         late = self._late
         d = np.where(late, p2, p1)
         dd = np.where(late, v2, v1)
@@ -289,10 +310,20 @@ class Sampler:
         d, dd, ddd, dddd = d[keep_idx], dd[keep_idx], ddd[keep_idx], dddd[keep_idx]
         target = D2[keep_idx, 0]
         # the lane-keeping profile: to the current lane centre, shortest duration, stays there
-        is_keep = (np.abs(D1[keep_idx, 0] - cur) < 1e-9) & (np.abs(target - cur) < 1e-9) & \
-                  (DUR[keep_idx, 0] == cfg.lat_durations[0])
-        return LatBank(d=d, dd=dd, ddd=ddd, dddd=dddd, target=target,
-                       bound_lon=np.full(len(d), -1, np.int64), keep=is_keep)
+        is_keep = (
+            (np.abs(D1[keep_idx, 0] - cur) < 1e-9)
+            & (np.abs(target - cur) < 1e-9)
+            & (DUR[keep_idx, 0] == cfg.lat_durations[0])
+        )
+        return LatBank(
+            d=d,
+            dd=dd,
+            ddd=ddd,
+            dddd=dddd,
+            target=target,
+            bound_lon=np.full(len(d), -1, np.int64),
+            keep=is_keep,
+        )
 
     def exit_bank(self, d0: float, dd0: float, ddd0: float, s0: float, lon: LonBank) -> LatBank | None:
         """Exit-taking profiles (one per longitudinal profile) when an exit starts within reach."""
@@ -318,16 +349,26 @@ class Sampler:
         if not taken.any():
             return None
         idx = np.flatnonzero(taken)
-        return LatBank(d=d[idx], dd=dd[idx], ddd=ddd[idx], dddd=dddd[idx],
-                       target=np.full(len(idx), np.nan), bound_lon=idx.astype(np.int64),
-                       keep=np.zeros(len(idx), bool))
+        return LatBank(
+            d=d[idx],
+            dd=dd[idx],
+            ddd=ddd[idx],
+            dddd=dddd[idx],
+            target=np.full(len(idx), np.nan),
+            bound_lon=idx.astype(np.int64),
+            keep=np.zeros(len(idx), bool),
+        )
 
 
 def concat_lat(a: LatBank, b: LatBank | None) -> LatBank:
     if b is None:
         return a
-    return LatBank(*(np.concatenate([getattr(a, f), getattr(b, f)]) for f in
-                     ("d", "dd", "ddd", "dddd", "target", "bound_lon", "keep")))
+    return LatBank(
+        *(
+            np.concatenate([getattr(a, f), getattr(b, f)])
+            for f in ("d", "dd", "ddd", "dddd", "target", "bound_lon", "keep")
+        )
+    )
 
 
 def select_pairs(feasible: np.ndarray, essential: np.ndarray, n: int) -> np.ndarray:

@@ -15,6 +15,15 @@ from irlsim.road.geometry import (
 )
 
 __all__ = [
-    "HALF_ROAD", "LANE_WIDTH", "N_LANES", "Checkpoint", "Exit", "Road", "StopLine", "load_road",
-    "sumo_angle_to_yaw", "wrap_angle", "yaw_to_sumo_angle",
+    "HALF_ROAD",
+    "LANE_WIDTH",
+    "N_LANES",
+    "Checkpoint",
+    "Exit",
+    "Road",
+    "StopLine",
+    "load_road",
+    "sumo_angle_to_yaw",
+    "wrap_angle",
+    "yaw_to_sumo_angle",
 ]

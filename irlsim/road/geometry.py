@@ -130,9 +130,13 @@ class Road:
             lane = self.net.getEdge(eid).getLane(k)
             pts.extend(lane.getShape())
             nxt = LOOP_EDGES[(i + 1) % len(LOOP_EDGES)]
-            via = [c for c in lane.getOutgoing() if c.getTo().getID() == nxt and c.getToLane().getIndex() == k]
+            via = [
+                c for c in lane.getOutgoing() if c.getTo().getID() == nxt and c.getToLane().getIndex() == k
+            ]
             if not via:
-                raise IrlsimError(f"network: lane {eid}_{k} does not continue on {nxt}; rebuild with 'irlsim net'")
+                raise IrlsimError(
+                    f"network: lane {eid}_{k} does not continue on {nxt}; rebuild with 'irlsim net'"
+                )
             via_id = via[0].getViaLaneID()
             if via_id:
                 pts.extend(self.net.getLane(via_id).getShape())
@@ -200,7 +204,9 @@ class Road:
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
             out.append(StopLine(node.getID(), s, float(x), float(y)))
         if len(out) != 2:
-            raise IrlsimError(f"network has {len(out)} allway_stop lines, expected 2: rebuild with 'irlsim net'")
+            raise IrlsimError(
+                f"network has {len(out)} allway_stop lines, expected 2: rebuild with 'irlsim net'"
+            )
         return tuple(sorted(out, key=lambda sl: sl.s))
 
     def _exits(self) -> tuple[Exit, ...]:
@@ -217,7 +223,9 @@ class Road:
                 if c.getTo().getID() == eid
             ]
             if not inc:
-                raise IrlsimError(f"network: exit {eid} is not reachable from lane 0; rebuild with 'irlsim net'")
+                raise IrlsimError(
+                    f"network: exit {eid} is not reachable from lane 0; rebuild with 'irlsim net'"
+                )
             via = inc[0].getViaLaneID()
             if via:
                 pts.extend(self.net.getLane(via).getShape())
@@ -409,9 +417,7 @@ class Road:
         if from_edge == to_edge:
             # once round: leave this edge, come back to it
             nxt = [e.getID() for e in self.net.getEdge(from_edge).getOutgoing()]
-            best = min(
-                (self._edge_cost(n, to_edge) for n in nxt if n in LOOP_EDGES), default=math.inf
-            )
+            best = min((self._edge_cost(n, to_edge) for n in nxt if n in LOOP_EDGES), default=math.inf)
             length = self.net.getEdge(from_edge).getLength()
             return float(length - from_pos + best - self.net.getEdge(to_edge).getLength() + to_pos)
         cost = self._edge_cost(from_edge, to_edge)

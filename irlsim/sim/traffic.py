@@ -95,8 +95,9 @@ class BackgroundTraffic:
             edges = [LOOP_EDGES[(i + k) % n] for k in range(n * self.route_laps)]
             self.api.route.add(f"loop@{eid}", edges)
 
-    def _spot_free(self, s: float, lane: int, ego_s: float, occupied: list[tuple[float, int]],
-                   spacing: bool = True) -> bool:
+    def _spot_free(
+        self, s: float, lane: int, ego_s: float, occupied: list[tuple[float, int]], spacing: bool = True
+    ) -> bool:
         """No insertion near the ego, just before a stop line, within ``insert_gap`` of a vehicle in the
         same lane or (``spacing``) within ``insert_spacing`` of a vehicle in any lane."""
         lap = self.road.lap_length
@@ -167,8 +168,9 @@ class BackgroundTraffic:
             for _ in range(left):
                 self._draw(ego_s, lo, hi, occupied, spacing=False)
 
-    def _draw(self, ego_s: float, a: float, b: float, occupied: list[tuple[float, int]],
-              spacing: bool) -> bool:
+    def _draw(
+        self, ego_s: float, a: float, b: float, occupied: list[tuple[float, int]], spacing: bool
+    ) -> bool:
         """Insert one vehicle at a random spot ds in [a, b] ahead of the ego (20 tries)."""
         c = self.cfg
         for _try in range(20):

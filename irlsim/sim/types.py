@@ -65,7 +65,8 @@ class Observation:
     vehicles: VehicleStates
     target_checkpoint: int  # index into road.checkpoints: the route target (next checkpoint)
     target_s: float  # [m] unwrapped route position of the target checkpoint (> ego.s)
-    stop_s: float  # [m] unwrapped position of the next stop line the ego has not yet stopped at; inf if none within reach
+    # [m] unwrapped position of the next stop line the ego has not yet stopped at; inf if none within reach
+    stop_s: float
     lap_length: float  # [m]
     info: dict = field(default_factory=dict)
 
@@ -94,7 +95,14 @@ class Trajectory:
     def state(self, j: int) -> EgoState:
         return EgoState(
             t=self.t0 + j * self.dt,
-            x=float(self.x[j]), y=float(self.y[j]), yaw=float(self.yaw[j]), v=float(self.v[j]),
-            a=float(self.a[j]), s=float(self.s[j]), d=float(self.d[j]), d_dot=float(self.d_dot[j]),
-            d_ddot=float(self.d_ddot[j]), lane=int(self.lane[j]),
+            x=float(self.x[j]),
+            y=float(self.y[j]),
+            yaw=float(self.yaw[j]),
+            v=float(self.v[j]),
+            a=float(self.a[j]),
+            s=float(self.s[j]),
+            d=float(self.d[j]),
+            d_dot=float(self.d_dot[j]),
+            d_ddot=float(self.d_ddot[j]),
+            lane=int(self.lane[j]),
         )

@@ -14,10 +14,38 @@ from irlsim.cli import main
 def tiny_runs(tiny_dataset, tmp_path_factory):
     runs = tmp_path_factory.mktemp("runs")
     data = str(tiny_dataset)
-    assert main(["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", data,
-                 "--out", str(runs)]) == 0
-    assert main(["train", "--stage", "2", "--config", "configs/train/tiny_stage2.toml", "--data", data,
-                 "--out", str(runs)]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--stage",
+                "1",
+                "--config",
+                "configs/train/tiny_stage1.toml",
+                "--data",
+                data,
+                "--out",
+                str(runs),
+            ]
+        )
+        == 0
+    )
+    assert (
+        main(
+            [
+                "train",
+                "--stage",
+                "2",
+                "--config",
+                "configs/train/tiny_stage2.toml",
+                "--data",
+                data,
+                "--out",
+                str(runs),
+            ]
+        )
+        == 0
+    )
     assert main(["evaluate", "--data", data, "--runs", str(runs)]) == 0
     return runs
 
@@ -50,14 +78,41 @@ def test_lirl_learns_from_real_demonstrations(tiny_runs):
 def test_training_resumes_from_checkpoint(tiny_dataset, tiny_runs, capsys):
     """A second run with the same config finds finished checkpoints and does not retrain."""
     before = (tiny_runs / "LIRL" / "checkpoint.pt").read_bytes()
-    assert main(["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data",
-                 str(tiny_dataset), "--out", str(tiny_runs), "--set", "models=['LIRL']"]) == 0
+    assert (
+        main(
+            [
+                "train",
+                "--stage",
+                "1",
+                "--config",
+                "configs/train/tiny_stage1.toml",
+                "--data",
+                str(tiny_dataset),
+                "--out",
+                str(tiny_runs),
+                "--set",
+                "models=['LIRL']",
+            ]
+        )
+        == 0
+    )
     assert (tiny_runs / "LIRL" / "checkpoint.pt").read_bytes() == before
 
 
 def test_unknown_model_and_corrupt_checkpoint(tiny_dataset, tiny_runs, tmp_path, capsys):
-    rc = main(["train", "--stage", "1", "--data", str(tiny_dataset), "--out", str(tmp_path),
-               "--set", "models=['PACNN++']"])
+    rc = main(
+        [
+            "train",
+            "--stage",
+            "1",
+            "--data",
+            str(tiny_dataset),
+            "--out",
+            str(tmp_path),
+            "--set",
+            "models=['PACNN++']",
+        ]
+    )
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "PACNN++" in err[0]
     bad = tmp_path / "runs" / "LIRL"

@@ -63,8 +63,17 @@ def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path):
     checks determinism across runs.
     """
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "irlsim.cli", "collect", "--config", "configs/collect/tiny.toml",
-           "--out", str(out), *TINY_COLLECT]
+    cmd = [
+        sys.executable,
+        "-m",
+        "irlsim.cli",
+        "collect",
+        "--config",
+        "configs/collect/tiny.toml",
+        "--out",
+        str(out),
+        *TINY_COLLECT,
+    ]
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120
@@ -86,8 +95,18 @@ def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path):
 
 
 def test_rerun_with_another_config_is_refused(tiny_dataset, capsys):
-    rc = main(["collect", "--config", "configs/collect/tiny.toml", "--out", str(tiny_dataset), *TINY_COLLECT,
-               "--set", "max_cycles=41"])
+    rc = main(
+        [
+            "collect",
+            "--config",
+            "configs/collect/tiny.toml",
+            "--out",
+            str(tiny_dataset),
+            *TINY_COLLECT,
+            "--set",
+            "max_cycles=41",
+        ]
+    )
     assert rc == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "another config" in err[0]

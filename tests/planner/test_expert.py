@@ -20,8 +20,13 @@ def test_theta_expert_is_named_and_positive():
 def test_expert_drops_colliding_exit_and_stop_line_violations(road):
     drv = ExpertDriver(road)
     ex = road.exits[0]
-    obs = make_obs(road, ex.s_start - 30.0, -LANE_WIDTH, 15.0,
-                   vehicles=make_vehicles(road, [(ex.s_start - 5.0, -LANE_WIDTH, 5.0)]))
+    obs = make_obs(
+        road,
+        ex.s_start - 30.0,
+        -LANE_WIDTH,
+        15.0,
+        vehicles=make_vehicles(road, [(ex.s_start - 5.0, -LANE_WIDTH, 5.0)]),
+    )
     traj = drv.plan(obs)
     ps, i = drv.last_policy_set, drv.last_index
     assert ps is not None and not ps.labels[i].any()

@@ -25,7 +25,9 @@ def _cruise(planner, ps, v0):
 
 def test_features_non_negative_everywhere(road, planner):
     cases = [
-        make_obs(road, STRAIGHT_S, 0.0, 15.0, vehicles=make_vehicles(road, [(270.0, 0.0, 5.0), (240.0, 3.2, 9.0)])),
+        make_obs(
+            road, STRAIGHT_S, 0.0, 15.0, vehicles=make_vehicles(road, [(270.0, 0.0, 5.0), (240.0, 3.2, 9.0)])
+        ),
         make_obs(road, road.stop_lines[0].s - 30.0, LANE_WIDTH, 10.0, stop_s=road.stop_lines[0].s),
         make_obs(road, road.exits[0].s_start - 30.0, -LANE_WIDTH, 18.0),
         make_obs(road, 700.0, 0.0, 19.0),  # in a curve
@@ -41,13 +43,26 @@ def test_constant_speed_on_straight_lane_centre_costs_nothing(road, planner):
     ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, v0))
     i = _cruise(planner, ps, v0)
     f = ps.features[i]
-    for name in ("acc_lon", "jerk_lon", "acc_lat", "jerk_lat", "centerline", "lc_delay", "lat_overshoot",
-                 "end_heading", "road_edge", "proximity", "stop_line", "creep"):
+    for name in (
+        "acc_lon",
+        "jerk_lon",
+        "acc_lat",
+        "jerk_lat",
+        "centerline",
+        "lc_delay",
+        "lat_overshoot",
+        "end_heading",
+        "road_edge",
+        "proximity",
+        "stop_line",
+        "creep",
+    ):
         assert f[F[name]] < 1e-6, f"{name} = {f[F[name]]}"
     # velocity: (70 km/h - 15 m/s)^2 * sum_t gamma^t dt
     w = planner.w.astype(np.float64)
     assert f[F["velocity"]] == np.float32(((70 / 3.6 - v0) ** 2 * w.sum()).astype(np.float32)) or np.isclose(
-        f[F["velocity"]], (70 / 3.6 - v0) ** 2 * w.sum(), rtol=1e-4)
+        f[F["velocity"]], (70 / 3.6 - v0) ** 2 * w.sum(), rtol=1e-4
+    )
 
 
 def test_lc_delay_grows_when_the_same_lane_change_comes_later(road, planner):
@@ -74,7 +89,9 @@ def test_a_policy_through_a_predicted_vehicle_has_high_proximity(road, planner):
     assert prox[i] > 0.5
     assert prox[i] > 5 * np.median(prox[~hit])
     # the other lanes, kept away from the vehicle, see (almost) none of it
-    other = np.all(np.abs(ps.d - LANE_WIDTH) < 1e-6, axis=1)[:] | np.all(np.abs(ps.d + LANE_WIDTH) < 1e-6, axis=1)
+    other = np.all(np.abs(ps.d - LANE_WIDTH) < 1e-6, axis=1)[:] | np.all(
+        np.abs(ps.d + LANE_WIDTH) < 1e-6, axis=1
+    )
     assert prox[other].max() < 0.05 if other.any() else True
 
 

@@ -117,12 +117,26 @@ def test_continuity_from_cycle_to_cycle(road, planner):
     np.testing.assert_allclose([traj.x[0], traj.y[0], traj.v[0]], [ps.x[i, 0], ps.y[i, 0], ps.v[i, 0]])
     state = traj.state(planner.cfg.cycle_steps)
     obs2 = make_obs(road, state.s, state.d, state.v, a=state.a, d_dot=state.d_dot, t=state.t)
-    obs2 = type(obs2)(ego=state, vehicles=obs2.vehicles, target_checkpoint=obs2.target_checkpoint,
-                      target_s=obs2.target_s, stop_s=obs2.stop_s, lap_length=obs2.lap_length)
+    obs2 = type(obs2)(
+        ego=state,
+        vehicles=obs2.vehicles,
+        target_checkpoint=obs2.target_checkpoint,
+        target_s=obs2.target_s,
+        stop_s=obs2.stop_s,
+        lap_length=obs2.lap_length,
+    )
     ps2 = planner.plan(obs2)
     inner = planner.last
-    for arr, want in [(ps2.x, state.x), (ps2.y, state.y), (ps2.v, state.v), (ps2.s, state.s), (ps2.d, state.d),
-                      (inner.a, state.a), (inner.d_dot, state.d_dot), (inner.d_ddot, state.d_ddot)]:
+    for arr, want in [
+        (ps2.x, state.x),
+        (ps2.y, state.y),
+        (ps2.v, state.v),
+        (ps2.s, state.s),
+        (ps2.d, state.d),
+        (inner.a, state.a),
+        (inner.d_dot, state.d_dot),
+        (inner.d_ddot, state.d_ddot),
+    ]:
         np.testing.assert_allclose(arr[:, 0], want, atol=1e-4)
     np.testing.assert_allclose(ps2.yaw[:, 0], state.yaw, atol=1e-4)
     assert ps2.t == pytest.approx(state.t)
