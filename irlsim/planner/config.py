@@ -60,6 +60,9 @@ class PlannerConfig:
     """[m] partial swerves: stage-1 targets this far left / right of the current lane centre"""
     a_lat_max: float = 5.0
     """[m/s^2] largest total lateral acceleration |d_ddot + v^2 kappa|"""
+    yaw_speed_floor: float = 1.0
+    """[m/s] the heading to the lane is atan2(d_dot, max(v, this)): below this speed a lateral drift
+    (at most 0.05 m/s at a standstill, see ``max_slip``) moves the car sideways instead of turning its body"""
     max_slip: float = 0.35
     """[rad] largest heading to the lane direction: |d_dot| <= tan(max_slip) v + 0.05 m/s"""
     exit_reach: float = 120.0
@@ -76,10 +79,19 @@ class PlannerConfig:
     """[m] extra longitudinal margin of the predicted-collision label"""
     collision_margin_lat: float = 0.25
     """[m] extra lateral margin of the predicted-collision label (covers the yaw of a lane change)"""
-    proximity_sigma_s: float = 6.0
-    """[m] longitudinal length scale of the proximity Gaussian (added to the half lengths)"""
+    proximity_sigma_s: float = 3.0
+    """[m] proximity: the safety distance D at standstill (bumper gap; D grows with speed, see below)"""
+    proximity_headway: float = 0.8
+    """[s] proximity: time headway in D when the ego is behind the other vehicle (at the ego's speed)"""
+    proximity_rear_headway: float = 0.5
+    """[s] proximity: time headway in D when the ego is ahead (at the other vehicle's speed)"""
+    proximity_decel: float = 4.0
+    """[m/s^2] proximity: braking assumed in D's closing term max(0, v_behind^2 - v_ahead^2) / (2 b)"""
     proximity_sigma_d: float = 1.6
-    """[m] lateral length scale of the proximity Gaussian"""
+    """[m] lateral length scale of the proximity Gaussian (centre to centre)"""
+    proximity_overlap: float = 10.0
+    """[-] proximity: extra cost per second that the boxes are predicted to overlap (the collision
+    label's test), on top of the Gaussian closeness (at most 1 per second)"""
     safety_gap: float = 2.0
     """[m] expert safety signal ('unsafe'): bumper gap kept to a predicted vehicle ahead, plus headway"""
     safety_headway: float = 0.8
@@ -140,5 +152,14 @@ class PlannerConfig:
             "planner.lat_durations must be positive",
         )
         require(self.a_lat_max > 0 and self.max_slip > 0, "planner lateral limits must be > 0")
+        require(self.yaw_speed_floor > 0, "planner.yaw_speed_floor must be > 0")
         require(self.ego_length > 0 and self.ego_width > 0, "planner ego size must be > 0")
         require(self.proximity_sigma_s > 0 and self.proximity_sigma_d > 0, "proximity sigmas must be > 0")
+        require(
+            self.proximity_headway >= 0
+            and self.proximity_rear_headway >= 0
+            and self.proximity_decel > 0
+            and self.proximity_overlap >= 0,
+            "planner.proximity_headway, proximity_rear_headway, proximity_overlap must be >= 0 and "
+            "proximity_decel > 0",
+        )

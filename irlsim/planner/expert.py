@@ -52,12 +52,12 @@ THETA_EXPERT_DICT: dict[str, float] = {
     "end_heading": 50.0,
     "centerline": 10.0,  # hovering 0.8 m off a lane centre over the horizon costs ~20
     "road_edge": 100.0,
-    "mission_lane": 3.0,
+    "mission_lane": 10.0,
     "progress": 0.05,
     "stop_line": 100.0,
     "lc_delay": 1.0,
     "lat_overshoot": 10.0,
-    "proximity": 10.0,
+    "proximity": 30.0,  # with the overlap term, argmax V alone avoids most collisions (docs/RESULTS.md)
 }
 THETA_EXPERT = np.array([THETA_EXPERT_DICT[n] for n in FEATURE_NAMES], dtype=np.float64)
 

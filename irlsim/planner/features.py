@@ -3,7 +3,7 @@
 Every feature is a discounted path integral f = sum_{t=1..T-1} gamma^t f_t dt over the policy's states
 after t = 0 (t = 0 is the same for all policies), unless marked "event" / "end". Symbols: s the route
 progress [m] (relative to the ego), v speed [m/s], a longitudinal acceleration [m/s^2], j = da/dt,
-d lateral offset [m] (+ left), kappa the reference curvature [1/m], W the ego width, LW = 3.2 m the lane
+d lateral offset [m] (+ left), kappa the reference curvature [1/m], v_f = ``yaw_speed_floor``, LW = 3.2 m the lane
 width. ``w_t = gamma^t dt`` [s].
 
 | # | name          | f_t (per step), or the event / end value                                    | unit        |
@@ -15,7 +15,7 @@ width. ``w_t = gamma^t dt`` [s].
 | 5 | velocity      | (v - v_ref)^2, v_ref = min(v_target, sqrt(2 b max(0, dist to stop point)))   | m^2/s^2 * s |
 |   |               | before an active stop line within ``stop_reach``, else v_target (70 km/h)    |             |
 | 6 | creep         | min(v, creep_speed) while 0 <= (stop line - s) <= creep_zone (active line)  | m/s * s     |
-| 7 | end_heading   | end: atan2(d_dot_T, v_T)^2, the heading to the lane direction at the horizon | rad^2       |
+| 7 | end_heading   | end: atan2(d_dot_T, max(v_T, v_f))^2, heading to the lane at the horizon    | rad^2       |
 | 8 | centerline    | (d - nearest lane centre)^2 (an exit ramp's centre counts as a centre)       | m^2 * s     |
 | 9 | road_edge     | relu(m - gap_left)^2 + relu(m - gap_right)^2, gap = distance of the ego's   | m^2 * s     |
 |   |               | side to the drivable edge (ramps included), m = ``edge_margin``              |             |
@@ -217,7 +217,13 @@ CROSS_COLS: tuple[int, ...] = (IDX["acc_lat"], IDX["jerk_lat"], IDX["mission_lan
 
 
 def cross_features(
-    lat: LatBank, lon: LonBank, series: LonSeries, ctx: Context, w: np.ndarray, pairs: Pairs
+    lat: LatBank,
+    lon: LonBank,
+    series: LonSeries,
+    ctx: Context,
+    w: np.ndarray,
+    pairs: Pairs,
+    v_floor: float = 1.0,
 ) -> np.ndarray:
     """Mixed parts of the candidate pairs [C, 4] float32, columns ``CROSS_COLS`` (acc_lat, jerk_lat,
     mission_lane, end_heading; the other features have no mixed part)."""
@@ -228,7 +234,7 @@ def cross_features(
     X[:, 1] = 2.0 * pairs.dot(wj, series.cdot)
     lanes_away = (np.abs(lat.d - ctx.req_d) / LANE_WIDTH * w).astype(F32)
     X[:, 2] = pairs.dot(lanes_away, series.urg)
-    head = pairs.outer(np.arctan2, lat.dd[:, -1], np.maximum(lon.v[:, -1], 1e-3))
+    head = pairs.outer(np.arctan2, lat.dd[:, -1], np.maximum(lon.v[:, -1], v_floor))
     X[:, 3] = head * head
     return X
 
@@ -273,9 +279,9 @@ def vehicle_terms(
         near = np.zeros(0, bool)
     t = (np.arange(T) * cfg.dt).astype(F32)
     if near.any():
-        sv_near = _predicted_rear(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T]
-        kept = _cull(near, sv_near, lon, vehicles, cfg)
-        sv = sv_near[kept[near]]
+        sv_near, vv_near = _predicted_motion(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T] each
+        kept = _cull(near, sv_near, vv_near, lon, vehicles, cfg)
+        sv, vm = sv_near[kept[near]], vv_near[kept[near]]
         near = kept
     if not near.any():
         C = _n_pairs(pairs)
@@ -290,8 +296,9 @@ def vehicle_terms(
     M = int(near.sum())
     half_l = (cfg.ego_length + vlen) / 2
     half_w = (cfg.ego_width + vwid) / 2
-    # proximity: sum_m sum_t w_t exp(-(dS/sig_s)^2) exp(-(dD/sig_d)^2) as one matrix product
-    p_lon = np.exp(-np.square(dS / (cfg.proximity_sigma_s + half_l))) * w
+    # proximity: sum_m sum_t w_t p_lon p_lat as one matrix product (p_lon depends on the lon profile and
+    # the vehicle only, p_lat on the lat profile and the vehicle only)
+    p_lon = proximity_lon(dS, half_l, lon.v.astype(F32)[None, :, :], vm[:, None, :], cfg) * w
     p_lat = np.exp(-np.square(dD / F32(cfg.proximity_sigma_d)))
     a_lat = p_lat.transpose(1, 0, 2).reshape(J, M * T)
     a_lon = p_lon.transpose(1, 0, 2).reshape(L, M * T)
@@ -306,10 +313,13 @@ def vehicle_terms(
     )
     lead_or_side = (~follower).astype(F32)[:, None, None]
     c_lat = (np.abs(dD) < half_w + cfg.collision_margin_lat) * lead_or_side
-    coll = (
-        pairs.dot(c_lat.transpose(1, 0, 2).reshape(J, M * T), c_lon.transpose(1, 0, 2).reshape(L, M * T))
-        > 0.5
+    # time the boxes overlap, sum_t w_t [overlap_t]: a predicted collision is one with overlap > 0 (w_t > 0
+    # for t >= 1), and proximity adds it times proximity_overlap, so a linear reward can price collisions
+    overlap = pairs.dot(
+        c_lat.transpose(1, 0, 2).reshape(J, M * T), (c_lon * w).transpose(1, 0, 2).reshape(L, M * T)
     )
+    coll = overlap > 0.0
+    prox = prox + F32(cfg.proximity_overlap) * overlap
     # safety zone: headway ahead of the ego (at its speed), a shorter one behind it (at the other's)
     v_ego = lon.v.astype(F32)[None, :, :]
     front = half_l + cfg.safety_gap + cfg.safety_headway * v_ego
@@ -323,45 +333,104 @@ def vehicle_terms(
     return VehicleTerms(prox.astype(F32), coll, risk.astype(F32))
 
 
-def _predicted_rear(
+def safety_scale(
+    behind: np.ndarray, v_ego: np.ndarray, v_other: np.ndarray, cfg: PlannerConfig
+) -> np.ndarray:
+    """[m] D, the longitudinal length scale of the proximity: the bumper gap a careful driver keeps.
+
+    Ego behind the other vehicle: D = sigma_0 + h v_ego + max(0, v_ego^2 - v_other^2) / (2 b) (headway
+    plus the distance needed to brake down to the other's speed). Ego ahead: the same with the roles
+    swapped and the rear headway h_r. sigma_0 = ``proximity_sigma_s``, h = ``proximity_headway``,
+    h_r = ``proximity_rear_headway``, b = ``proximity_decel``. Broadcasts its arguments."""
+    b2 = F32(2.0 * cfg.proximity_decel)
+    ve2, vo2 = v_ego * v_ego, v_other * v_other
+    need_behind = F32(cfg.proximity_headway) * v_ego + np.maximum(ve2 - vo2, 0.0) / b2
+    need_ahead = F32(cfg.proximity_rear_headway) * v_other + np.maximum(vo2 - ve2, 0.0) / b2
+    return F32(cfg.proximity_sigma_s) + np.where(behind, need_behind, need_ahead)
+
+
+def proximity_lon(
+    dS: np.ndarray, half_l: np.ndarray, v_ego: np.ndarray, v_other: np.ndarray, cfg: PlannerConfig
+) -> np.ndarray:
+    """Longitudinal factor of the proximity, exp(-(max(gap, 0) / D)^2) in [0, 1]: 1 while the boxes
+    overlap along the route (gap = |dS| - half lengths <= 0), exp(-1) at the safety distance D
+    (:func:`safety_scale`), vanishing beyond. dS: ego centre minus the other's centre [m].
+
+    The same as ``exp(-(gap / safety_scale(dS < 0, v_ego, v_other, cfg))^2)``, in fewer passes over the
+    [M, L, T] arrays (in place, float32): the closing term is max(0, sgn (v_ego^2 - v_other^2)) / (2 b)
+    with sgn = +1 behind and -1 ahead."""
+    behind = dS < 0
+    closing = np.square(v_ego) - np.square(v_other)  # [M, L, T]
+    np.negative(closing, out=closing, where=~behind)
+    np.maximum(closing, 0.0, out=closing)
+    closing *= F32(0.5 / cfg.proximity_decel)
+    closing += np.where(behind, F32(cfg.proximity_headway) * v_ego, F32(cfg.proximity_rear_headway) * v_other)
+    closing += F32(cfg.proximity_sigma_s)  # D
+    gap = np.abs(dS)
+    gap -= half_l
+    np.maximum(gap, 0.0, out=gap)
+    gap /= closing
+    np.square(gap, out=gap)
+    np.negative(gap, out=gap)
+    return np.exp(gap, out=gap)
+
+
+def _predicted_motion(
     near: np.ndarray,
     ds0: np.ndarray,
     vehicles: VehicleStates,
     lap: float,
     t: np.ndarray,
     stop_lines_s: tuple[float, ...],
-) -> np.ndarray:
-    """[M, T] float32: predicted route-frame rear position of each near vehicle, relative to the ego."""
-    travel = vehicles.v[near].astype(F32)[:, None] * t[None, :]
+) -> tuple[np.ndarray, np.ndarray]:
+    """([M, T], [M, T]) float32: predicted route-frame centre (relative to the ego) and speed of each
+    near vehicle: constant speed, or braking at constant deceleration to stand at the next stop line
+    within 80 m (they all stop there; SUMO brakes about like that)."""
+    v_m = vehicles.v[near].astype(F32)[:, None]
+    travel = v_m * t[None, :]
+    speed = np.broadcast_to(v_m, travel.shape)
     if stop_lines_s:
-        # a vehicle heading for a stop line is predicted to stand at it (they all stop there)
-        # constant deceleration b = v^2 / (2 dist) to stand at the line (SUMO brakes about like that)
         ahead = np.stack([(sl - vehicles.s[near]) % lap for sl in stop_lines_s]).min(axis=0)
         dist = np.maximum(ahead - 0.3, 0.1).astype(F32)[:, None]
-        v_m = vehicles.v[near].astype(F32)[:, None]
         b = v_m * v_m / (2 * dist) + F32(1e-3)
         tt = np.minimum(t[None, :], v_m / b)
         braking = np.minimum(v_m * tt - 0.5 * b * tt * tt, dist)
-        travel = np.where(dist < 80.0, braking, travel)
-    return ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
+        stops = dist < 80.0
+        travel = np.where(stops, braking, travel)
+        speed = np.where(stops, np.maximum(v_m - b * tt, 0.0), speed)
+    centre = ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
+    return centre.astype(F32), np.ascontiguousarray(speed, dtype=F32)
 
 
 def _cull(
-    near: np.ndarray, sv_near: np.ndarray, lon: LonBank, vehicles: VehicleStates, cfg: PlannerConfig
+    near: np.ndarray,
+    sv_near: np.ndarray,
+    vv_near: np.ndarray,
+    lon: LonBank,
+    vehicles: VehicleStates,
+    cfg: PlannerConfig,
 ) -> np.ndarray:
     """``near`` without the vehicles that no lon profile comes close to at any step (their proximity
-    terms are below 2e-16, their collision and safety tests false). ``sv_near``: [M, T] predicted rears."""
+    terms are below 2e-16, their collision and safety tests false). ``sv_near``, ``vv_near``: [M, T]
+    predicted centres and speeds."""
     sv = sv_near.astype(np.float64)
-    ego_front = lon.s - cfg.ego_length / 2  # [L, T]
-    lo, hi = ego_front.min(axis=0), ego_front.max(axis=0)  # [T]
+    ego_c = lon.s - cfg.ego_length / 2  # [L, T]
+    lo, hi = ego_c.min(axis=0), ego_c.max(axis=0)  # [T]
     gap = np.maximum(np.maximum(lo[None, :] - sv, sv - hi[None, :]), 0.0).min(axis=1)  # [M] smallest |dS|
     half_l = (cfg.ego_length + vehicles.length[near]) / 2
+    # the largest proximity scale any profile can have against each vehicle
+    v_e = max(cfg.v_max, float(lon.v.max()))
+    v_lo, v_hi = vv_near.min(axis=1).astype(np.float64), vv_near.max(axis=1).astype(np.float64)
+    d_max = np.maximum(
+        safety_scale(np.ones(1, bool), np.full(1, v_e), v_lo, cfg),  # the fastest ego behind
+        safety_scale(np.zeros(1, bool), np.zeros(1), v_hi, cfg),  # a standing ego ahead
+    )
     reach = (
         np.maximum(
-            _CULL_SCALES * (cfg.proximity_sigma_s + half_l),  # proximity
+            half_l + _CULL_SCALES * d_max,  # proximity
             half_l
             + cfg.safety_gap
-            + cfg.safety_headway * max(cfg.v_max, float(lon.v.max()))
+            + cfg.safety_headway * v_e
             + 1.0
             + cfg.safety_rear_headway * vehicles.v[near]
             + cfg.collision_margin_lon,

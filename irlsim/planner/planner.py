@@ -53,9 +53,17 @@ class _World:
     SUMO network: the road is dropped once everything is computed (and before pickling)."""
 
     def __init__(
-        self, road: Road, s_abs: np.ndarray, lon_idx: np.ndarray, d: np.ndarray, v: np.ndarray, dd: np.ndarray
+        self,
+        road: Road,
+        s_abs: np.ndarray,
+        lon_idx: np.ndarray,
+        d: np.ndarray,
+        v: np.ndarray,
+        dd: np.ndarray,
+        v_floor: float,
     ):
         self.road, self.s_abs, self.cl, self.d, self.v, self.dd = road, s_abs, lon_idx, d, v, dd
+        self.v_floor = v_floor
         self.shape = d.shape
 
     def xy(self) -> tuple[np.ndarray, np.ndarray]:
@@ -70,18 +78,20 @@ class _World:
     def yaw(self) -> np.ndarray:
         """yaw [N, T] float64: reference heading plus the heading to the lane, atan(d_dot / v)."""
         head = self.road.heading(self.s_abs)
-        return policy_yaw(head[self.cl], self.dd, self.v)
+        return policy_yaw(head[self.cl], self.dd, self.v, self.v_floor)
 
     def __getstate__(self) -> dict:
         raise TypeError("a lazy PolicySet source is not picklable; PolicySet materialises it first")
 
 
-def policy_yaw(head: np.ndarray, dd: np.ndarray, v: np.ndarray) -> np.ndarray:
+def policy_yaw(head: np.ndarray, dd: np.ndarray, v: np.ndarray, v_floor: float) -> np.ndarray:
     """World yaw [rad, float64] from the reference heading ``head`` (wrapped, float64), d_dot ``dd``
-    (float32) and v (float64), elementwise: head + atan2(d_dot, max(v, 1e-3)), wrapped to [-pi, pi).
+    (float32) and v (float64), elementwise: head + atan2(d_dot, max(v, v_floor)), wrapped to [-pi, pi).
+    ``v_floor`` is ``PlannerConfig.yaw_speed_floor``: a car that barely moves does not turn its body by a
+    slow lateral drift.
 
     atan2(y, x) with x > 0 is computed as atan(y / x) in float32 (2.5x faster, within 2 ulp)."""
-    vv = np.maximum(v, 1e-3).astype(F32)
+    vv = np.maximum(v, v_floor).astype(F32)
     yaw = head + np.arctan(dd / vv)
     # head is wrapped and |psi| < pi/2: one conditional shift wraps the sum (cheaper than a modulo)
     yaw[yaw >= np.pi] -= 2 * np.pi
@@ -136,7 +146,7 @@ class Planner:
         pairs = Pairs.of(lat, L)
         f_lon, series = lon_features(lon, kappa, ctx, cfg, self.w)
         f_lat = lat_features(lat, lon, series, road, ctx, cfg, self.w)
-        f_x = cross_features(lat, lon, series, ctx, self.w, pairs)
+        f_x = cross_features(lat, lon, series, ctx, self.w, pairs, cfg.yaw_speed_floor)
         veh = vehicle_terms(lat, lon, obs.vehicles, ctx, cfg, self.w, self._stop_lines, pairs)
 
         cj, cl = pairs.lat_idx(), pairs.lon_idx()
@@ -170,7 +180,7 @@ class Planner:
         cols = self.cp_cols
         s_cols = s_abs[:, cols]
         yaw_cols = policy_yaw(
-            road.heading(s_cols)[cl], dd_f[:, cols][cj], np.maximum(lon.v[:, cols], 1e-3)[cl]
+            road.heading(s_cols)[cl], dd_f[:, cols][cj], lon.v[:, cols][cl], cfg.yaw_speed_floor
         )
         rel_yaw = yaw_cols - ego.yaw  # both in [-pi, pi): one conditional shift wraps it
         rel_yaw[rel_yaw >= np.pi] -= 2 * np.pi
@@ -183,7 +193,7 @@ class Planner:
         actions[:, :, 0] = lon.a[:, cols][cl]
         actions[:, :, 1] = lat.dd[:, cols][cj]
 
-        world = LazyWorld(_World(road, s_abs, cl, d, v, dd))
+        world = LazyWorld(_World(road, s_abs, cl, d, v, dd, cfg.yaw_speed_floor))
         ps = PolicySet(
             t=ego.t,
             x=world,  # type: ignore[arg-type]  # LazyWorld: computed on first read
@@ -284,7 +294,9 @@ class Planner:
         nx, ny = self.road.to_xy(s, np.ones_like(s))
         x = bx + (nx - bx) * d
         y = by + (ny - by) * d
-        yaw = wrap_angle(self.road.heading(s) + np.arctan2(p.lat.dd[j], np.maximum(v, 1e-3)))
+        yaw = wrap_angle(
+            self.road.heading(s) + np.arctan2(p.lat.dd[j], np.maximum(v, self.cfg.yaw_speed_floor))
+        )
         return Trajectory(
             t0=ego.t,
             dt=self.cfg.dt,

@@ -78,21 +78,74 @@ def test_lc_delay_grows_when_the_same_lane_change_comes_later(road, planner):
     assert ps.features[late, F["lc_delay"]].min() > ps.features[early, F["lc_delay"]].max()
 
 
-def test_a_policy_through_a_predicted_vehicle_has_high_proximity(road, planner):
-    veh = make_vehicles(road, [(STRAIGHT_S + 30.0, 0.0, 5.0)])  # slower, ahead in the ego's lane
+def _expected_proximity(planner, ps, i, s_front, d_veh, v_veh, length=4.5):
+    """The documented proximity of policy ``i`` against one vehicle at constant speed, computed here
+    from the policy's own arrays: sum_t w_t (exp(-(gap / D)^2) exp(-(dd / sigma_d)^2) + K [overlap])."""
+    cfg = planner.cfg
+    w = planner.w.astype(np.float64)
+    t = np.arange(cfg.n_steps) * cfg.dt
+    dS = (ps.s[i] - cfg.ego_length / 2) - (s_front + v_veh * t - length / 2)
+    half_l = (cfg.ego_length + length) / 2
+    gap = np.maximum(np.abs(dS) - half_l, 0.0)
+    v = ps.v[i].astype(np.float64)
+    behind = cfg.proximity_headway * v + np.maximum(v**2 - v_veh**2, 0.0) / (2 * cfg.proximity_decel)
+    ahead = cfg.proximity_rear_headway * v_veh + np.maximum(v_veh**2 - v**2, 0.0) / (2 * cfg.proximity_decel)
+    D = cfg.proximity_sigma_s + np.where(dS < 0, behind, ahead)
+    dd = ps.d[i] - d_veh
+    near = np.exp(-((gap / D) ** 2)) * np.exp(-((dd / cfg.proximity_sigma_d) ** 2))
+    overlap = (np.abs(dS) < half_l + cfg.collision_margin_lon) & (
+        np.abs(dd) < (cfg.ego_width + 1.8) / 2 + cfg.collision_margin_lat
+    )
+    return float(near @ w), float(overlap @ w)
+
+
+def test_proximity_of_following_at_equal_speed_is_the_closed_form(road, planner):
+    """15 m/s behind a 15 m/s vehicle, bumper gap 25.5 m, same lane: the gap stays, D = sigma_0 + h v,
+    so proximity = exp(-(25.5 / D)^2) sum_t w_t, and no overlap."""
+    cfg = planner.cfg
+    veh = make_vehicles(road, [(STRAIGHT_S + 30.0, 0.0, 15.0)])
+    ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, 15.0, vehicles=veh))
+    i = _cruise(planner, ps, 15.0)
+    D = cfg.proximity_sigma_s + cfg.proximity_headway * 15.0
+    closed = np.exp(-((25.5 / D) ** 2)) * planner.w.astype(np.float64).sum()
+    assert np.isclose(ps.features[i, F["proximity"]], closed, rtol=1e-4)
+    assert not ps.labels[i, 0]
+    near, overlap = _expected_proximity(planner, ps, i, STRAIGHT_S + 30.0, 0.0, 15.0)
+    assert overlap == 0 and np.isclose(near, closed, rtol=1e-9)
+
+
+def test_a_policy_through_a_predicted_vehicle_pays_for_the_overlap(road, planner):
+    """Cruising at 15 m/s into a vehicle standing 40 m ahead: the boxes overlap for t in (2.33, 3.0) s;
+    proximity = the Gaussian part + proximity_overlap x the discounted overlap time, as documented."""
+    cfg = planner.cfg
+    veh = make_vehicles(road, [(STRAIGHT_S + 40.0, 0.0, 0.0)])
     ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, 15.0, vehicles=veh))
     prox = ps.features[:, F["proximity"]]
-    hit = ps.labels[:, 0]
-    assert hit.any() and (~hit).any()
     i = _cruise(planner, ps, 15.0)
-    assert hit[i], "driving on at 15 m/s into a 5 m/s vehicle 30 m ahead must be a predicted collision"
-    assert prox[i] > 0.5
-    assert prox[i] > 5 * np.median(prox[~hit])
-    # the other lanes, kept away from the vehicle, see (almost) none of it
-    other = np.all(np.abs(ps.d - LANE_WIDTH) < 1e-6, axis=1)[:] | np.all(
-        np.abs(ps.d + LANE_WIDTH) < 1e-6, axis=1
-    )
-    assert prox[other].max() < 0.05 if other.any() else True
+    near, overlap = _expected_proximity(planner, ps, i, STRAIGHT_S + 40.0, 0.0, 0.0)
+    t = np.arange(cfg.n_steps) * cfg.dt
+    assert np.isclose(overlap, planner.w[(t > 35 / 15) & (t < 45 / 15)].sum(), rtol=1e-6)
+    assert np.isclose(prox[i], near + cfg.proximity_overlap * overlap, rtol=1e-4)
+    assert ps.labels[i, 0], "driving through a standing vehicle is a predicted collision"
+    # every predicted collision pays more than every policy that brakes in time behind it in its lane
+    hit = ps.labels[:, 0]
+    stays = np.all(np.abs(ps.d) < 0.5, axis=1)
+    assert (stays & ~hit).any() and prox[hit & stays].min() > prox[stays & ~hit].max()
+    # the same vehicle two lanes away costs almost nothing (lateral factor exp(-(6.4 / 1.6)^2) ~ 1e-7)
+    veh = make_vehicles(road, [(STRAIGHT_S + 40.0, LANE_WIDTH, 0.0)])
+    ps = planner.plan(make_obs(road, STRAIGHT_S, -LANE_WIDTH, 15.0, vehicles=veh))
+    assert ps.features[_cruise(planner, ps, 15.0), F["proximity"]] < 1e-5
+
+
+def test_proximity_scale_grows_with_closing_speed(road, planner):
+    """The same 30 m gap costs more when closing in fast (D includes the braking distance)."""
+    out = []
+    for v_ego in (10.0, 19.0):
+        veh = make_vehicles(road, [(STRAIGHT_S + 30.0, 0.0, 10.0)])
+        ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, v_ego, vehicles=veh))
+        # the same initial gap for both; D differs (and the faster ego closes in)
+        out.append(ps.features[_cruise(planner, ps, v_ego), F["proximity"]])
+    assert out[1] > 2 * out[0]
 
 
 def test_stop_line_costs_crossing_at_speed_not_stopping(road, planner):
