@@ -1,0 +1,63 @@
+"""Route-frame geometry: projection against a brute-force search."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from irlsim.road.geometry import RASTER_REACH
+
+
+def _brute_force_frenet(road, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest of ALL reference segments (clipped foot), then the library's exact refinement."""
+    a = road.ref_xy  # [M, 2]
+    u = np.roll(a, -1, axis=0) - a
+    ln = np.linalg.norm(u, axis=1)
+    u = u / ln[:, None]
+    seg = np.empty(len(qx), dtype=np.int64)
+    t = np.empty(len(qx))
+    for i in range(0, len(qx), 200):
+        q = np.stack([qx[i : i + 200], qy[i : i + 200]], axis=1)[:, None, :]  # [C, 1, 2]
+        tc = np.clip(((q - a) * u).sum(-1), 0.0, ln)  # [C, M]
+        dist = np.linalg.norm(q - (a + u * tc[..., None]), axis=-1)
+        j = np.argmin(dist, axis=1)
+        seg[i : i + 200], t[i : i + 200] = j, tc[np.arange(len(j)), j]
+    return road._project_smooth(qx, qy, seg, t)
+
+
+def _query_points(road, rng) -> tuple[np.ndarray, np.ndarray]:
+    lap = road.lap_length
+    parts = []
+    # on and beside the loop, all lanes and the shoulders, straights and curves alike
+    s = rng.uniform(0.0, lap, 2000)
+    parts.append(road.to_xy(s, rng.uniform(-12.0, 12.0, s.shape)))
+    # the half circles (x beyond the straights' ends), out to the raster's reach and beyond
+    xy = np.stack(road.to_xy(s, rng.uniform(-70.0, 70.0, s.shape)), axis=1)
+    xy = xy[(xy[:, 0] < 0.0) | (xy[:, 0] > 700.0)][:600]
+    parts.append((xy[:, 0], xy[:, 1]))
+    # the ramps (their lanes as SUMO draws them, within 3 m)
+    for eid in ("exit1", "exit2", "entry1", "entry2"):
+        shape = np.asarray(road.net.getEdge(eid).getLane(0).getShape())
+        k = rng.integers(0, len(shape) - 1, 150)
+        f = rng.uniform(0.0, 1.0, 150)[:, None]
+        p = shape[k] * (1 - f) + shape[k + 1] * f + rng.uniform(-3.0, 3.0, (150, 2))
+        parts.append((p[:, 0], p[:, 1]))
+    # anywhere around the course, inside the oval included (the full search far from the road)
+    parts.append((rng.uniform(-300.0, 1000.0, 400), rng.uniform(-150.0, 450.0, 400)))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def test_to_frenet_equals_brute_force(road):
+    """The raster-windowed search finds the same nearest segment as a search over all of them, so
+    (s, d) agree within 1e-9 m everywhere: on the lanes, on the ramps, in the curves, far away."""
+    qx, qy = _query_points(road, np.random.default_rng(0))
+    s, d = road.to_frenet(qx, qy)
+    s_ref, d_ref = _brute_force_frenet(road, qx, qy)
+    ds = (s - s_ref + road.lap_length / 2) % road.lap_length - road.lap_length / 2
+    assert np.abs(ds).max() < 1e-9 and np.abs(d - d_ref).max() < 1e-9
+    assert (np.abs(d) > RASTER_REACH).sum() > 50, "the sample must also cover points beyond the raster"
+    # the same answers one point at a time and in any shape
+    s2, d2 = road.to_frenet(qx[:200].reshape(10, 20), qy[:200].reshape(10, 20))
+    np.testing.assert_array_equal(s2.ravel(), s[:200])
+    np.testing.assert_array_equal(d2.ravel(), d[:200])
+    s1, d1 = road.to_frenet(qx[7], qy[7])
+    assert s1.shape == () and (float(s1), float(d1)) == (s[7], d[7])
