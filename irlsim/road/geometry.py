@@ -94,6 +94,29 @@ class Exit:
         return np.where((s >= self.ramp_s[0]) & (s <= self.ramp_s[-1]), out, np.nan)
 
 
+@dataclass(frozen=True)
+class LaneCentreline:
+    """Closed centreline of loop lane ``lane`` in the route frame: the reference's vertices moved to the
+    lane centre (d = ``Road.lane_center(lane)``, through ``Road.to_xy``), with arc length along the lane
+    itself. Arrays are [M] (one point per reference vertex; the last point joins the first)."""
+
+    lane: int
+    x: np.ndarray  # [M] [m]
+    y: np.ndarray  # [M] [m]
+    s: np.ndarray  # [M] [m] arc length along this lane from its first point (s[0] = 0)
+    ref_s: np.ndarray  # [M] [m] route-frame s of each point (= Road.ref_s)
+    length: float  # [m] one lap of this lane
+    lap_length: float  # [m] one lap of the route frame
+
+    def arc_length(self, s: np.ndarray | float) -> np.ndarray:
+        """Arc length [m] along this lane, in [0, length), at route-frame position(s) ``s`` (wrapped);
+        linear between the points."""
+        sw = np.asarray(s, dtype=np.float64) % self.lap_length
+        xp = np.concatenate([self.ref_s, [self.lap_length]])
+        fp = np.concatenate([self.s, [self.length]])
+        return np.interp(sw, xp, fp) % self.length
+
+
 class Road:
     """Geometry and topology of the oval, from a ``.net.xml``. Build with :func:`load_road`."""
 
@@ -129,6 +152,7 @@ class Road:
         self._edge_cost = functools.lru_cache(maxsize=None)(self._edge_cost_uncached)
         # SUMO edge of each route-frame position of the middle lane, for Dijkstra queries
         self._edge_bounds = self._loop_edge_bounds()
+        self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
     def _loop_lane_shape(self, k: int) -> np.ndarray:
@@ -540,6 +564,24 @@ class Road:
         d = np.asarray(d, dtype=np.float64)
         lane = np.clip(np.floor(d / LANE_WIDTH + 1.5), 0, N_LANES - 1).astype(np.int8)
         return np.where(np.abs(d) <= HALF_ROAD, lane, -1).astype(np.int8)
+
+    def lane_centreline(self, lane: int) -> LaneCentreline:
+        """The closed centreline of loop lane ``lane`` (0 outer .. 2 inner) with its own arc length.
+
+        Built from the route frame, so its points have (s, d) = (ref_s, lane_center(lane)) exactly; on
+        the half circles the outer lane is longer than the middle one, and the middle one longer than the
+        inner one, by pi x LANE_WIDTH each. (``lane_lengths`` are SUMO's own lane shapes instead.)
+        """
+        if lane not in range(N_LANES):
+            raise ValueError(f"lane must be 0..{N_LANES - 1}, got {lane}")
+        if lane not in self._centrelines:
+            x, y = self.to_xy(self.ref_s, np.full(len(self.ref_s), float(self.lane_center(lane))))
+            seg = np.hypot(np.roll(x, -1) - x, np.roll(y, -1) - y)  # [M] closed
+            s = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+            self._centrelines[lane] = LaneCentreline(
+                lane, x, y, s, self.ref_s.copy(), float(seg.sum()), self.lap_length
+            )
+        return self._centrelines[lane]
 
     def lane_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Loop lane index of world point(s); -1 off the loop (on a ramp, off the road)."""

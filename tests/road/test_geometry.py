@@ -1,9 +1,13 @@
-"""Route-frame geometry: projection against a brute-force search."""
+"""Route-frame geometry: projection against a brute-force search, lane centrelines."""
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+import pytest
+
+from irlsim.road import LANE_WIDTH, LaneCentreline
 from irlsim.road.geometry import RASTER_REACH
 
 
@@ -61,3 +65,45 @@ def test_to_frenet_equals_brute_force(road):
     np.testing.assert_array_equal(d2.ravel(), d[:200])
     s1, d1 = road.to_frenet(qx[7], qy[7])
     assert s1.shape == () and (float(s1), float(d1)) == (s[7], d[7])
+
+
+def _half_circle_bounds(road) -> list[tuple[float, float]]:
+    """Route-frame (start, end) of each half circle with 50 m of straight on both sides."""
+    s, _ = road.to_frenet(np.array([650.0, 650.0, 50.0, 50.0]), np.array([0.0, 300.0, 300.0, 0.0]))
+    return [(s[0], s[1]), (s[2], s[3])]
+
+
+def _lane_arc(c: LaneCentreline, a: float, b: float) -> float:
+    return float((c.arc_length(b) - c.arc_length(a)) % c.length)
+
+
+def test_lane_centrelines_differ_by_pi_lane_width_per_half_circle(road):
+    """Offset curves: a lane 3.2 m further out is longer by 3.2 m x the angle turned, pi per half circle,
+    and exactly as long on the straights. Tolerance 1e-4 m: moving a polyline's vertices along their
+    bisector normals by d shortens the offset turn at each vertex by d (phi - 2 sin(phi / 2)) ~ d phi^3 / 24,
+    ~5e-6 m over a half circle of 0.5 m segments (phi = 0.5 / 150)."""
+    lanes = [road.lane_centreline(k) for k in range(3)]
+    for a, b in _half_circle_bounds(road):
+        arc = [_lane_arc(c, a, b) for c in lanes]
+        assert arc[0] - arc[1] == pytest.approx(math.pi * LANE_WIDTH, abs=1e-4)
+        assert arc[1] - arc[2] == pytest.approx(math.pi * LANE_WIDTH, abs=1e-4)
+    (_, b0), (a1, b1) = _half_circle_bounds(road)
+    for a, b in ((b0, a1), (b1, _half_circle_bounds(road)[0][0])):  # the two straights between
+        arc = [_lane_arc(c, a, b) for c in lanes]
+        assert arc[0] == pytest.approx(arc[1], abs=1e-4) and arc[2] == pytest.approx(arc[1], abs=1e-4)
+    assert lanes[0].length - lanes[1].length == pytest.approx(2 * math.pi * LANE_WIDTH, abs=2e-4)
+    assert lanes[1].length == pytest.approx(road.lap_length, abs=1e-9)  # lane 1 runs on the reference
+
+
+def test_lane_centreline_points_lie_on_their_lane(road):
+    for k in range(3):
+        c = road.lane_centreline(k)
+        assert c.lane == k and c.x.shape == c.y.shape == c.s.shape == road.ref_s.shape
+        assert c.s[0] == 0.0 and np.all(np.diff(c.s) > 0) and c.length > c.s[-1]
+        s, d = road.to_frenet(c.x, c.y)
+        ds = (s - c.ref_s + road.lap_length / 2) % road.lap_length - road.lap_length / 2
+        assert np.abs(ds).max() < 1e-6 and np.abs(d - (k - 1) * LANE_WIDTH).max() < 1e-6
+        assert c.arc_length(c.ref_s[5]) == pytest.approx(c.s[5], abs=1e-9)
+        assert c.arc_length(c.ref_s[5] + 3 * road.lap_length) == pytest.approx(c.s[5], abs=1e-6)
+    with pytest.raises(ValueError, match="lane"):
+        road.lane_centreline(3)
