@@ -1,4 +1,4 @@
-"""Route-frame geometry: projection against a brute-force search, lane centrelines."""
+"""Route-frame geometry: projection against a brute-force search, lane centrelines, route distances."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from irlsim.road import LANE_WIDTH, LaneCentreline
-from irlsim.road.geometry import RASTER_REACH
+from irlsim.road.geometry import LOOP_EDGES, RASTER_REACH
 
 
 def _brute_force_frenet(road, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -107,3 +107,57 @@ def test_lane_centreline_points_lie_on_their_lane(road):
         assert c.arc_length(c.ref_s[5] + 3 * road.lap_length) == pytest.approx(c.s[5], abs=1e-6)
     with pytest.raises(ValueError, match="lane"):
         road.lane_centreline(3)
+
+
+def _mid_lane_pos(road, edge_id: str, x: float, y: float) -> float:
+    """SUMO edge position [m] of a point: its offset along the edge's middle lane (edge-length units)."""
+    from sumolib.geomhelper import polygonOffsetWithMinimumDistanceToPoint, polyLength
+
+    edge = road.net.getEdge(edge_id)
+    mid = edge.getLane(1).getShape()
+    return polygonOffsetWithMinimumDistanceToPoint((x, y), mid) * edge.getLength() / polyLength(mid)
+
+
+def test_closed_form_route_distance_matches_dijkstra(road):
+    """``remaining_distance`` ((s_target - s) mod lap) against sumolib's Dijkstra (``route_distance``) for
+    points on all three lanes of every loop edge, once-round-the-loop pairs included.
+
+    Points are drawn at SUMO lane positions (scaled along each lane's own shape, as SUMO does) and
+    measured on the SUMO side along the middle lane, which is what edge lengths count. Tolerance: the
+    route frame's reference is SUMO's middle lane smoothed over +-8 m, which cuts the junctions' shape
+    kinks and makes a lap ``lap_sumo - lap_length`` (~1.1 m) shorter; plus 0.4 m for projecting a point
+    onto the smoothed line instead of the raw one near a kink.
+    """
+    from sumolib.geomhelper import polyLength, positionAtShapeOffset
+
+    net = road.net
+    lap_sumo = sum(net.getEdge(e).getLength() for e in LOOP_EDGES) + sum(
+        net.getInternalPath(conns)[1]
+        for e in LOOP_EDGES
+        for nxt, conns in net.getEdge(e).getOutgoing().items()
+        if nxt.getID() in LOOP_EDGES
+    )
+    tol = abs(lap_sumo - road.lap_length) + 0.4
+    assert tol < 2.0
+    rng = np.random.default_rng(1)
+    pts = []
+    for eid in LOOP_EDGES:
+        edge = net.getEdge(eid)
+        for k in range(3):
+            lane = edge.getLane(k)
+            shape = lane.getShape()
+            for pos in rng.uniform(0.0, edge.getLength(), 4):
+                x, y = positionAtShapeOffset(shape, pos * polyLength(shape) / lane.getLength())
+                pts.append((eid, _mid_lane_pos(road, eid, x, y), x, y))
+    xy = np.array([(p[2], p[3]) for p in pts])
+    s, d = road.to_frenet(xy[:, 0], xy[:, 1])
+    assert set(road.lane_of_d(d).tolist()) == {0, 1, 2}
+    once_round = 0
+    for i in range(len(pts)):
+        for j in rng.choice(len(pts), 12, replace=False):
+            (ea, pa, _, _), (eb, pb, _, _) = pts[i], pts[j]
+            closed = float(road.remaining_distance(s[i], s[j]))
+            dijkstra = road.route_distance(ea, pa, eb, pb)
+            assert closed == pytest.approx(dijkstra, abs=tol), (ea, pa, eb, pb)
+            once_round += ea == eb and pb < pa
+    assert once_round > 5
