@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 
 import numpy as np
 import pytest
 
 from irlsim.road.geometry import EXIT_EDGES, LOOP_EDGES
-from irlsim.road.network import NET_SOURCES, SUMO_NET_DIR, build_net
+from irlsim.road.network import NET_FILE, NET_SOURCES, SUMO_NET_DIR, build_net, net_is_stale
 
 
 def test_loop_has_three_lanes(road):
@@ -41,6 +42,28 @@ def test_build_is_byte_identical(tmp_path):
     second = build_net(tmp_path, force=True).read_bytes()
     assert first == second
     assert b"generated on" not in first
+
+
+def test_net_is_rebuilt_when_missing_or_older_than_a_source(tmp_path):
+    for s in NET_SOURCES:
+        shutil.copy(SUMO_NET_DIR / s, tmp_path / s)
+        os.utime(tmp_path / s, (1_000_000.0, 1_000_000.0))
+    net = tmp_path / NET_FILE
+    assert net_is_stale(tmp_path)  # missing
+    assert build_net(tmp_path) == net and net.is_file() and not net_is_stale(tmp_path)
+    os.utime(net, (2_000_000.0, 2_000_000.0))
+    build_net(tmp_path)  # up to date: not rebuilt, so the file keeps its time stamp
+    assert net.stat().st_mtime == 2_000_000.0
+    for s in NET_SOURCES:  # any one source newer than the net makes it stale
+        os.utime(tmp_path / s, (3_000_000.0, 3_000_000.0))
+        assert net_is_stale(tmp_path), s
+        build_net(tmp_path)
+        assert net.stat().st_mtime > 3_000_000.0 and not net_is_stale(tmp_path)
+        os.utime(tmp_path / s, (1_000_000.0, 1_000_000.0))
+        os.utime(net, (2_000_000.0, 2_000_000.0))
+    assert not net_is_stale(tmp_path)
+    net.unlink()
+    assert net_is_stale(tmp_path)
 
 
 def _lane_samples(road, lane, step: float = 1.0) -> np.ndarray:
