@@ -224,8 +224,14 @@ class Road:
         # extended by the widest search window, so a window starting at any segment is a plain slice
         self._kx = (self._n1x - self._n0x) / self._seg_len  # d(normal)/dt along the segment [1/m]
         self._ky = (self._n1y - self._n0y) / self._seg_len
-        self._u_x_n0 = self._ux * self._n0y - self._uy * self._n0x  # cross(u, n0)
-        self._u_x_k = self._ux * self._ky - self._uy * self._kx  # cross(u, k)
+        u_x_n0 = self._ux * self._n0y - self._uy * self._n0x  # cross(u, n0)
+        u_x_k = self._ux * self._ky - self._uy * self._kx  # cross(u, k)
+        # one row per segment, so a projection gathers once: [M, 11]
+        self._proj_tab = np.stack(
+            [self._rx, self._ry, self._ux, self._uy, self._n0x, self._n0y, self._n1x, self._n1y]
+            + [self._kx, self._ky, u_x_n0, u_x_k, self._seg_len, self.ref_s],
+            axis=1,
+        )
         wide = RASTER_TIERS[-1]
         self._win = {
             name: np.lib.stride_tricks.sliding_window_view(np.concatenate([a, a[:wide]]), wide)
@@ -380,8 +386,9 @@ class Road:
         cid = np.where(inside, fy * nx + fx, 0).astype(np.int64)
         width = np.where(inside, self._g_width[cid], 0)
         first = self._g_first[cid]
-        if n and width.min() > 0 and width.max() <= RASTER_TIERS[0]:  # the usual case: all on the road
-            seg, t, dist2 = self._search_window(qx, qy, first, RASTER_TIERS[0])
+        if n and width.min() > 0 and (width.max() <= RASTER_TIERS[0] or n <= 256):
+            # the usual case (all near the road), or so few points that one window for all is cheapest
+            seg, t, dist2 = self._search_window(qx, qy, first, max(int(width.max()), RASTER_TIERS[0]))
             todo = dist2 > RASTER_REACH * RASTER_REACH
         else:
             seg, t = np.zeros(n, dtype=np.int64), np.zeros(n)
@@ -459,29 +466,31 @@ class Road:
                 if not len(rows):
                     break
             jj = (seg[rows] + off) % m
-            rx, ry = qx[rows] - self._rx[jj], qy[rows] - self._ry[jj]
-            n0x, n0y = self._n0x[jj], self._n0y[jj]
+            tab = self._proj_tab[jj]
+            rx, ry = qx[rows] - tab[:, 0], qy[rows] - tab[:, 1]
+            n0x, n0y = tab[:, 4], tab[:, 5]
             c0 = rx * n0y - ry * n0x  # cross(r, n0)
-            c1 = (rx * self._ky[jj] - ry * self._kx[jj]) - self._u_x_n0[jj]  # cross(r, k) - cross(u, n0)
-            c2 = -self._u_x_k[jj]
+            c1 = (rx * tab[:, 9] - ry * tab[:, 8]) - tab[:, 10]  # cross(r, k) - cross(u, n0)
+            c2 = -tab[:, 11]
             # the root near -c0/c1 (numerically stable form; the other root is ~1/c2 away)
             sq = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
             with np.errstate(divide="ignore", invalid="ignore"):
                 tt = -2.0 * c0 / (c1 + np.where(c1 >= 0, 1.0, -1.0) * sq)
-            ok = (tt >= -1e-9) & (tt <= self._seg_len[jj] + 1e-9)
+            ok = (tt >= -1e-9) & (tt <= tab[:, 12] + 1e-9)
             best_t[rows[ok]] = tt[ok]
             best_seg[rows[ok]] = jj[ok]
-        ln = self._seg_len[best_seg]
+        tab = self._proj_tab[best_seg]
+        ln = tab[:, 12]
         best_t = np.where(np.isnan(best_t), t_clip, np.minimum(np.maximum(best_t, 0.0), ln))
-        footx = self._rx[best_seg] + self._ux[best_seg] * best_t
-        footy = self._ry[best_seg] + self._uy[best_seg] * best_t
+        footx = tab[:, 0] + tab[:, 2] * best_t
+        footy = tab[:, 1] + tab[:, 3] * best_t
         # the normal interpolated between vertex normals, as in to_xy
         f = best_t / ln
         g = 1.0 - f
-        nx = self._n0x[best_seg] * g + self._n1x[best_seg] * f
-        ny = self._n0y[best_seg] * g + self._n1y[best_seg] * f
+        nx = tab[:, 4] * g + tab[:, 6] * f
+        ny = tab[:, 5] * g + tab[:, 7] * f
         norm = np.sqrt(nx * nx + ny * ny)
-        s = (self.ref_s[best_seg] + best_t) % self.lap_length
+        s = (tab[:, 13] + best_t) % self.lap_length
         return s, (qx - footx) * (nx / norm) + (qy - footy) * (ny / norm)
 
     def _normal_at(self, seg: np.ndarray, t: np.ndarray) -> np.ndarray:
