@@ -30,6 +30,9 @@ from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
+#: the ego's random start draws from default_rng([seed, 1]), the traffic from default_rng(seed): a start
+#: of its own, and the traffic of a fixed start as before
+_START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
 
 
@@ -188,7 +191,8 @@ class Simulation:
         self.traffic = BackgroundTraffic(api, road, cfg, rng, route_laps, self._edges)
         self.traffic.add_routes()
         # the ego: inserted where it starts, then placed exactly by moveToXY
-        s0, d0 = cfg.ego_start_s, float(road.lane_center(cfg.ego_start_lane))
+        s0, lane0, v0 = self.ego_start(seed)
+        d0 = float(road.lane_center(lane0))
         loc = self._edges.locate(s0, road.lap_length)
         if loc is None:
             raise IrlsimError(f"ego_start_s = {s0} m lies in a junction: choose a position on a loop edge")
@@ -197,9 +201,9 @@ class Simulation:
             EGO,
             f"loop@{eid}",
             typeID="ego",
-            departLane=str(cfg.ego_start_lane),
+            departLane=str(lane0),
             departPos=f"{pos:.3f}",
-            departSpeed=f"{cfg.ego_start_speed:.3f}",
+            departSpeed=f"{v0:.3f}",
         )
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))
@@ -209,13 +213,13 @@ class Simulation:
             x=float(x),
             y=float(y),
             yaw=float(road.heading(np.array(s0))),
-            v=cfg.ego_start_speed,
+            v=v0,
             a=0.0,
             s=s0,
             d=d0,
             d_dot=0.0,
             d_ddot=0.0,
-            lane=cfg.ego_start_lane,
+            lane=lane0,
         )
         self.traffic.spawn(s0, VehicleStates.empty(), initial=True)
         self.episode = Episode(
@@ -234,10 +238,45 @@ class Simulation:
         self.ego = start
         self._advance(start, bookkeeping=False)  # inserts everyone and places the ego
         if EGO not in api.vehicle.getIDList():
-            raise IrlsimError("SUMO could not insert the ego: choose another ego_start_s / ego_start_lane")
+            raise IrlsimError(
+                f"SUMO could not insert the ego at s = {s0:.1f} m, lane {lane0} (seed {seed}): choose "
+                "another ego_start_s / ego_start_lane, or set ego_start_random"
+            )
         self.episode.update(self.ego)
         self.odometry.append(self.ego)
         return self.observe()
+
+    def ego_start(self, seed: int) -> tuple[float, int, float]:
+        """The ego's start for an episode with ``seed``: (route position s [m], lane, speed [m/s]).
+
+        With ``cfg.ego_start_random`` a function of the seed alone (see ScenarioConfig): s is drawn
+        uniformly from the loop edges (1 m clear of their ends, where insertion is fragile) outside the
+        stop-line / exit and checkpoint clearances, by rejection from batches of uniform draws.
+        """
+        cfg, lap = self.cfg, self.road.lap_length
+        if not cfg.ego_start_random:
+            return cfg.ego_start_s, cfg.ego_start_lane, cfg.ego_start_speed
+        rng = np.random.default_rng([int(seed), _START_STREAM])
+        e = self._edges
+        marks = np.array([sl.s for sl in self.road.stop_lines] + [ex.s_start for ex in self.road.exits])
+        cps = np.array([c.s for c in self.road.checkpoints])
+        for _ in range(8):
+            s = rng.uniform(0.0, lap, 256)
+            u = np.stack([s, s + lap], axis=1)[:, :, None]  # [C, 2, 1] e.s0 / e.s1 may exceed lap
+            on_edge = ((u >= e.s0 + 1.0) & (u <= e.s1 - 1.0)).any(axis=(1, 2))
+            gap = np.abs((s[:, None] - marks + lap / 2) % lap - lap / 2)  # [C, marks]
+            clear = (gap >= cfg.ego_start_clearance).all(axis=1)
+            before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance).any(axis=1)
+            ok = np.flatnonzero(on_edge & clear & ~before_cp)
+            if len(ok):
+                s0 = float(s[ok[0]])
+                lane = int(rng.integers(0, 3))
+                speed = float(rng.uniform(cfg.ego_start_speed_min, cfg.ego_start_speed_max))
+                return s0, lane, speed
+        raise IrlsimError(
+            f"ego_start_clearance = {cfg.ego_start_clearance} m and ego_start_checkpoint_clearance = "
+            f"{cfg.ego_start_checkpoint_clearance} m leave no start on the loop: lower them"
+        )
 
     def _advance(self, state: EgoState, bookkeeping: bool = True) -> None:
         """Place the ego at ``state``, advance SUMO one step, read the vehicles, update the books."""
