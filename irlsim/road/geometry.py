@@ -121,7 +121,10 @@ class Road:
     """Geometry and topology of the oval, from a ``.net.xml``. Build with :func:`load_road`."""
 
     def __init__(self, net_file: str | Path):
-        import sumolib
+        try:
+            import sumolib
+        except ImportError:
+            raise IrlsimError("sumolib is not installed: run 'make setup'") from None
 
         net_file = Path(net_file)
         if not net_file.is_file():

@@ -13,6 +13,7 @@ trajectory state, so the next plan starts exactly where the last one left off.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import os
 import time
 from pathlib import Path
@@ -30,10 +31,18 @@ from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
+MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
 #: the ego's random start draws from default_rng([seed, 1]), the traffic from default_rng(seed): a start
 #: of its own, and the traffic of a fixed start as before
 _START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
+
+
+def check_seed(seed: object) -> int:
+    """``seed`` as an int; a one-line IrlsimError unless it is an integer in 0..MAX_SEED."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        raise IrlsimError(f"seed must be an integer in 0..{MAX_SEED} (SUMO's --seed), got {seed!r}")
+    return int(seed)
 
 
 class Simulation:
@@ -118,17 +127,14 @@ class Simulation:
             return
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
-        cmd = self.command(seed)
-        if self.gui:
-            import traci
-
-            api: Any = traci
-        else:
-            import libsumo
-
-            api = libsumo
-            if _ACTIVE is not None and _ACTIVE is not self:
-                _ACTIVE.close()  # libsumo: one simulation per process
+        cmd = self.command(check_seed(seed))
+        module = "traci" if self.gui else "libsumo"
+        try:
+            api: Any = importlib.import_module(module)
+        except ImportError:
+            raise IrlsimError(f"{module} is not installed: run 'make setup'") from None
+        if not self.gui and _ACTIVE is not None and _ACTIVE is not self:
+            _ACTIVE.close()  # libsumo: one simulation per process
         try:
             api.start(cmd)
         except Exception as e:  # libsumo / traci raise their own exception types
@@ -172,9 +178,7 @@ class Simulation:
     # ------------------------------------------------------------------ episode
     def reset(self, seed: int) -> Observation:
         """Start a new episode with ``seed`` (SUMO's --seed and the traffic's numpy Generator)."""
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise IrlsimError(f"seed must be an integer >= 0, got {seed!r}")
-        seed = int(seed)
+        seed = check_seed(seed)
         if self._api is None:
             self.start(seed)
         else:

@@ -149,6 +149,8 @@ def test_lifecycle(road):
 
     with pytest.raises(IrlsimError, match="seed"):
         s.reset(-1)
+    with pytest.raises(IrlsimError, match="0..2147483647"):
+        s.reset(2**31)
 
 
 def test_random_start_is_a_function_of_the_seed(sim, road):
