@@ -41,6 +41,11 @@ class ScenarioConfig:
     recycle_behind: float = 600.0
     """[m] a background vehicle further than this behind the ego is removed and re-inserted ahead (the
     span recycle_behind + spawn_distance over 15 vehicles sets the traffic density: ~55 m apart)"""
+    bg_stuck_time: float = 10.0
+    """[s] a background vehicle standing still (v < stop_speed) longer than this, other than in a
+    stop-line queue, counts once in ``sim/bg_stuck``"""
+    bg_stuck_queue: float = 60.0
+    """[m] standing with the front bumper at most this far before a stop line is queueing, not stuck"""
     step: float = 0.1
     """[s] SUMO simulation step"""
     cycle: float = 0.2
@@ -104,6 +109,10 @@ class ScenarioConfig:
             f"need 0 < bg_speed_min <= bg_speed_max <= 27 m/s, got {self.bg_speed_min}, {self.bg_speed_max}",
         )
         require(self.recycle_behind > 0, f"recycle_behind must be > 0 m, got {self.recycle_behind}")
+        require(
+            self.bg_stuck_time > 0 and self.bg_stuck_queue >= 0,
+            "need bg_stuck_time > 0 s and bg_stuck_queue >= 0 m",
+        )
         require(self.step > 0, f"step must be > 0 s, got {self.step}")
         n = self.cycle / self.step
         require(abs(n - round(n)) < 1e-9 and round(n) >= 1, "cycle must be a positive multiple of step")

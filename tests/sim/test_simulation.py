@@ -42,7 +42,8 @@ def test_simple_driver_lap_without_collision_stopping_at_both_lines(lap_run):
 
 def test_background_traffic_over_3000_steps(lap_run):
     st, failures, _ = lap_run
-    assert st["sim/teleports"] == 0
+    assert st["sim/teleports"] == 0  # 0 by construction (--time-to-teleport -1): bg_stuck is the check
+    assert st["sim/bg_stuck"] == 0, "background vehicles stood still > 10 s outside a stop-line queue"
     assert st["sim/bg_stop_lines_passed"] >= 15
     assert failures == [], f"background vehicles passed stop lines without stopping: {failures[:3]}"
     assert st["sim/bg_stop_lines_compliant"] == st["sim/bg_stop_lines_passed"]
@@ -204,3 +205,18 @@ def test_laps_counted_from_a_start_late_in_the_lap(road):
     assert road.lap_length <= st["sim/distance_m"] < road.lap_length + 25.0 * s.cfg.cycle
     assert st["sim/checkpoints_passed"] == 4 and st["sim/stop_lines_passed"] == 2
     assert obs.ego.s > road.lap_length  # unwrapped: it went over the seam
+
+
+def test_vehicles_held_up_behind_a_standing_ego_count_as_stuck(sim, road):
+    """The ego stops dead at its start (>= 150 m from any stop line): the background vehicles that come
+    up behind it in its lane stand still, and after bg_stuck_time each counts once in sim/bg_stuck."""
+    obs = sim.reset(4)
+    lap = road.lap_length
+    rel = (obs.vehicles.s - obs.ego.s + lap / 2) % lap - lap / 2
+    behind = (rel < 0) & (road.lane_of_d(obs.vehicles.d) == obs.ego.lane)
+    assert behind.any(), "seed 4 should have traffic behind the ego in its lane"
+    for _ in range(600):
+        sim.step()  # the ego stands where it is
+    st = sim.stats
+    assert 1 <= st["sim/bg_stuck"] <= behind.sum()
+    assert st["sim/collisions"] == 0 and st["end_reason"] is None
