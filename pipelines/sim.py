@@ -1,7 +1,11 @@
 """``irlsim sim``: headless SUMO episodes on the oval with a built-in driver; figures as JSON.
 
 Per episode: laps, collisions, exits, stop lines passed / compliant, checkpoints passed / in the required
-lane, mean speed, teleports, background traffic figures, steps per second; plus a summary over episodes.
+lane, mean speed, teleports, background traffic figures (``sim/bg_stuck``: vehicles that stood still
+over 10 s outside a stop-line queue), timing; plus a summary over episodes. Timing: ``sim/steps_per_s``
+is simulation steps per second of the simulator's own work (SUMO, reading and projecting the vehicles,
+traffic upkeep, bookkeeping; without the driver), ``sim/sumo_steps_per_s`` the same for SUMO's step
+alone, ``sim/plan_ms_mean`` the driver's mean planning time per cycle.
 Episode i uses seed ``--seed + i``. The JSON is written atomically once all episodes are done.
 """
 
@@ -115,7 +119,10 @@ def run(args: argparse.Namespace) -> int:
         f"summary: {args.episodes} episode(s), laps {summary['sim/laps']}, "
         f"collisions {summary['sim/collisions']}, "
         f"stop lines {summary['sim/stop_lines_compliant']}/{summary['sim/stop_lines_passed']}, "
-        f"steps/s {summary['sim/steps_per_s']:.0f} (SUMO alone {summary['sim/sumo_steps_per_s']:.0f})"
+        f"stuck vehicles {summary['sim/bg_stuck']}, "
+        f"steps/s {summary['sim/steps_per_s']:.0f} without the driver "
+        f"(SUMO alone {summary['sim/sumo_steps_per_s']:.0f}), "
+        f"planning {summary['sim/plan_ms_mean']:.2f} ms a cycle"
     )
     if args.json is not None:
         write_json(args.json, result)

@@ -415,7 +415,15 @@ class Simulation:
 
     @property
     def stats(self) -> dict[str, Any]:
-        """Figures of the current episode (``sim/...`` keys, ``end_reason``), timing included."""
+        """Figures of the current episode (``sim/...`` keys, ``end_reason``), timing included.
+
+        The two timing figures (TIMING_KEYS) count the episode's steps per wall-clock second of
+        different spans. ``sim/steps_per_s``: time inside the simulator's step, i.e. placing the ego,
+        SUMO's step, reading the vehicles (libsumo getters and their route-frame projection), traffic
+        upkeep, collision checks and bookkeeping; the driver's planning is NOT included (``irlsim sim``
+        reports it as ``sim/plan_ms_mean``). ``sim/sumo_steps_per_s``: time inside libsumo's
+        ``simulationStep`` alone, SUMO's own speed (several thousand steps per second with 15 vehicles).
+        """
         if self.episode is None or self.traffic is None:
             return {}
         out = self.episode.stats()
@@ -432,4 +440,5 @@ class Simulation:
         return {n: np.array([getattr(e, n) for e in self.odometry]) for n in names}
 
 
+#: wall-clock figures, which differ from run to run (see Simulation.stats): left out of determinism checks
 TIMING_KEYS = ("sim/steps_per_s", "sim/sumo_steps_per_s")
