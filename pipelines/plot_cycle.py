@@ -33,12 +33,17 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
     from irlsim.road import load_road
     from irlsim.sim.config import ScenarioConfig
-    from irlsim.sim.simulation import Simulation
+    from irlsim.sim.simulation import MAX_SEED, Simulation
     from irlsim.utils import atomic_path
     from irlsim.viz.cycle import draw_cycle
+    from pipelines.sim import check_output_file
 
+    # validate everything before driving, so a bad option fails at once and writes nothing
     if args.seed < 0 or args.time < 0:
         raise IrlsimError("--seed and --time must be >= 0")
+    if args.seed > MAX_SEED:
+        raise IrlsimError(f"--seed must be <= {MAX_SEED} (SUMO's largest seed), got {args.seed}")
+    check_output_file(args.out, "--out", "cycle.png")
     if args.theta == "expert":
         theta = THETA_EXPERT
     else:

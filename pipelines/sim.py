@@ -1,13 +1,18 @@
 """``irlsim sim``: headless SUMO episodes on the oval with a built-in driver; figures as JSON.
 
 Per episode: laps, collisions, exits, stop lines passed / compliant, checkpoints passed / in the required
-lane, mean speed, teleports, background traffic figures, steps per second; plus a summary over episodes.
+lane, mean speed, teleports, background traffic figures (``sim/bg_stuck``: vehicles that stood still
+over 10 s outside a stop-line queue), timing; plus a summary over episodes. Timing: ``sim/steps_per_s``
+is simulation steps per second of the simulator's own work (SUMO, reading and projecting the vehicles,
+traffic upkeep, bookkeeping; without the driver), ``sim/sumo_steps_per_s`` the same for SUMO's step
+alone, ``sim/plan_ms_mean`` the driver's mean planning time per cycle.
 Episode i uses seed ``--seed + i``. The JSON is written atomically once all episodes are done.
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -57,23 +62,26 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.errors import IrlsimError
     from irlsim.road import load_road
     from irlsim.sim.drivers import make_driver
-    from irlsim.sim.simulation import Simulation
+    from irlsim.sim.simulation import MAX_SEED, Simulation
     from irlsim.utils import check_non_negative, write_json
 
     # validate everything before any work, so a bad option never leaves a partial result
     if args.episodes < 1:
         raise IrlsimError(f"--episodes must be >= 1, got {args.episodes}")
     check_non_negative("seed", args.seed)
+    if args.seed + args.episodes - 1 > MAX_SEED:
+        raise IrlsimError(
+            f"--seed + --episodes - 1 = {args.seed + args.episodes - 1} exceeds {MAX_SEED}, the largest "
+            "SUMO seed: choose a smaller --seed"
+        )
     if args.laps is not None and args.laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {args.laps}")
     if args.vehicles is not None and not 0 <= args.vehicles <= 15:
         raise IrlsimError(f"--vehicles must be in 0..15, got {args.vehicles}")
     if args.max_time is not None and args.max_time <= 0:
         raise IrlsimError(f"--max-time must be > 0 s, got {args.max_time}")
-    if args.json is not None and args.json.is_dir():
-        raise IrlsimError(
-            f"--json {args.json} is a directory: pass a file name such as {args.json / 'sim.json'}"
-        )
+    if args.json is not None:
+        check_output_file(args.json, "--json", "sim.json")
     cfg = _scenario(args)
     road = load_road(args.net) if args.net is not None else load_road()
     driver = make_driver(args.driver, road, cfg)
@@ -111,12 +119,38 @@ def run(args: argparse.Namespace) -> int:
         f"summary: {args.episodes} episode(s), laps {summary['sim/laps']}, "
         f"collisions {summary['sim/collisions']}, "
         f"stop lines {summary['sim/stop_lines_compliant']}/{summary['sim/stop_lines_passed']}, "
-        f"steps/s {summary['sim/steps_per_s']:.0f} (SUMO alone {summary['sim/sumo_steps_per_s']:.0f})"
+        f"stuck vehicles {summary['sim/bg_stuck']}, "
+        f"steps/s {summary['sim/steps_per_s']:.0f} without the driver "
+        f"(SUMO alone {summary['sim/sumo_steps_per_s']:.0f}), "
+        f"planning {summary['sim/plan_ms_mean']:.2f} ms a cycle"
     )
     if args.json is not None:
         write_json(args.json, result)
         print(f"wrote {args.json}")
     return 0
+
+
+def check_output_file(path: Path, option: str, example: str) -> None:
+    """A one-line IrlsimError now, before any work, when ``path`` cannot be written later: it is a
+    directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
+    with a temporary file that is removed at once). Missing folders are fine: the writer creates them."""
+    from irlsim.errors import IrlsimError
+
+    if path.is_dir():
+        raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
+    folder = path.absolute().parent
+    try:
+        while not folder.exists():
+            folder = folder.parent
+        if not folder.is_dir():
+            raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as e:
+        raise IrlsimError(
+            f"{option} {path} cannot be written ({e.strerror or type(e).__name__} in {folder}): "
+            "choose a writable place"
+        ) from None
 
 
 _COLUMNS = (

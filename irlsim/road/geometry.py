@@ -33,6 +33,14 @@ ENTRY_EDGES = ("entry1", "entry2")
 CHECKPOINTS_XY = ((250.0, 0.0, 2), (850.0, 150.0, 0), (450.0, 300.0, 2), (-150.0, 150.0, 0))
 SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-degree shape kinks vanish
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
+#: projection index (Road._build_raster): cell size [m]; how far from the reference it answers [m] (points
+#: further away search all segments: exact, ~20 us each); search windows [segments], the narrow one for
+#: nearly every cell near the road, the wide one where normals converge (inside curves); extra segment
+#: before a cell's range
+RASTER_CELL = 1.0
+RASTER_REACH = 50.0
+RASTER_TIERS = (8, 16, 48)
+RASTER_PAD = 1
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray:
@@ -86,11 +94,37 @@ class Exit:
         return np.where((s >= self.ramp_s[0]) & (s <= self.ramp_s[-1]), out, np.nan)
 
 
+@dataclass(frozen=True)
+class LaneCentreline:
+    """Closed centreline of loop lane ``lane`` in the route frame: the reference's vertices moved to the
+    lane centre (d = ``Road.lane_center(lane)``, through ``Road.to_xy``), with arc length along the lane
+    itself. Arrays are [M] (one point per reference vertex; the last point joins the first)."""
+
+    lane: int
+    x: np.ndarray  # [M] [m]
+    y: np.ndarray  # [M] [m]
+    s: np.ndarray  # [M] [m] arc length along this lane from its first point (s[0] = 0)
+    ref_s: np.ndarray  # [M] [m] route-frame s of each point (= Road.ref_s)
+    length: float  # [m] one lap of this lane
+    lap_length: float  # [m] one lap of the route frame
+
+    def arc_length(self, s: np.ndarray | float) -> np.ndarray:
+        """Arc length [m] along this lane, in [0, length), at route-frame position(s) ``s`` (wrapped);
+        linear between the points."""
+        sw = np.asarray(s, dtype=np.float64) % self.lap_length
+        xp = np.concatenate([self.ref_s, [self.lap_length]])
+        fp = np.concatenate([self.s, [self.length]])
+        return np.interp(sw, xp, fp) % self.length
+
+
 class Road:
     """Geometry and topology of the oval, from a ``.net.xml``. Build with :func:`load_road`."""
 
     def __init__(self, net_file: str | Path):
-        import sumolib
+        try:
+            import sumolib
+        except ImportError:
+            raise IrlsimError("sumolib is not installed: run 'make setup'") from None
 
         net_file = Path(net_file)
         if not net_file.is_file():
@@ -121,6 +155,7 @@ class Road:
         self._edge_cost = functools.lru_cache(maxsize=None)(self._edge_cost_uncached)
         # SUMO edge of each route-frame position of the middle lane, for Dijkstra queries
         self._edge_bounds = self._loop_edge_bounds()
+        self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
     def _loop_lane_shape(self, k: int) -> np.ndarray:
@@ -169,9 +204,6 @@ class Road:
         kern = np.ones(2 * w + 1) / (2 * w + 1)
         padded = np.concatenate([kappa_v[-w:], kappa_v, kappa_v[:w]])
         self._kappa = np.convolve(padded, kern, mode="valid")  # [M]
-        # coarse index for projection: every COARSE-th vertex
-        self._coarse = 20
-        self._coarse_xy = ref[:: self._coarse]
         # fast lookups for to_xy / heading (same values as the [M, 2] tables, one contiguous array per
         # component). The vertices are spaced ~REF_STEP apart, so a vertex index is a division plus a
         # few corrections (exactly what searchsorted would give), not a binary search.
@@ -191,6 +223,84 @@ class Road:
         sh = self._seg_heading
         self._h_prev = wrap_angle(sh - np.roll(sh, 1))  # heading change from the previous segment
         self._h_next = wrap_angle(np.roll(sh, -1) - sh)  # heading change to the next segment
+        # per-segment terms of the projection's quadratic (_project_smooth), and the segment tables
+        # extended by the widest search window, so a window starting at any segment is a plain slice
+        self._kx = (self._n1x - self._n0x) / self._seg_len  # d(normal)/dt along the segment [1/m]
+        self._ky = (self._n1y - self._n0y) / self._seg_len
+        u_x_n0 = self._ux * self._n0y - self._uy * self._n0x  # cross(u, n0)
+        u_x_k = self._ux * self._ky - self._uy * self._kx  # cross(u, k)
+        # one row per segment, so a projection gathers once: [M, 11]
+        self._proj_tab = np.stack(
+            [self._rx, self._ry, self._ux, self._uy, self._n0x, self._n0y, self._n1x, self._n1y]
+            + [self._kx, self._ky, u_x_n0, u_x_k, self._seg_len, self.ref_s],
+            axis=1,
+        )
+        wide = RASTER_TIERS[-1]
+        self._win = {
+            name: np.lib.stride_tricks.sliding_window_view(np.concatenate([a, a[:wide]]), wide)
+            for name, a in (
+                ("ax", self._rx),
+                ("ay", self._ry),
+                ("ux", self._ux),
+                ("uy", self._uy),
+                ("len", self._seg_len),
+            )
+        }
+        self._build_raster()
+
+    def _build_raster(self) -> None:
+        """Grid of RASTER_CELL square cells around the reference: per cell, a window of segments (first
+        segment, width) that holds the segment nearest to any point of the cell within RASTER_REACH.
+
+        Built by splatting: each vertex's normal line is sampled every RASTER_CELL / 2 out to
+        RASTER_REACH (+ one sample) on both sides, and every cell records the lowest and highest vertex
+        index landing in it; then each cell takes the index range of the cells within ``r`` of it. A
+        point q whose nearest segment j (from vertex j to j + 1) lies within RASTER_REACH is less than
+        ``bound`` from a splat of vertex j: bound = the longest segment (where along j the foot is) +
+        RASTER_REACH x |segment normal - vertex normal| (the splat runs along the vertex normal) + half a
+        sample. With ``r = ceil(bound / cell)`` q's cell window holds j, so the window search finds the
+        global nearest segment whenever the distance it finds is <= RASTER_REACH (_nearest_segment).
+        """
+        cell, reach = RASTER_CELL, RASTER_REACH
+        m = len(self.ref_xy)
+        step = cell / 2
+        offs = np.arange(-reach - step, reach + 1.5 * step, step)  # [D]
+        lo = self.ref_xy.min(axis=0) - reach - 2 * cell  # [2] grid origin
+        nx, ny = (int(v) for v in np.ceil((self.ref_xy.max(axis=0) + reach + 2 * cell - lo) / cell))
+        ix = np.floor((self._rx[:, None] + offs * self._n0x[:, None] - lo[0]) / cell).astype(np.int64)
+        iy = np.floor((self._ry[:, None] + offs * self._n0y[:, None] - lo[1]) / cell).astype(np.int64)
+        cid = (iy * nx + ix).ravel()  # [M * D]
+        vid = np.repeat(np.arange(m), len(offs))
+        cos_t = np.minimum(
+            (self._seg_normal * self._vtx_normal).sum(-1),
+            (np.roll(self._seg_normal, 1, axis=0) * self._vtx_normal).sum(-1),
+        )
+        max_angle = float(np.arccos(np.clip(cos_t, -1.0, 1.0)).max())
+        bound = float(self._seg_len.max()) + reach * 2.0 * math.sin(max_angle / 2.0) + step / 2
+        r = int(math.ceil(bound / cell))  # [cells] dilation radius
+        # index ranges in two numberings: a cell near s = 0 sees vertices near 0 and near M - 1, which
+        # are contiguous only when counted from half a lap on
+        half = m // 2
+        big = 4 * m
+        ranges = []
+        for v in (vid, (vid + half) % m):
+            vmin = np.full(nx * ny, big)
+            vmax = np.full(nx * ny, -big)
+            np.minimum.at(vmin, cid, v)
+            np.maximum.at(vmax, cid, v)
+            vmin = _dilate(vmin.reshape(ny, nx), r, np.minimum, big).ravel()
+            vmax = _dilate(vmax.reshape(ny, nx), r, np.maximum, -big).ravel()
+            ranges.append((vmin, vmax))
+        (a0, b0), (a1, b1) = ranges
+        shifted = (b1 - a1) < (b0 - a0)
+        first = np.where(shifted, (a1 - half) % m, a0)
+        # the window: the segment before the first vertex (a foot exactly at a vertex ties the two
+        # segments that meet there), then the segments starting at the vertices of the range
+        width = np.where(shifted, b1 - a1, b0 - a0) + 1 + RASTER_PAD
+        empty = (b0 < a0) | (width > RASTER_TIERS[-1])  # nothing within reach, or too wide: full search
+        self._g_lo, self._g_nx, self._g_ny = lo, nx, ny
+        self._g_first = np.where(empty, 0, (first - RASTER_PAD) % m).astype(np.int64)
+        self._g_width = np.where(empty, 0, width).astype(np.int64)
 
     def _stop_lines(self) -> tuple[StopLine, ...]:
         out = []
@@ -253,36 +363,95 @@ class Road:
 
     # ------------------------------------------------------------------ frame conversions
     def to_frenet(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World xy [m] -> route frame (s in [0, lap_length), d) [m]; any shape, vectorised."""
+        """World xy [m] -> route frame (s in [0, lap_length), d) [m]; any shape, vectorised.
+
+        Projects onto the reference segment nearest to the point (found in a small window of segments
+        from a raster lookup, see :meth:`_build_raster`; points further than RASTER_REACH from the
+        reference search all segments), then solves exactly for the foot whose interpolated normal
+        passes through the point (:meth:`_project_smooth`), so ``to_xy`` inverts it.
+        """
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
         shape = x.shape
-        p = np.stack([x.ravel(), y.ravel()], axis=1)  # [Q, 2]
-        m = len(self.ref_xy)
-        # coarse: nearest of every 20th vertex, then exact projection on a window of segments around it
-        out_s = np.empty(len(p))
-        out_d = np.empty(len(p))
-        chunk = 65536
-        offs = np.arange(-self._coarse - 5, self._coarse + 6)
-        for i in range(0, len(p), chunk):  # bounded memory for large queries
-            q = p[i : i + chunk]
-            d2 = ((q[:, None, :] - self._coarse_xy[None, :, :]) ** 2).sum(-1)
-            c = np.argmin(d2, axis=1) * self._coarse
-            idx = (c[:, None] + offs[None, :]) % m  # [Q, W] segment ids
-            a = self.ref_xy[idx]  # [Q, W, 2]
-            u = self._seg_dir[idx]
-            rel = q[:, None, :] - a
-            t = np.clip((rel * u).sum(-1), 0.0, self._seg_len[idx])
-            foot = a + u * t[..., None]
-            dist2 = ((q[:, None, :] - foot) ** 2).sum(-1)
-            j = np.argmin(dist2, axis=1)
-            rows = np.arange(len(q))
-            seg = idx[rows, j]
-            out_s[i : i + chunk], out_d[i : i + chunk] = self._project_smooth(q, seg, t[rows, j])
-        return out_s.reshape(shape), out_d.reshape(shape)
+        qx, qy = x.ravel(), y.ravel()
+        seg, t = self._nearest_segment(qx, qy)
+        s, d = self._project_smooth(qx, qy, seg, t)
+        return s.reshape(shape), d.reshape(shape)
+
+    def _nearest_segment(self, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The reference segment nearest to each point [Q] and the clipped foot parameter t [m] on it:
+        the same answer as a search over all segments (up to exact ties)."""
+        n = len(qx)
+        lo, nx, ny = self._g_lo, self._g_nx, self._g_ny
+        fx = np.floor((qx - lo[0]) * (1.0 / RASTER_CELL))
+        fy = np.floor((qy - lo[1]) * (1.0 / RASTER_CELL))
+        inside = (fx >= 0) & (fx < nx) & (fy >= 0) & (fy < ny)  # False for NaN: the full search
+        cid = np.where(inside, fy * nx + fx, 0).astype(np.int64)
+        width = np.where(inside, self._g_width[cid], 0)
+        first = self._g_first[cid]
+        if n and width.min() > 0 and (width.max() <= RASTER_TIERS[0] or n <= 256):
+            # the usual case (all near the road), or so few points that one window for all is cheapest
+            seg, t, dist2 = self._search_window(qx, qy, first, max(int(width.max()), RASTER_TIERS[0]))
+            todo = dist2 > RASTER_REACH * RASTER_REACH
+        else:
+            seg, t = np.zeros(n, dtype=np.int64), np.zeros(n)
+            todo = np.ones(n, dtype=bool)
+            narrower = 0
+            for w in RASTER_TIERS:
+                sel = np.flatnonzero((width > narrower) & (width <= w))
+                narrower = w
+                if len(sel):
+                    j, tt, dist2 = self._search_window(qx[sel], qy[sel], first[sel], w)
+                    seg[sel], t[sel] = j, tt
+                    todo[sel] = dist2 > RASTER_REACH * RASTER_REACH
+        # exact only when the nearest segment found is within the raster's reach (see _build_raster)
+        rest = np.flatnonzero(todo)
+        chunk = max(1, 2_000_000 // len(self.ref_xy))  # bounded memory: [chunk, M] arrays
+        for i in range(0, len(rest), chunk):
+            r = rest[i : i + chunk]
+            seg[r], t[r] = self._search_all(qx[r], qy[r])
+        return seg, t
+
+    def _search_window(
+        self, qx: np.ndarray, qy: np.ndarray, first: np.ndarray, w: int
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Nearest of the w segments from ``first`` on (wrapped) per point: (segment, t, distance^2)."""
+        win = self._win
+        ax, ay = win["ax"][first, :w], win["ay"][first, :w]  # [Q, w]
+        ux, uy, ln = win["ux"][first, :w], win["uy"][first, :w], win["len"][first, :w]
+        return self._nearest_of(qx, qy, ax, ay, ux, uy, ln, first)
+
+    def _search_all(self, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest of all segments per point (for points far from the reference): (segment, t)."""
+        seg, t, _ = self._nearest_of(
+            qx, qy, self._rx, self._ry, self._ux, self._uy, self._seg_len, np.zeros(len(qx), np.int64)
+        )
+        return seg, t
+
+    def _nearest_of(
+        self,
+        qx: np.ndarray,
+        qy: np.ndarray,
+        ax: np.ndarray,
+        ay: np.ndarray,
+        ux: np.ndarray,
+        uy: np.ndarray,
+        ln: np.ndarray,
+        first: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Argmin over candidate segments [Q, W] (or [W] for all points) of the distance from the points
+        [Q] to the clipped foot a + u t: (segment = first + column, t, squared distance)."""
+        relx, rely = qx[:, None] - ax, qy[:, None] - ay
+        tt = np.minimum(np.maximum(relx * ux + rely * uy, 0.0), ln)
+        dx = qx[:, None] - (ax + ux * tt)
+        dy = qy[:, None] - (ay + uy * tt)
+        dist2 = dx * dx + dy * dy
+        j = np.argmin(dist2, axis=1)
+        rows = np.arange(len(qx))
+        return (first + j) % len(self.ref_xy), tt[rows, j], dist2[rows, j]
 
     def _project_smooth(
-        self, q: np.ndarray, seg: np.ndarray, t_clip: np.ndarray
+        self, qx: np.ndarray, qy: np.ndarray, seg: np.ndarray, t_clip: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Exact inverse of :meth:`to_xy` near segment ``seg``: the foot t where q - P(t) is parallel to
         the interpolated normal N(t) (a quadratic in t), tried on seg, then its neighbours.
@@ -291,28 +460,41 @@ class Road:
         round trip misses by |d| x (turn angle per vertex), ~1.5 cm on the outer lane's curves.
         """
         m = len(self.ref_xy)
-        best_t = np.full(len(q), np.nan)
+        best_t = np.full(len(qx), np.nan)
         best_seg = seg.copy()
+        rows = np.arange(len(qx))
         for off in (0, -1, 1):
-            jj = (seg + off) % m
-            a, u, ln = self.ref_xy[jj], self._seg_dir[jj], self._seg_len[jj]
-            n0 = self._vtx_normal[jj]
-            k = (self._vtx_normal[(jj + 1) % m] - n0) / ln[:, None]
-            r = q - a
-            c0 = _cross(r, n0)
-            c1 = _cross(r, k) - _cross(u, n0)
-            c2 = -_cross(u, k)
+            if off:  # the neighbours only where seg itself holds no root (rare: at vertices)
+                rows = rows[np.isnan(best_t[rows])]
+                if not len(rows):
+                    break
+            jj = (seg[rows] + off) % m
+            tab = self._proj_tab[jj]
+            rx, ry = qx[rows] - tab[:, 0], qy[rows] - tab[:, 1]
+            n0x, n0y = tab[:, 4], tab[:, 5]
+            c0 = rx * n0y - ry * n0x  # cross(r, n0)
+            c1 = (rx * tab[:, 9] - ry * tab[:, 8]) - tab[:, 10]  # cross(r, k) - cross(u, n0)
+            c2 = -tab[:, 11]
             # the root near -c0/c1 (numerically stable form; the other root is ~1/c2 away)
             sq = np.sqrt(np.maximum(c1 * c1 - 4.0 * c2 * c0, 0.0))
-            tt = -2.0 * c0 / (c1 + np.where(c1 >= 0, 1.0, -1.0) * sq)
-            ok = np.isnan(best_t) & (tt >= -1e-9) & (tt <= ln + 1e-9)
-            best_t = np.where(ok, tt, best_t)
-            best_seg = np.where(ok, jj, best_seg)
-        best_t = np.where(np.isnan(best_t), t_clip, np.clip(best_t, 0.0, self._seg_len[best_seg]))
-        foot = self.ref_xy[best_seg] + self._seg_dir[best_seg] * best_t[:, None]
-        n = self._normal_at(best_seg, best_t)
-        s = (self.ref_s[best_seg] + best_t) % self.lap_length
-        return s, ((q - foot) * n).sum(-1)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                tt = -2.0 * c0 / (c1 + np.where(c1 >= 0, 1.0, -1.0) * sq)
+            ok = (tt >= -1e-9) & (tt <= tab[:, 12] + 1e-9)
+            best_t[rows[ok]] = tt[ok]
+            best_seg[rows[ok]] = jj[ok]
+        tab = self._proj_tab[best_seg]
+        ln = tab[:, 12]
+        best_t = np.where(np.isnan(best_t), t_clip, np.minimum(np.maximum(best_t, 0.0), ln))
+        footx = tab[:, 0] + tab[:, 2] * best_t
+        footy = tab[:, 1] + tab[:, 3] * best_t
+        # the normal interpolated between vertex normals, as in to_xy
+        f = best_t / ln
+        g = 1.0 - f
+        nx = tab[:, 4] * g + tab[:, 6] * f
+        ny = tab[:, 5] * g + tab[:, 7] * f
+        norm = np.sqrt(nx * nx + ny * ny)
+        s = (tab[:, 13] + best_t) % self.lap_length
+        return s, (qx - footx) * (nx / norm) + (qy - footy) * (ny / norm)
 
     def _normal_at(self, seg: np.ndarray, t: np.ndarray) -> np.ndarray:
         """Unit left normal [..., 2] at distance t along segment seg, linear between vertex normals."""
@@ -395,6 +577,24 @@ class Road:
         lane = np.clip(np.floor(d / LANE_WIDTH + 1.5), 0, N_LANES - 1).astype(np.int8)
         return np.where(np.abs(d) <= HALF_ROAD, lane, -1).astype(np.int8)
 
+    def lane_centreline(self, lane: int) -> LaneCentreline:
+        """The closed centreline of loop lane ``lane`` (0 outer .. 2 inner) with its own arc length.
+
+        Built from the route frame, so its points have (s, d) = (ref_s, lane_center(lane)) exactly; on
+        the half circles the outer lane is longer than the middle one, and the middle one longer than the
+        inner one, by pi x LANE_WIDTH each. (``lane_lengths`` are SUMO's own lane shapes instead.)
+        """
+        if lane not in range(N_LANES):
+            raise ValueError(f"lane must be 0..{N_LANES - 1}, got {lane}")
+        if lane not in self._centrelines:
+            x, y = self.to_xy(self.ref_s, np.full(len(self.ref_s), float(self.lane_center(lane))))
+            seg = np.hypot(np.roll(x, -1) - x, np.roll(y, -1) - y)  # [M] closed
+            s = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+            self._centrelines[lane] = LaneCentreline(
+                lane, x, y, s, self.ref_s.copy(), float(seg.sum()), self.lap_length
+            )
+        return self._centrelines[lane]
+
     def lane_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """Loop lane index of world point(s); -1 off the loop (on a ramp, off the road)."""
         _, d = self.to_frenet(x, y)
@@ -408,18 +608,27 @@ class Road:
     def route_distance(self, from_edge: str, from_pos: float, to_edge: str, to_pos: float) -> float:
         """Road distance [m] from (edge, pos) to (edge, pos) by Dijkstra on the SUMO network, cached.
 
-        Equals ``sumolib`` ``net.getShortestPath(..., fromPos, toPos)`` and goes once round the loop when
-        the target lies behind the start on the same edge. ``inf`` when the target is unreachable
-        (from an exit ramp). Edge-to-edge costs are cached; positions are applied in closed form.
+        Equals ``sumolib`` ``net.getShortestPath(..., fromPos, toPos)`` (edge lengths plus the shortest
+        internal lane of each junction crossed) and goes once round the loop when the target lies behind
+        the start on the same edge. There sumolib 1.28 leaves out the internal lane of the first
+        junction (its looping search starts on the next edge without it); this method counts it.
+        ``inf`` when the target is unreachable (from an exit ramp). Edge-to-edge costs are cached;
+        positions are applied in closed form.
         """
         if from_edge == to_edge and to_pos >= from_pos:
             return float(to_pos - from_pos)
         if from_edge == to_edge:
             # once round: leave this edge, come back to it
-            nxt = [e.getID() for e in self.net.getEdge(from_edge).getOutgoing()]
-            best = min((self._edge_cost(n, to_edge) for n in nxt if n in LOOP_EDGES), default=math.inf)
-            length = self.net.getEdge(from_edge).getLength()
-            return float(length - from_pos + best - self.net.getEdge(to_edge).getLength() + to_pos)
+            edge = self.net.getEdge(from_edge)
+            best = min(
+                (
+                    self._edge_cost(n.getID(), to_edge) + self.net.getInternalPath(conns)[1]
+                    for n, conns in edge.getOutgoing().items()
+                    if n.getID() in LOOP_EDGES
+                ),
+                default=math.inf,
+            )
+            return float(edge.getLength() - from_pos + best - self.net.getEdge(to_edge).getLength() + to_pos)
         cost = self._edge_cost(from_edge, to_edge)
         if math.isinf(cost):
             return math.inf
@@ -430,7 +639,10 @@ class Road:
         """Route distance [m] from loop position(s) s to the route target at s_target, along the loop.
 
         The loop offers a single path, so Dijkstra reduces to ``(s_target - s) mod lap_length`` in the
-        route frame (checked against sumolib in the tests). Vectorised, for the planner.
+        route frame. tests/road/test_geometry.py checks it against :meth:`route_distance` (sumolib's
+        Dijkstra) for points on all three lanes: they agree within the ~1.1 m per lap by which the
+        smoothed reference is shorter than SUMO's middle lane (edges + junction lanes), plus 0.4 m.
+        Vectorised, for the planner.
         """
         return (s_target - np.asarray(s, dtype=np.float64)) % self.lap_length
 
@@ -457,6 +669,20 @@ class Road:
 
 def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+
+
+def _dilate(a: np.ndarray, r: int, op: np.ufunc, fill: int) -> np.ndarray:
+    """``op`` (np.minimum or np.maximum) of a 2-D array over the (2r + 1) x (2r + 1) cells around each
+    cell (separable: rows, then columns); cells outside the array count as ``fill``."""
+    for axis in (0, 1):
+        b = np.moveaxis(a, axis, 0)
+        padded = np.full((b.shape[0] + 2 * r,) + b.shape[1:], fill, dtype=a.dtype)
+        padded[r : r + b.shape[0]] = b
+        out = padded[: b.shape[0]].copy()
+        for k in range(1, 2 * r + 1):
+            op(out, padded[k : k + b.shape[0]], out=out)
+        a = np.moveaxis(out, 0, axis)
+    return np.ascontiguousarray(a)
 
 
 def _smooth_closed(pts: np.ndarray, half_window: float) -> np.ndarray:

@@ -86,10 +86,15 @@ def build_net(net_dir: str | Path | None = None, force: bool = False) -> Path:
             env={**os.environ, "SUMO_HOME": sumo_home()},
         )
         if proc.returncode != 0:
-            msg = (proc.stderr or proc.stdout).strip().splitlines()
-            raise IrlsimError(
-                f"netconvert failed on {d}: {msg[-1] if msg else 'no output'}; fix the XML sources"
-            )
+            raise IrlsimError(f"netconvert failed on {d}: {_netconvert_error(proc)}; fix the XML sources")
         data = _HEADER.sub(b"", tmp.read_bytes(), count=1)
         tmp.write_bytes(data)
     return target
+
+
+def _netconvert_error(proc: subprocess.CompletedProcess[str]) -> str:
+    """The line that says what went wrong: netconvert's first 'Error:' line (its last line is only
+    'Quitting (on error).'), else its last line."""
+    lines = [ln.strip() for ln in (proc.stderr + "\n" + proc.stdout).splitlines() if ln.strip()]
+    errors = [ln for ln in lines if ln.startswith("Error:")]
+    return errors[0] if errors else (lines[-1] if lines else f"exit status {proc.returncode}, no output")

@@ -41,6 +41,11 @@ class ScenarioConfig:
     recycle_behind: float = 600.0
     """[m] a background vehicle further than this behind the ego is removed and re-inserted ahead (the
     span recycle_behind + spawn_distance over 15 vehicles sets the traffic density: ~55 m apart)"""
+    bg_stuck_time: float = 10.0
+    """[s] a background vehicle standing still (v < stop_speed) longer than this, other than in a
+    stop-line queue, counts once in ``sim/bg_stuck``"""
+    bg_stuck_queue: float = 60.0
+    """[m] standing with the front bumper at most this far before a stop line is queueing, not stuck"""
     step: float = 0.1
     """[s] SUMO simulation step"""
     cycle: float = 0.2
@@ -49,12 +54,28 @@ class ScenarioConfig:
     """[s] planning horizon of the drivers' trajectories"""
     ego_target_speed: float = 70.0 / 3.6
     """[m/s] the ego's desired speed where the road is free"""
+    ego_start_random: bool = True
+    """draw the ego's start at reset from the episode seed, so episodes of different seeds (train,
+    validation, test) do not begin alike: s uniform over the loop edges outside the zones set by the
+    two clearances below, lane uniform in {0, 1, 2}, speed uniform in [ego_start_speed_min,
+    ego_start_speed_max]; drawn from ``numpy.random.default_rng([seed, 1])``, a stream apart from the
+    traffic's, so the same seed gives the same start. false: the fixed ego_start_s / _lane / _speed"""
+    ego_start_clearance: float = 150.0
+    """[m] a random start lies at least this far along the loop, ahead or behind, from every stop line
+    and from where every exit leaves lane 0, so the first seconds need no emergency stop"""
+    ego_start_checkpoint_clearance: float = 100.0
+    """[m] a random start lies no closer than this before a checkpoint (room to reach its lane)"""
+    ego_start_speed_min: float = 5.0
+    """[m/s] lowest speed of a random start"""
+    ego_start_speed_max: float = 15.0
+    """[m/s] highest speed of a random start"""
     ego_start_s: float = 10.0
-    """[m] route-frame position of the ego's front bumper at reset (0 = start of edge A_S1)"""
+    """[m] route-frame position of the ego's front bumper at reset when ego_start_random is false
+    (0 = start of edge A_S1)"""
     ego_start_lane: int = 1
-    """loop lane of the ego at reset (0 outer .. 2 inner)"""
+    """loop lane of the ego at reset when ego_start_random is false (0 outer .. 2 inner)"""
     ego_start_speed: float = 10.0
-    """[m/s] the ego's speed at reset"""
+    """[m/s] the ego's speed at reset when ego_start_random is false"""
     ego_length: float = 4.5
     """[m] ego box length for the project's collision check (vtype 'ego' in sumo_net/vtypes.add.xml)"""
     ego_width: float = 1.8
@@ -88,6 +109,10 @@ class ScenarioConfig:
             f"need 0 < bg_speed_min <= bg_speed_max <= 27 m/s, got {self.bg_speed_min}, {self.bg_speed_max}",
         )
         require(self.recycle_behind > 0, f"recycle_behind must be > 0 m, got {self.recycle_behind}")
+        require(
+            self.bg_stuck_time > 0 and self.bg_stuck_queue >= 0,
+            "need bg_stuck_time > 0 s and bg_stuck_queue >= 0 m",
+        )
         require(self.step > 0, f"step must be > 0 s, got {self.step}")
         n = self.cycle / self.step
         require(abs(n - round(n)) < 1e-9 and round(n) >= 1, "cycle must be a positive multiple of step")
@@ -97,6 +122,15 @@ class ScenarioConfig:
             self.ego_start_lane in (0, 1, 2), f"ego_start_lane must be 0, 1 or 2, got {self.ego_start_lane}"
         )
         require(self.ego_start_speed >= 0, "ego_start_speed must be >= 0 m/s")
+        require(
+            self.ego_start_clearance >= 0 and self.ego_start_checkpoint_clearance >= 0,
+            "ego_start_clearance and ego_start_checkpoint_clearance must be >= 0 m",
+        )
+        require(
+            0 <= self.ego_start_speed_min <= self.ego_start_speed_max <= 27.78,
+            "need 0 <= ego_start_speed_min <= ego_start_speed_max <= 27.78 m/s, got "
+            f"{self.ego_start_speed_min}, {self.ego_start_speed_max}",
+        )
         require(self.ego_length > 0 and self.ego_width > 0, "ego_length and ego_width must be > 0 m")
         require(self.laps >= 1, f"laps must be >= 1, got {self.laps}")
         require(self.max_time > 0, f"max_time must be > 0 s, got {self.max_time}")

@@ -205,6 +205,9 @@ class Episode:
             "sim/checkpoints_in_lane": c["checkpoints_in_lane"],
             "sim/offroad_steps": c["offroad_steps"],
             "sim/mean_speed_kmh": round(3.6 * self._speed_sum / self._steps, 3) if self._steps else 0.0,
+            # 0 by construction: SUMO runs with --time-to-teleport -1 (mandatory, or a standing ego is
+            # teleported), so this only catches that option going missing; blocked background traffic
+            # shows in sim/bg_stuck instead
             "sim/teleports": c["teleports"],
             "end_reason": self.end_reason,
         }

@@ -13,6 +13,7 @@ trajectory state, so the next plan starts exactly where the last one left off.
 from __future__ import annotations
 
 import dataclasses
+import importlib
 import os
 import time
 from pathlib import Path
@@ -30,7 +31,18 @@ from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
+MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
+#: the ego's random start draws from default_rng([seed, 1]), the traffic from default_rng(seed): a start
+#: of its own, and the traffic of a fixed start as before
+_START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
+
+
+def check_seed(seed: object) -> int:
+    """``seed`` as an int; a one-line IrlsimError unless it is an integer in 0..MAX_SEED."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed <= MAX_SEED:
+        raise IrlsimError(f"seed must be an integer in 0..{MAX_SEED} (SUMO's --seed), got {seed!r}")
+    return int(seed)
 
 
 class Simulation:
@@ -115,17 +127,14 @@ class Simulation:
             return
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
-        cmd = self.command(seed)
-        if self.gui:
-            import traci
-
-            api: Any = traci
-        else:
-            import libsumo
-
-            api = libsumo
-            if _ACTIVE is not None and _ACTIVE is not self:
-                _ACTIVE.close()  # libsumo: one simulation per process
+        cmd = self.command(check_seed(seed))
+        module = "traci" if self.gui else "libsumo"
+        try:
+            api: Any = importlib.import_module(module)
+        except ImportError:
+            raise IrlsimError(f"{module} is not installed: run 'make setup'") from None
+        if not self.gui and _ACTIVE is not None and _ACTIVE is not self:
+            _ACTIVE.close()  # libsumo: one simulation per process
         try:
             api.start(cmd)
         except Exception as e:  # libsumo / traci raise their own exception types
@@ -169,9 +178,7 @@ class Simulation:
     # ------------------------------------------------------------------ episode
     def reset(self, seed: int) -> Observation:
         """Start a new episode with ``seed`` (SUMO's --seed and the traffic's numpy Generator)."""
-        if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise IrlsimError(f"seed must be an integer >= 0, got {seed!r}")
-        seed = int(seed)
+        seed = check_seed(seed)
         if self._api is None:
             self.start(seed)
         else:
@@ -188,7 +195,8 @@ class Simulation:
         self.traffic = BackgroundTraffic(api, road, cfg, rng, route_laps, self._edges)
         self.traffic.add_routes()
         # the ego: inserted where it starts, then placed exactly by moveToXY
-        s0, d0 = cfg.ego_start_s, float(road.lane_center(cfg.ego_start_lane))
+        s0, lane0, v0 = self.ego_start(seed)
+        d0 = float(road.lane_center(lane0))
         loc = self._edges.locate(s0, road.lap_length)
         if loc is None:
             raise IrlsimError(f"ego_start_s = {s0} m lies in a junction: choose a position on a loop edge")
@@ -197,9 +205,9 @@ class Simulation:
             EGO,
             f"loop@{eid}",
             typeID="ego",
-            departLane=str(cfg.ego_start_lane),
+            departLane=str(lane0),
             departPos=f"{pos:.3f}",
-            departSpeed=f"{cfg.ego_start_speed:.3f}",
+            departSpeed=f"{v0:.3f}",
         )
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))
@@ -209,13 +217,13 @@ class Simulation:
             x=float(x),
             y=float(y),
             yaw=float(road.heading(np.array(s0))),
-            v=cfg.ego_start_speed,
+            v=v0,
             a=0.0,
             s=s0,
             d=d0,
             d_dot=0.0,
             d_ddot=0.0,
-            lane=cfg.ego_start_lane,
+            lane=lane0,
         )
         self.traffic.spawn(s0, VehicleStates.empty(), initial=True)
         self.episode = Episode(
@@ -234,10 +242,45 @@ class Simulation:
         self.ego = start
         self._advance(start, bookkeeping=False)  # inserts everyone and places the ego
         if EGO not in api.vehicle.getIDList():
-            raise IrlsimError("SUMO could not insert the ego: choose another ego_start_s / ego_start_lane")
+            raise IrlsimError(
+                f"SUMO could not insert the ego at s = {s0:.1f} m, lane {lane0} (seed {seed}): choose "
+                "another ego_start_s / ego_start_lane, or set ego_start_random"
+            )
         self.episode.update(self.ego)
         self.odometry.append(self.ego)
         return self.observe()
+
+    def ego_start(self, seed: int) -> tuple[float, int, float]:
+        """The ego's start for an episode with ``seed``: (route position s [m], lane, speed [m/s]).
+
+        With ``cfg.ego_start_random`` a function of the seed alone (see ScenarioConfig): s is drawn
+        uniformly from the loop edges (1 m clear of their ends, where insertion is fragile) outside the
+        stop-line / exit and checkpoint clearances, by rejection from batches of uniform draws.
+        """
+        cfg, lap = self.cfg, self.road.lap_length
+        if not cfg.ego_start_random:
+            return cfg.ego_start_s, cfg.ego_start_lane, cfg.ego_start_speed
+        rng = np.random.default_rng([int(seed), _START_STREAM])
+        e = self._edges
+        marks = np.array([sl.s for sl in self.road.stop_lines] + [ex.s_start for ex in self.road.exits])
+        cps = np.array([c.s for c in self.road.checkpoints])
+        for _ in range(8):
+            s = rng.uniform(0.0, lap, 256)
+            u = np.stack([s, s + lap], axis=1)[:, :, None]  # [C, 2, 1] e.s0 / e.s1 may exceed lap
+            on_edge = ((u >= e.s0 + 1.0) & (u <= e.s1 - 1.0)).any(axis=(1, 2))
+            gap = np.abs((s[:, None] - marks + lap / 2) % lap - lap / 2)  # [C, marks]
+            clear = (gap >= cfg.ego_start_clearance).all(axis=1)
+            before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance).any(axis=1)
+            ok = np.flatnonzero(on_edge & clear & ~before_cp)
+            if len(ok):
+                s0 = float(s[ok[0]])
+                lane = int(rng.integers(0, 3))
+                speed = float(rng.uniform(cfg.ego_start_speed_min, cfg.ego_start_speed_max))
+                return s0, lane, speed
+        raise IrlsimError(
+            f"ego_start_clearance = {cfg.ego_start_clearance} m and ego_start_checkpoint_clearance = "
+            f"{cfg.ego_start_checkpoint_clearance} m leave no start on the loop: lower them"
+        )
 
     def _advance(self, state: EgoState, bookkeeping: bool = True) -> None:
         """Place the ego at ``state``, advance SUMO one step, read the vehicles, update the books."""
@@ -372,7 +415,15 @@ class Simulation:
 
     @property
     def stats(self) -> dict[str, Any]:
-        """Figures of the current episode (``sim/...`` keys, ``end_reason``), timing included."""
+        """Figures of the current episode (``sim/...`` keys, ``end_reason``), timing included.
+
+        The two timing figures (TIMING_KEYS) count the episode's steps per wall-clock second of
+        different spans. ``sim/steps_per_s``: time inside the simulator's step, i.e. placing the ego,
+        SUMO's step, reading the vehicles (libsumo getters and their route-frame projection), traffic
+        upkeep, collision checks and bookkeeping; the driver's planning is NOT included (``irlsim sim``
+        reports it as ``sim/plan_ms_mean``). ``sim/sumo_steps_per_s``: time inside libsumo's
+        ``simulationStep`` alone, SUMO's own speed (several thousand steps per second with 15 vehicles).
+        """
         if self.episode is None or self.traffic is None:
             return {}
         out = self.episode.stats()
@@ -389,4 +440,5 @@ class Simulation:
         return {n: np.array([getattr(e, n) for e in self.odometry]) for n in names}
 
 
+#: wall-clock figures, which differ from run to run (see Simulation.stats): left out of determinism checks
 TIMING_KEYS = ("sim/steps_per_s", "sim/sumo_steps_per_s")

@@ -31,6 +31,7 @@ BG_TYPE = "bg"
 class _Tracked:
     s: float  # unwrapped route position of the front bumper [m]
     stopped: list[bool]  # per stop line: stood still in its zone since last passing it
+    stand_since: float  # [s] time it began standing outside a stop-line queue; NaN while not
 
 
 @dataclass
@@ -81,6 +82,7 @@ class BackgroundTraffic:
     sizes: dict[str, tuple[float, float]] = field(default_factory=dict)
     counts: dict[str, int] = field(default_factory=dict)
     off_loop: set[str] = field(default_factory=set)
+    stuck: set[str] = field(default_factory=set)
     failures: list[dict[str, Any]] = field(default_factory=list)
 
     def __post_init__(self) -> None:
@@ -210,7 +212,8 @@ class BackgroundTraffic:
         self.spawn(ego_s, kept, initial=False)
 
     def _track(self, t: float, veh: VehicleStates) -> None:
-        """Per vehicle: unwrapped progress, stops in each stop line's zone, lines passed, off-loop."""
+        """Per vehicle: unwrapped progress, stops in each stop line's zone, lines passed, off-loop, and
+        standing still outside a stop-line queue for longer than ``bg_stuck_time`` (stuck)."""
         lap = self.road.lap_length
         old = self.tracked
         self.tracked = {}
@@ -218,6 +221,7 @@ class BackgroundTraffic:
             return
         n_lines = len(self.road.stop_lines)
         prev = np.array([old[v].s if v in old else s for v, s in zip(veh.ids, veh.s, strict=False)])
+        since = np.array([old[v].stand_since if v in old else np.nan for v in veh.ids])
         stopped = np.array([old[v].stopped if v in old else [False] * n_lines for v in veh.ids], dtype=bool)
         s_new = prev + _wrap(veh.s - prev, lap)
         lines = np.array([sl.s for sl in self.road.stop_lines])  # [L]
@@ -229,11 +233,17 @@ class BackgroundTraffic:
                 if not stopped[i, k]:
                     self.failures.append({"t": t, "vehicle": veh.ids[i], "stop_line": int(k)})
             stopped &= ~(passed > 0)
-        stopped |= (veh.v[:, None] < self.cfg.stop_speed) & (
-            (lines - s_new[:, None]) % lap <= self.cfg.stop_zone
-        )
+        to_line = (lines - s_new[:, None]) % lap  # [M, L] distance ahead to each stop line
+        standing = veh.v < self.cfg.stop_speed
+        stopped |= standing[:, None] & (to_line <= self.cfg.stop_zone)
+        # standing in a stop-line queue is normal; anywhere else a vehicle should not stand for long
+        waiting = standing & ~(to_line <= self.cfg.bg_stuck_queue).any(axis=1)
+        since = np.where(waiting, np.where(np.isnan(since), t, since), np.nan)
+        over = waiting & (t - since > self.cfg.bg_stuck_time)
+        if over.any():
+            self.stuck.update(veh.ids[i] for i in np.flatnonzero(over))
         for i, vid in enumerate(veh.ids):
-            self.tracked[vid] = _Tracked(float(s_new[i]), stopped[i].tolist())
+            self.tracked[vid] = _Tracked(float(s_new[i]), stopped[i].tolist(), float(since[i]))
         off = np.abs(veh.d) > HALF_ROAD + 0.3
         if off.any():
             self.off_loop.update(veh.ids[i] for i in np.flatnonzero(off))
@@ -244,6 +254,10 @@ class BackgroundTraffic:
             "sim/bg_stop_lines_passed": c["stop_lines_passed"],
             "sim/bg_stop_lines_compliant": c["stop_lines_compliant"],
             "sim/bg_off_loop": len(self.off_loop),
+            # vehicles that stood still (v < stop_speed) longer than bg_stuck_time anywhere but within
+            # bg_stuck_queue before a stop line: blocked traffic, the failure a teleport would hide (SUMO
+            # never teleports here, --time-to-teleport -1)
+            "sim/bg_stuck": len(self.stuck),
             "sim/bg_collisions": c["collisions"],
             "sim/bg_recycled": c["recycled"],
             "sim/bg_resampled": c["resampled"],

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import json
+import shutil
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -73,6 +75,8 @@ def test_net_command(capsys):
     ("argv", "words"),
     [
         (["--seed", "-1"], ["--seed", ">= 0"]),
+        (["--seed", "2147483648"], ["--seed", "2147483647"]),
+        (["--seed", "2147483647", "--episodes", "2"], ["--seed + --episodes - 1 = 2147483648", "2147483647"]),
         (["--episodes", "-2"], ["--episodes"]),
         (["--vehicles", "16"], ["--vehicles", "0..15"]),
         (["--laps", "0"], ["--laps"]),
@@ -114,3 +118,60 @@ def test_sim_gui_without_display(capsys, tmp_path, monkeypatch):
     rc, _, err = _run(capsys, "sim", "--gui", "--max-time", "1")
     assert rc == 2
     _one_line_error(err, "display", "without --gui")
+
+
+def test_sim_libsumo_missing(capsys, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "libsumo", None)  # `import libsumo` now fails
+    out = tmp_path / "sim.json"
+    rc, _, err = _run(capsys, "sim", "--max-time", "1", "--json", str(out))
+    assert rc == 2
+    _one_line_error(err, "libsumo is not installed", "make setup")
+    assert not out.exists()
+
+
+def test_sim_sumolib_missing(capsys, tmp_path, monkeypatch, road):
+    net = tmp_path / "oval.net.xml"  # a copy: load_road caches the Road of the usual path
+    shutil.copy(road.net_file, net)
+    monkeypatch.setitem(sys.modules, "sumolib", None)
+    rc, _, err = _run(capsys, "sim", "--max-time", "1", "--net", str(net))
+    assert rc == 2
+    _one_line_error(err, "sumolib is not installed", "make setup")
+
+
+def test_sim_json_unwritable_fails_before_running(capsys, tmp_path):
+    blocker = tmp_path / "file.txt"
+    blocker.write_text("x")
+    cases = [(blocker / "sub" / "sim.json", ["--json", "is a file, not a folder"])]
+    if Path("/proc/self").is_dir():  # Linux: no file can be created in /proc, not even by root
+        cases.append((Path("/proc/irlsim-test/sim.json"), ["--json", "cannot be written"]))
+    for target, words in cases:
+        rc, stdout, err = _run(capsys, "sim", "--max-time", "1", "--json", str(target))
+        assert rc == 2 and stdout == ""  # no episode ran
+        _one_line_error(err, *words)
+    assert blocker.read_text() == "x" and list(tmp_path.iterdir()) == [blocker]
+
+
+def test_plot_cycle_bad_out_fails_before_driving(capsys, tmp_path):
+    (tmp_path / "keep.txt").write_text("x")
+    rc, stdout, err = _run(capsys, "plot-cycle", "--out", str(tmp_path))
+    assert rc == 2 and stdout == ""
+    _one_line_error(err, "--out", "is a directory", "cycle.png")
+    rc, stdout, err = _run(capsys, "plot-cycle", "--seed", "2147483648", "--out", str(tmp_path / "c.png"))
+    assert rc == 2 and stdout == ""
+    _one_line_error(err, "--seed", "2147483647")
+    assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_net_reports_netconvert_error_line(capsys, tmp_path, monkeypatch):
+    from irlsim.road import network
+
+    for name in network.NET_SOURCES:
+        shutil.copy(network.SUMO_NET_DIR / name, tmp_path / name)
+    edg = tmp_path / "oval.edg.xml"
+    edg.write_text(edg.read_text().replace('from="S1" to="X1"', 'from="Q9" to="X1"'))
+    monkeypatch.setattr(network, "SUMO_NET_DIR", tmp_path)
+    rc, _, err = _run(capsys, "net")
+    assert rc == 2
+    _one_line_error(err, "netconvert failed", "Error:", "from-node 'Q9' is not known", "fix the XML sources")
+    assert "Quitting" not in err
+    assert not (tmp_path / network.NET_FILE).exists()

@@ -97,3 +97,16 @@ def test_collision_and_timeout():
     s = np.arange(0.0, 30.0, 1.0)
     _drive(ep, s, np.full(s.shape, 10.0))
     assert ep.done and ep.end_reason == "timeout" and ep.stats()["sim/steps"] == 10
+
+
+def test_laps_from_a_start_anywhere_on_the_loop():
+    """Laps count from the start, not from s = 0: crossing the lap seam is no lap."""
+    ep = _episode(laps=2)
+    s = np.arange(900.0, 1950.0, 2.0)
+    _drive(ep, s, np.full(s.shape, 20.0))
+    assert ep.laps_completed == 1 and not ep.done  # 1048 m driven, the seam at 1000 crossed
+    _drive(ep, np.arange(1950.0, 3000.0, 2.0), np.full(525, 20.0))
+    st = ep.stats()
+    assert ep.done and ep.end_reason == "laps" and st["sim/laps"] == 2
+    assert st["sim/distance_m"] == pytest.approx(2000.0)  # ends at the first step with 2 laps: s = 2900
+    assert st["sim/checkpoints_passed"] == 4 and st["sim/stop_lines_passed"] == 4

@@ -42,7 +42,8 @@ def test_simple_driver_lap_without_collision_stopping_at_both_lines(lap_run):
 
 def test_background_traffic_over_3000_steps(lap_run):
     st, failures, _ = lap_run
-    assert st["sim/teleports"] == 0
+    assert st["sim/teleports"] == 0  # 0 by construction (--time-to-teleport -1): bg_stuck is the check
+    assert st["sim/bg_stuck"] == 0, "background vehicles stood still > 10 s outside a stop-line queue"
     assert st["sim/bg_stop_lines_passed"] >= 15
     assert failures == [], f"background vehicles passed stop lines without stopping: {failures[:3]}"
     assert st["sim/bg_stop_lines_compliant"] == st["sim/bg_stop_lines_passed"]
@@ -149,3 +150,73 @@ def test_lifecycle(road):
 
     with pytest.raises(IrlsimError, match="seed"):
         s.reset(-1)
+    with pytest.raises(IrlsimError, match="0..2147483647"):
+        s.reset(2**31)
+
+
+def test_random_start_is_a_function_of_the_seed(sim, road):
+    """Same seed, same start (and traffic); another seed, another start; traffic laid out around it."""
+    a, b, c = (sim.reset(seed) for seed in (21, 21, 22))
+    key = [(o.ego.s, o.ego.d, o.ego.v, o.ego.lane, o.ego.x, o.ego.y) for o in (a, b, c)]
+    assert key[0] == key[1] and key[0][0] != key[2][0]
+    np.testing.assert_array_equal(a.vehicles.s, b.vehicles.s)
+    lap = road.lap_length
+    rel = (c.vehicles.s - c.ego.s + lap / 2) % lap - lap / 2
+    assert c.vehicles.count == 15
+    assert rel.min() >= -sim.cfg.recycle_behind - 1.0
+    assert rel.max() <= sim.cfg.spawn_distance + sim.cfg.spawn_jitter + 1.0
+    assert np.abs(rel).min() >= sim.cfg.spawn_clearance
+
+
+def test_random_start_keeps_clear_of_stop_lines_exits_and_checkpoints(road):
+    from irlsim.errors import IrlsimError
+
+    cfg = ScenarioConfig()
+    s_, lane, v = np.array([Simulation(road, cfg).ego_start(seed) for seed in range(300)]).T
+    lap = road.lap_length
+    for m in [sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits]:
+        assert np.abs((s_ - m + lap / 2) % lap - lap / 2).min() >= cfg.ego_start_clearance
+    for cp in road.checkpoints:
+        assert ((cp.s - s_) % lap).min() >= cfg.ego_start_checkpoint_clearance
+    edges = Simulation(road, cfg)._edges
+    assert all(edges.locate(float(s), lap) is not None for s in s_)
+    assert set(lane.astype(int).tolist()) == {0, 1, 2}
+    assert cfg.ego_start_speed_min <= v.min() and v.max() <= cfg.ego_start_speed_max
+    assert len(np.unique(s_)) == 300 and (s_ < lap / 2).any() and (s_ > lap / 2).any()
+    fixed = Simulation(road, ScenarioConfig(ego_start_random=False))
+    assert {fixed.ego_start(seed) for seed in (0, 1, 99)} == {(10.0, 1, 10.0)}
+    with pytest.raises(IrlsimError, match="leave no start"):
+        Simulation(road, ScenarioConfig(ego_start_clearance=600.0)).ego_start(0)
+
+
+def test_laps_counted_from_a_start_late_in_the_lap(road):
+    """A ghost ego at 25 m/s from a random start that crosses s = 0 (the lap seam): exactly one lap,
+    every checkpoint and stop line passed once."""
+    s = Simulation(road, ScenarioConfig(n_vehicles=0, laps=1, max_time=300.0))
+    seed = next(k for k in range(200) if s.ego_start(k)[0] > road.lap_length - 700.0)
+    with s:
+        obs = s.reset(seed)
+        while not s.done:
+            n = s.cfg.horizon_steps + 1
+            s.execute(frenet_trajectory(road, obs.ego, 0.1, np.full(n, 25.0), np.full(n, obs.ego.d)))
+            obs = s.observe()
+        st = s.stats
+    assert st["end_reason"] == "laps" and st["sim/laps"] == 1
+    assert road.lap_length <= st["sim/distance_m"] < road.lap_length + 25.0 * s.cfg.cycle
+    assert st["sim/checkpoints_passed"] == 4 and st["sim/stop_lines_passed"] == 2
+    assert obs.ego.s > road.lap_length  # unwrapped: it went over the seam
+
+
+def test_vehicles_held_up_behind_a_standing_ego_count_as_stuck(sim, road):
+    """The ego stops dead at its start (>= 150 m from any stop line): the background vehicles that come
+    up behind it in its lane stand still, and after bg_stuck_time each counts once in sim/bg_stuck."""
+    obs = sim.reset(4)
+    lap = road.lap_length
+    rel = (obs.vehicles.s - obs.ego.s + lap / 2) % lap - lap / 2
+    behind = (rel < 0) & (road.lane_of_d(obs.vehicles.d) == obs.ego.lane)
+    assert behind.any(), "seed 4 should have traffic behind the ego in its lane"
+    for _ in range(600):
+        sim.step()  # the ego stands where it is
+    st = sim.stats
+    assert 1 <= st["sim/bg_stuck"] <= behind.sum()
+    assert st["sim/collisions"] == 0 and st["end_reason"] is None
