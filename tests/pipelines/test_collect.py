@@ -119,6 +119,9 @@ def test_rerun_with_another_config_is_refused(tiny_dataset, capsys):
         (["--seed", "-1"], "--seed must be >= 0"),
         (["--set", "planner.n_polices=10"], "unknown key 'planner.n_polices'"),
         (["--set", "scenario.n_vehicles=99"], "n_vehicles must be in 0..15"),
+        (["--set", "seed.x=1"], "cannot set 'seed.x': 'seed' is a value (0), not a table"),
+        (["--set", "seed=3", "--set", "seed.x=1"], "'seed' is a value (3), not a table"),
+        (["--set", "scenario=1"], "'scenario' must be a table"),
     ],
 )
 def test_bad_input_is_one_line(tmp_path, capsys, args, needle):
