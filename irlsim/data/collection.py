@@ -100,9 +100,13 @@ class EpisodeJob:
 def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
 
-    Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``).
+    Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``). ``collect/wall_s`` and
+    ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),
+    driving, demonstrations, and writing and renaming its files; ``collect/setup_s`` is the set-up part.
     """
     import time
+
+    t_start = time.perf_counter()
 
     from irlsim.data.demos import DemoProjector
     from irlsim.data.writer import EpisodeWriter
@@ -124,41 +128,51 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
         w_yaw=cfg.demo.w_yaw,
         max_demo_distance=cfg.demo.max_distance,
     )
-    t_start = time.perf_counter()
     n_cycles = 0
     out = Path(job.dataset)
-    with Simulation(road, cfg.scenario) as sim, EpisodeWriter(out, job.split, job.episode) as writer:
-        obs = sim.reset(job.seed)
-        e = obs.ego
-        projector.push_odometry(e.t, e.s, e.d, e.yaw)
-        while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
-            traj = driver.plan(obs)
-            ps, idx = driver.last_policy_set, driver.last_index
-            assert ps is not None, "the expert keeps the policy set of its last plan()"
-            projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
-            ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
-            writer.add_cycle(n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint)
-            sim.execute(traj, steps)
-            for j in range(1, steps + 1):  # the states the ego actually drove this cycle
-                st = traj.state(j)
-                projector.push_odometry(st.t, st.s, st.d, st.yaw)
-            writer.add_demos(projector.pop_ready())
-            n_cycles += 1
-            obs = sim.observe()
+    with Simulation(road, cfg.scenario) as sim:
+        with EpisodeWriter(out, job.split, job.episode) as writer:
+            obs = sim.reset(job.seed)
+            setup = time.perf_counter() - t_start
             e = obs.ego
-        writer.add_demos(projector.finish())
-        stats = dict(sim.stats)
-        wall = time.perf_counter() - t_start
-        stats.update(
-            {
-                "collect/split": job.split,
-                "collect/episode": job.episode,
-                "collect/seed": job.seed,
-                "collect/cycles": n_cycles,
-                "collect/wall_s": round(wall, 3),
-                "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
-            }
-        )
-        # written before the cycles file (the episode's completion marker): a finished episode has both
-        write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
+            projector.push_odometry(e.t, e.s, e.d, e.yaw)
+            while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
+                traj = driver.plan(obs)
+                ps, idx = driver.last_policy_set, driver.last_index
+                assert ps is not None, "the expert keeps the policy set of its last plan()"
+                projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
+                ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
+                writer.add_cycle(
+                    n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint
+                )
+                driven = len(sim.odometry)
+                sim.execute(traj, steps)
+                # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
+                # time-out) must not complete a demonstration window with states that were never driven
+                driven = len(sim.odometry) - driven
+                for j in range(1, driven + 1):
+                    st = traj.state(j)
+                    projector.push_odometry(st.t, st.s, st.d, st.yaw)
+                writer.add_demos(projector.pop_ready())
+                n_cycles += 1
+                obs = sim.observe()
+                e = obs.ego
+            writer.add_demos(projector.finish())
+            stats = dict(sim.stats)
+    # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
+    wall = time.perf_counter() - t_start
+    stats.update(
+        {
+            "collect/split": job.split,
+            "collect/episode": job.episode,
+            "collect/seed": job.seed,
+            "collect/cycles": n_cycles,
+            "collect/setup_s": round(setup, 3),
+            "collect/wall_s": round(wall, 3),
+            "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
+        }
+    )
+    # informational, written after the episode's files (which alone make the episode complete): an
+    # episode killed just before this line is complete and lacks only its figures
+    write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
     return stats

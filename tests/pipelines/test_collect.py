@@ -138,3 +138,30 @@ def test_broken_config_file(tmp_path, capsys):
     rc = main(["collect", "--config", str(bad), "--out", str(tmp_path / "x")])
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "not valid TOML" in err[0]
+
+
+def _tiny(out: Path, *extra: str) -> list[str]:
+    return ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *extra]
+
+
+ONE_EPISODE = ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0"]
+
+
+def test_episode_ending_mid_cycle_uses_only_driven_steps(tmp_path):
+    """A time-out after 61 steps of 0.1 s ends the episode inside a 2-step cycle: the step never driven
+    must not complete any demonstration window, so exactly the cycles with t + 5 s <= the end have one."""
+    out = tmp_path / "short"
+    args = _tiny(out, *ONE_EPISODE, "--set", "max_cycles=0", "--set", "scenario.max_time=6.1")
+    assert main(args) == 0
+    stats = json.loads((out / "train" / "episode_00000.stats.json").read_text())
+    assert stats["end_reason"] == "timeout" and stats["sim/steps"] == 61
+    cycles = pq.read_table(out / "train" / "episode_00000.cycles.parquet")
+    t = cycles.column("t").to_numpy().astype(np.float64)
+    assert len(t) == 31  # cycles start at steps 0, 2, ..., 60
+    complete = t + 5.0 <= t[0] + 6.1 + 1e-3  # the windows the simulated odometry covers
+    assert complete.sum() == 6
+    has_demo = cycles.column("has_demo").to_numpy(zero_copy_only=False)
+    np.testing.assert_array_equal(has_demo, complete)
+    dist = pq.read_table(out / "train" / "episode_00000.policies.parquet", columns=["distance"])
+    dist = dist.column("distance").to_numpy().reshape(len(t), -1)
+    assert np.isnan(dist[~complete]).all() and np.isfinite(dist[complete]).all()
