@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -374,30 +375,31 @@ def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: n
 
 
 class _AtomicNpys:
-    """Memory-mapped .npy files opened under temporary names, renamed into place on success."""
+    """Memory-mapped .npy files opened under unique temporary names (``atomic_path``), renamed into place
+    on success and removed on failure, so two processes building the same cache never share a file."""
 
     def __init__(self, folder: Path, specs: dict[str, tuple[tuple[int, ...], Any]]) -> None:
         self.folder = folder
         self.specs = specs
-        self.tmps: dict[str, Path] = {}
+        self.stack = ExitStack()
         self.maps: dict[str, np.memmap] = {}
 
     def __enter__(self) -> dict[str, np.memmap]:
-        for name, (shape, dtype) in self.specs.items():
-            tmp = self.folder / f".{name}.npy.tmp"
-            self.tmps[name] = tmp
-            self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+        try:
+            for name, (shape, dtype) in self.specs.items():
+                tmp = self.stack.enter_context(atomic_path(self.folder / f"{name}.npy"))
+                self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+        except BaseException as exc:
+            self.maps.clear()
+            self.stack.__exit__(type(exc), exc, exc.__traceback__)  # with an exception: delete, not rename
+            raise
         return self.maps
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         for m in self.maps.values():
             m.flush()
-        self.maps.clear()
-        for name, tmp in self.tmps.items():
-            if exc_type is None:
-                tmp.replace(self.folder / f"{name}.npy")
-            else:
-                tmp.unlink(missing_ok=True)
+        self.maps.clear()  # unmapped before the rename
+        self.stack.__exit__(exc_type, exc, tb)
 
 
 def open_dataset(path: str | Path) -> Dataset:
