@@ -78,8 +78,13 @@ def run(args: argparse.Namespace) -> int:
                 jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
     total = sum(len(v) for v in seeds.values())
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
-    # the manifest of an unfinished run lists the config, so a re-run with another config is refused
-    write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": {s: [] for s in SPLITS}})
+    if jobs or not manifest_path.is_file():
+        # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for
+        # a small one; it lists the config, so a re-run with another config is refused
+        write_manifest(
+            out,
+            {"config": to_dict(cfg), "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
+        )
 
     t0 = time.perf_counter()
     cycles = 0
@@ -102,7 +107,9 @@ def run(args: argparse.Namespace) -> int:
             pool.terminate()
             pool.join()
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
-    manifest = write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": splits})
+    manifest = write_manifest(
+        out, {"config": to_dict(cfg), "seeds": seeds, "splits": splits, "complete": True}
+    )
     wall = time.perf_counter() - t0
     if jobs:
         print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")

@@ -162,12 +162,30 @@ def iter_policy_groups(pf: pq.ParquetFile, path: Path, columns: list[str]) -> It
         yield _read(pf, path, row_group=i, columns=columns)
 
 
+def check_complete(path: Path, manifest: dict[str, Any]) -> None:
+    """Refuse the manifest of a collection that has not finished (one-line ``IrlsimError``).
+
+    ``irlsim collect`` writes ``"complete": false`` until its last episode is on disk. Manifests written
+    before that flag existed are complete unless every split is empty (how an unfinished run looked).
+    """
+    complete = manifest.get("complete")
+    if complete is None:
+        splits = manifest.get("splits")
+        complete = not isinstance(splits, dict) or any(splits.values())
+    if complete is not True:
+        raise IrlsimError(
+            f"dataset {path} is incomplete (collection was interrupted): "
+            "re-run the same 'irlsim collect' command to finish it"
+        )
+
+
 class Dataset:
-    """A validated dataset folder. Use ``open_dataset``."""
+    """A validated, complete dataset folder. Use ``open_dataset``."""
 
     def __init__(self, path: Path, manifest: dict[str, Any]) -> None:
         self.path = path
         self.manifest = manifest
+        check_complete(path, manifest)
 
     @property
     def splits(self) -> list[str]:

@@ -439,11 +439,15 @@ def write_manifest(dataset_dir: str | Path, manifest: Mapping[str, Any]) -> Path
 
     ``manifest`` must hold ``config`` (dict), ``seeds`` and ``splits`` ({split: [episode ids]}).
     ``schema_version``, ``feature_names`` and ``created_by`` are filled in; ``counts`` is computed from
-    the episodes' cycles files when absent (every listed episode must be complete).
+    the episodes' cycles files when absent (every listed episode must be complete). ``complete``
+    (default true) is false while a collection is running: readers refuse such a dataset.
     """
     missing = [k for k in ("config", "seeds", "splits") if k not in manifest]
     if missing:
         raise ValueError(f"manifest lacks {missing}")
+    complete = manifest.get("complete", True)
+    if not isinstance(complete, bool):
+        raise ValueError(f"manifest 'complete' must be true or false, got {complete!r}")
     splits = {check_split(str(s)): sorted(int(e) for e in eps) for s, eps in manifest["splits"].items()}
     for split, eps in splits.items():
         lacking = [e for e in eps if not episode_done(dataset_dir, split, e)]
@@ -454,10 +458,11 @@ def write_manifest(dataset_dir: str | Path, manifest: Mapping[str, Any]) -> Path
         "schema_version": SCHEMA_VERSION,
         "feature_names": list(FEATURE_NAMES),
         "created_by": manifest.get("created_by", f"irlsim {__version__}"),
+        "complete": complete,
         **{
             k: v
             for k, v in manifest.items()
-            if k not in ("splits", "schema_version", "feature_names", "created_by")
+            if k not in ("splits", "schema_version", "feature_names", "created_by", "complete")
         },
         "splits": splits,
     }

@@ -3,13 +3,65 @@ builds, and the ways third-party tools open a dataset folder."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from irlsim.cli import main
 from irlsim.data import reader as reader_mod
-from irlsim.data.reader import open_dataset
+from irlsim.data.reader import Dataset, open_dataset
+from irlsim.data.writer import write_manifest
+from irlsim.errors import IrlsimError
+
+INCOMPLETE = (
+    "is incomplete (collection was interrupted): re-run the same 'irlsim collect' command to finish it"
+)
+
+
+def _mark_incomplete(root: Path) -> None:
+    """The manifest 'irlsim collect' writes while it runs: no episodes listed, complete false."""
+    write_manifest(root, {"config": {}, "seeds": {}, "splits": {"train": []}, "complete": False})
+
+
+def test_incomplete_dataset_is_refused_everywhere(dataset: Path, tmp_path: Path, capsys) -> None:
+    assert json.loads((dataset / "manifest.json").read_text())["complete"] is True
+    open_dataset(dataset).split_tensors("train")  # complete: fine
+    _mark_incomplete(dataset)
+    with pytest.raises(IrlsimError) as exc:
+        open_dataset(dataset)
+    assert str(exc.value) == f"dataset {dataset} {INCOMPLETE}"
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    with pytest.raises(IrlsimError, match="is incomplete"):
+        Dataset(dataset, manifest).split_tensors("train")
+    for argv in (
+        ["data", "info", str(dataset)],
+        ["train", "--stage", "1", "--data", str(dataset), "--out", str(tmp_path / "runs")],
+    ):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [f"irlsim: error: dataset {dataset} {INCOMPLETE}"], argv
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize("splits, ok", [({"train": [], "validation": []}, False), ({"train": [0, 1]}, True)])
+def test_manifest_without_the_complete_flag(dataset: Path, splits: dict, ok: bool) -> None:
+    """Manifests from before the flag: an unfinished run listed no episode at all."""
+    manifest = json.loads((dataset / "manifest.json").read_text())
+    del manifest["complete"]
+    manifest["splits"] = splits
+    (dataset / "manifest.json").write_text(json.dumps(manifest))
+    if ok:
+        assert open_dataset(dataset).episodes("train") == [0, 1]
+    else:
+        with pytest.raises(IrlsimError, match="is incomplete"):
+            open_dataset(dataset)
+
+
+def test_write_manifest_rejects_a_non_boolean_complete(dataset: Path) -> None:
+    with pytest.raises(ValueError, match="'complete' must be true or false"):
+        write_manifest(dataset, {"config": {}, "seeds": {}, "splits": {}, "complete": "yes"})
 
 
 def test_two_readers_building_the_cache_at_once(dataset: Path, monkeypatch: pytest.MonkeyPatch) -> None:

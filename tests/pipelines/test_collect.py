@@ -56,7 +56,24 @@ def test_splits_use_disjoint_seeds_and_keep_cycle_order(tiny_dataset):
         assert (np.diff(c["t"].to_numpy()) > 0).all()
 
 
-def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path):
+def _assert_incomplete(out: Path, capsys) -> None:
+    """An interrupted collection is not a (small) dataset: the reader and 'data info' refuse it."""
+    from irlsim.data.reader import open_dataset
+    from irlsim.errors import IrlsimError
+
+    assert json.loads((out / "manifest.json").read_text())["complete"] is False
+    with pytest.raises(IrlsimError, match="incomplete"):
+        open_dataset(out)
+    capsys.readouterr()
+    assert main(["data", "info", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        f"irlsim: error: dataset {out} is incomplete (collection was interrupted): "
+        "re-run the same 'irlsim collect' command to finish it"
+    ]
+
+
+def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path, capsys):
     """SIGKILL in the middle, re-run: only complete files at any time, the same dataset in the end.
 
     The uninterrupted reference is the session's tiny dataset (same config, same seeds), so this also
@@ -86,12 +103,13 @@ def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path):
     assert 1 <= len(done) < 4, "kill came too late or too early to test resuming"
     for p in out.rglob("*.parquet"):  # every visible Parquet file is complete and readable
         pq.read_table(p)
+    _assert_incomplete(out, capsys)
     assert main(["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT]) == 0
     assert not list(out.rglob("*.tmp"))
     assert _parquet_files(out) == _parquet_files(tiny_dataset)
     m1 = json.loads((out / "manifest.json").read_text())
     m2 = json.loads((tiny_dataset / "manifest.json").read_text())
-    assert m1 == m2
+    assert m1 == m2 and m1["complete"] is True
 
 
 def test_rerun_with_another_config_is_refused(tiny_dataset, capsys):
