@@ -2,7 +2,9 @@
 
 Episodes run in ``--workers`` processes (one libsumo each). Every file is written under a temporary name
 and renamed; an episode is finished once its cycles file exists. Killing the command at any moment leaves
-only complete files, and running it again resumes by skipping finished episodes.
+only complete files, and running it again resumes by skipping finished episodes; each of those is checked
+first (``check_episode``: footers, schemas, ids), and a truncated or foreign pair is deleted and collected
+again. The manifest says ``"complete": false`` until the last episode is on disk.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing as mp
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -40,7 +43,13 @@ def _run_job(job):  # top level: picklable for spawn workers
 def run(args: argparse.Namespace) -> int:
     from irlsim.config import load_config, parse_overrides, to_dict
     from irlsim.data.collection import SPLITS, CollectConfig, EpisodeJob
-    from irlsim.data.writer import episode_done, remove_partial, write_manifest
+    from irlsim.data.writer import (
+        check_episode,
+        episode_done,
+        remove_episode,
+        remove_partial,
+        write_manifest,
+    )
     from irlsim.errors import IrlsimError
     from irlsim.road.network import build_net
     from irlsim.utils import check_non_negative, progress
@@ -74,8 +83,21 @@ def run(args: argparse.Namespace) -> int:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
         for episode, seed in cfg.episodes(split):
-            if not episode_done(out, split, episode):
-                jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
+            if episode_done(out, split, episode):
+                # a finished episode is trusted only after a look at its files: a truncated or foreign
+                # pair would otherwise be kept, and break the manifest's counts or a later reader
+                problem = check_episode(
+                    out,
+                    split,
+                    episode,
+                    n_policies=cfg.planner.n_policies,
+                    n_control_points=cfg.planner.n_control_points,
+                )
+                if problem is None:
+                    continue
+                print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
+                remove_episode(out, split, episode)
+            jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
     total = sum(len(v) for v in seeds.values())
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
     if jobs or not manifest_path.is_file():

@@ -114,39 +114,58 @@ class SplitTensors:
 _ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 
 
+class BadParquetFile(IrlsimError):
+    """A dataset file that is missing, truncated, corrupt, foreign or of another schema version.
+
+    ``str()`` is the one-line user message; ``problem`` is the same without the fix, for callers that
+    repair the file themselves (``irlsim collect`` re-collects the episode)."""
+
+    def __init__(self, path: Path, problem: str, fix: str) -> None:
+        super().__init__(f"{path} {problem}: {fix}")
+        self.path = path
+        self.problem = f"{path} {problem}"
+
+
+def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
+    reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
+
+
 def open_parquet(path: Path, table: str) -> pq.ParquetFile:
-    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version."""
+    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version.
+
+    Raises ``BadParquetFile`` (an ``IrlsimError``) naming the file."""
     try:
         pf = pq.ParquetFile(str(path))
     except FileNotFoundError:
-        raise IrlsimError(f"{path} is missing: re-run irlsim collect to regenerate it") from None
+        raise BadParquetFile(path, "is missing", "re-run irlsim collect to regenerate it") from None
     except (pa.ArrowException, OSError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+        raise _corrupt(path, exc) from None
     meta = pf.schema_arrow.metadata or {}
     if meta.get(META_TABLE) != table.encode():
-        raise IrlsimError(
-            f"{path} is not an irlsim {table} table (no irlsim metadata): remove it from the dataset "
-            "folder, or re-collect the dataset with 'irlsim collect'"
+        raise BadParquetFile(
+            path,
+            f"is not an irlsim {table} table (no irlsim metadata)",
+            "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
         )
     version = meta.get(META_VERSION, b"?").decode()
     if version != str(SCHEMA_VERSION):
-        raise IrlsimError(
-            f"{path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
-            "re-collect it with 'irlsim collect'"
+        raise BadParquetFile(
+            path,
+            f"has schema version {version}, this irlsim reads {SCHEMA_VERSION}",
+            "re-collect it with 'irlsim collect'",
         )
     return pf
 
 
-def _read(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
-    """pf.read / read_row_group with corrupt data turned into a one-line IrlsimError."""
+def read_parquet(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
+    """pf.read / read_row_group with corrupt data turned into a one-line ``BadParquetFile``."""
     try:
         if "row_group" in kwargs:
             return pf.read_row_group(kwargs.pop("row_group"), **kwargs)
         return pf.read(**kwargs)
     except (pa.ArrowException, OSError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+        raise _corrupt(path, exc) from None
 
 
 def fixed_list_to_numpy(column: pa.ChunkedArray | pa.Array, width: int) -> np.ndarray:
@@ -159,7 +178,7 @@ def fixed_list_to_numpy(column: pa.ChunkedArray | pa.Array, width: int) -> np.nd
 def iter_policy_groups(pf: pq.ParquetFile, path: Path, columns: list[str]) -> Iterator[pa.Table]:
     """The row groups of a policies file, read one at a time."""
     for i in range(pf.num_row_groups):
-        yield _read(pf, path, row_group=i, columns=columns)
+        yield read_parquet(pf, path, row_group=i, columns=columns)
 
 
 def check_complete(path: Path, manifest: dict[str, Any]) -> None:
@@ -213,7 +232,7 @@ class Dataset:
         tables = []
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
-            tables.append(_read(open_parquet(path, TABLE_CYCLES), path))
+            tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
         if not tables:
             from irlsim.data.schema import cycles_schema
 

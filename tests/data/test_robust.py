@@ -4,20 +4,37 @@ builds, and the ways third-party tools open a dataset folder."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
 import pytest
 
 from irlsim.cli import main
 from irlsim.data import reader as reader_mod
 from irlsim.data.reader import Dataset, open_dataset
-from irlsim.data.writer import write_manifest
+from irlsim.data.writer import check_episode, remove_partial, write_manifest
 from irlsim.errors import IrlsimError
+from tests.data.conftest import K, make_dataset, write_episode
 
 INCOMPLETE = (
     "is incomplete (collection was interrupted): re-run the same 'irlsim collect' command to finish it"
 )
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+@pytest.fixture()
+def tiny_synthetic(tmp_path: Path) -> Path:
+    """Train episodes 0 and 1 of 60 cycles; validation episode 2 of 10 cycles (another row count)."""
+    root = make_dataset(tmp_path / "ds", {"train": [0, 1]})
+    write_episode(root, "validation", 2, n_steps=20)
+    return root
 
 
 def _mark_incomplete(root: Path) -> None:
@@ -98,3 +115,84 @@ def test_failed_cache_build_leaves_no_temporary_file(dataset: Path, monkeypatch:
         open_dataset(dataset).split_tensors("train")
     cache = dataset / reader_mod.CACHE_DIR / "train"
     assert sorted(p.name for p in cache.iterdir()) == []
+
+
+# -- corrupt or foreign episode files ---------------------------------------------------------------------
+
+
+def test_check_episode_accepts_a_good_pair(dataset: Path) -> None:
+    assert check_episode(dataset, "train", 0, n_policies=24, n_control_points=K) is None
+
+
+def _swap_in(dataset: Path, name: str, source: str) -> Path:
+    """Replace train/<name> by a copy of another file of the dataset."""
+    target = dataset / "train" / name
+    shutil.copyfile(dataset / source, target)
+    return target
+
+
+@pytest.mark.parametrize(
+    "damage, expected",
+    [
+        (
+            lambda d: _truncate(d / "train/episode_00000.cycles.parquet"),
+            "cycles.parquet is truncated or corrupt",
+        ),
+        (lambda d: _truncate(d / "train/episode_00000.policies.parquet"), "policies.parquet is truncated"),
+        (
+            lambda d: pq.write_table(pa.table({"x": [1]}), d / "train/episode_00000.cycles.parquet"),
+            "cycles.parquet is not an irlsim cycles table",
+        ),
+        (
+            lambda d: _swap_in(d, "episode_00000.cycles.parquet", "train/episode_00001.cycles.parquet"),
+            "cycles.parquet holds episode 1, not 0",
+        ),
+        (
+            lambda d: _swap_in(d, "episode_00000.policies.parquet", "train/episode_00001.policies.parquet"),
+            "policies.parquet holds episodes 1..1, not 0",
+        ),
+        (
+            lambda d: _swap_in(
+                d, "episode_00000.policies.parquet", "validation/episode_00002.policies.parquet"
+            ),
+            "policies.parquet has 240 rows, its cycles file describes 1440 policies",
+        ),
+    ],
+)
+def test_check_episode_names_the_bad_file(tiny_synthetic: Path, damage, expected: str) -> None:
+    damage(tiny_synthetic)
+    problem = check_episode(tiny_synthetic, "train", 0, n_policies=24, n_control_points=K)
+    assert problem is not None and expected in problem and str(tiny_synthetic / "train") in problem
+    assert "\n" not in problem
+
+
+def test_check_episode_compares_with_the_config(dataset: Path) -> None:
+    problem = check_episode(dataset, "train", 0, n_policies=25)
+    assert (
+        problem
+        == f"{dataset}/train/episode_00000.cycles.parquet has 24 policies per cycle, the config asks for 25"
+    )
+    problem = check_episode(dataset, "train", 0, n_control_points=K + 1)
+    assert problem is not None and f"({K + 1} control points)" in problem
+
+
+def test_manifest_counts_over_a_truncated_file_is_one_line(dataset: Path) -> None:
+    path = dataset / "validation" / "episode_00002.cycles.parquet"
+    _truncate(path)
+    with pytest.raises(IrlsimError) as exc:
+        write_manifest(dataset, {"config": {}, "seeds": {}, "splits": {"train": [0, 1], "validation": [2]}})
+    msg = str(exc.value)
+    assert msg.startswith(f"{path} is truncated or corrupt (") and "\n" not in msg
+
+
+def test_remove_partial_drops_unpaired_files(dataset: Path) -> None:
+    (dataset / "train" / "episode_00001.policies.parquet").unlink()
+    (dataset / "validation" / "episode_00002.cycles.parquet").unlink()
+    assert remove_partial(dataset, "train") == [dataset / "train" / "episode_00001.cycles.parquet"]
+    assert remove_partial(dataset, "validation") == [
+        dataset / "validation" / "episode_00002.policies.parquet"
+    ]
+    assert sorted(p.name for p in (dataset / "train").iterdir()) == [
+        "episode_00000.cycles.parquet",
+        "episode_00000.policies.parquet",
+    ]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -12,6 +13,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
@@ -183,3 +185,39 @@ def test_episode_ending_mid_cycle_uses_only_driven_steps(tmp_path):
     dist = pq.read_table(out / "train" / "episode_00000.policies.parquet", columns=["distance"])
     dist = dist.column("distance").to_numpy().reshape(len(t), -1)
     assert np.isnan(dist[~complete]).all() and np.isfinite(dist[complete]).all()
+
+
+def _copy_dataset(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst, ignore=shutil.ignore_patterns(".cache", ".lock"))
+    return dst
+
+
+def _truncate(path: Path) -> None:
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+
+
+def _foreign(path: Path) -> None:
+    pq.write_table(pa.table({"x": [1, 2, 3]}), path)  # a Parquet file, but not ours
+
+
+@pytest.mark.parametrize(
+    "damage, name",
+    [
+        (_truncate, "train/episode_00000.policies.parquet"),
+        (_truncate, "test/episode_00000.cycles.parquet"),
+        (_foreign, "validation/episode_00000.cycles.parquet"),
+    ],
+)
+def test_resume_recollects_a_corrupt_episode(tiny_dataset, tmp_path, capsys, damage, name):
+    out = _copy_dataset(tiny_dataset, tmp_path / "damaged")
+    damage(out / name)
+    capsys.readouterr()
+    assert main(_tiny(out)) == 0
+    err = capsys.readouterr().err.splitlines()
+    said = [line for line in err if line.startswith("collect: ") and str(out / name) in line]
+    assert len(said) == 1 and said[0].endswith(f"collecting {name.split('/')[0]} episode 0 again"), err
+    assert _parquet_files(out) == _parquet_files(tiny_dataset)
+    assert json.loads((out / "manifest.json").read_text()) == json.loads(
+        (tiny_dataset / "manifest.json").read_text()
+    )
