@@ -34,25 +34,46 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: held by the running collect for its whole run, so two never write into one dataset folder
+LOCK_NAME = ".lock"
+
+
 def _run_job(job):  # top level: picklable for spawn workers
     from irlsim.data.collection import collect_episode
 
     return collect_episode(job)
 
 
+def _init_worker(parent_pid: int) -> None:  # top level: the spawn workers' Pool initializer
+    from irlsim.utils import die_with_parent
+
+    die_with_parent(parent_pid)
+
+
+def _start_pool(n: int) -> Any:
+    """A spawn Pool of n workers that ignore Ctrl-C and die with this process.
+
+    SIGINT is ignored here while the workers start, as they inherit that through exec: a Ctrl-C during
+    their start-up, before their initializer runs, then prints no traceback either."""
+    import os
+    import signal
+
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: signals are not ours to change
+        previous = None
+    try:
+        return mp.get_context("spawn").Pool(n, initializer=_init_worker, initargs=(os.getpid(),))
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides, to_dict
-    from irlsim.data.collection import SPLITS, CollectConfig, EpisodeJob
-    from irlsim.data.writer import (
-        check_episode,
-        episode_done,
-        remove_episode,
-        remove_partial,
-        write_manifest,
-    )
+    from irlsim.config import load_config, parse_overrides
+    from irlsim.data.collection import CollectConfig
     from irlsim.errors import IrlsimError
-    from irlsim.road.network import build_net
-    from irlsim.utils import check_non_negative, progress
+    from irlsim.utils import LockBusy, check_non_negative, exclusive_lock
 
     overrides = parse_overrides(args.set)
     if args.workers is not None:
@@ -66,6 +87,30 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     if out.exists() and not out.is_dir():
         raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    try:
+        with exclusive_lock(out / LOCK_NAME):
+            return _collect(cfg, out)
+    except LockBusy as busy:
+        raise IrlsimError(
+            f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
+        ) from None
+
+
+def _collect(cfg: Any, out: Path) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``."""
+    from irlsim.config import to_dict
+    from irlsim.data.collection import SPLITS, EpisodeJob
+    from irlsim.data.writer import (
+        check_episode,
+        episode_done,
+        remove_episode,
+        remove_partial,
+        write_manifest,
+    )
+    from irlsim.errors import IrlsimError
+    from irlsim.road.network import build_net
+    from irlsim.utils import progress
+
     manifest_path = out / "manifest.json"
     if manifest_path.is_file():
         try:
@@ -116,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         results = map(_run_job, jobs)
         pool = None
     else:
-        pool = mp.get_context("spawn").Pool(min(cfg.workers, len(jobs)))
+        pool = _start_pool(min(cfg.workers, len(jobs)))
         results = pool.imap_unordered(_run_job, jobs)
     try:
         for stats in results:

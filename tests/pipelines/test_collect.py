@@ -3,6 +3,7 @@ determinism, and bad input."""
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
@@ -221,3 +222,25 @@ def test_resume_recollects_a_corrupt_episode(tiny_dataset, tmp_path, capsys, dam
     assert json.loads((out / "manifest.json").read_text()) == json.loads(
         (tiny_dataset / "manifest.json").read_text()
     )
+
+
+def test_second_collect_is_refused_while_the_lock_is_held(tiny_dataset, tmp_path, capsys):
+    """The test process holds <out>/.lock as a running collect would: a collect into the same folder
+    is refused with one line naming the holder, and leaves the dataset untouched."""
+    out = _copy_dataset(tiny_dataset, tmp_path / "locked")
+    fd = os.open(out / ".lock", os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        os.write(fd, b"4242\n")
+        before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file()}
+        capsys.readouterr()
+        assert main(_tiny(out)) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert err == [
+            f"irlsim: error: another 'irlsim collect' is writing {out} (pid 4242): wait for it or stop it"
+        ]
+        assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file()} == before
+    finally:
+        os.close(fd)
+    assert main(_tiny(out)) == 0  # released: the same command now runs (nothing left to do)
+    assert _parquet_files(out) == _parquet_files(tiny_dataset)
