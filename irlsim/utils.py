@@ -70,7 +70,7 @@ def write_json(path: str | Path, obj: Any) -> None:
 
 
 class LockBusy(Exception):
-    """``exclusive_lock``: another process holds the lock; ``holder`` is its pid as recorded ("?" if unknown)."""
+    """``exclusive_lock``: another process holds the lock; ``holder`` is its recorded pid ("?" if none)."""
 
     def __init__(self, path: Path, holder: str) -> None:
         super().__init__(f"{path} is locked by pid {holder}")
