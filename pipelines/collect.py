@@ -96,10 +96,39 @@ def run(args: argparse.Namespace) -> int:
         ) from None
 
 
+def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
+    """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
+    from irlsim import FEATURE_NAMES
+    from irlsim.data.collection import data_config, first_difference
+    from irlsim.data.schema import SCHEMA_VERSION
+    from irlsim.errors import IrlsimError
+
+    out = manifest_path.parent
+    fix = f"choose another --out or delete {out}"
+    try:
+        old = json.loads(manifest_path.read_text())
+    except (OSError, ValueError):
+        old = None
+    if not isinstance(old, dict) or not isinstance(old.get("config"), dict):
+        raise IrlsimError(f"{manifest_path} is corrupt: delete it and re-run the same command")
+    version = old.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"{out} holds a dataset of schema version {version}, this irlsim writes {SCHEMA_VERSION}: {fix}"
+        )
+    if old.get("feature_names") != list(FEATURE_NAMES):
+        raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
+    diff = first_difference(data_config(old["config"]), config)
+    if diff is not None:
+        key, was, now = diff
+        raise IrlsimError(
+            f"{out} was collected with another config ({key} = {was!r} there, {now!r} now): {fix}"
+        )
+
+
 def _collect(cfg: Any, out: Path) -> int:
     """The collection itself, run while this process holds ``<out>/.lock``."""
-    from irlsim.config import to_dict
-    from irlsim.data.collection import SPLITS, EpisodeJob
+    from irlsim.data.collection import SPLITS, EpisodeJob, data_config
     from irlsim.data.writer import (
         check_episode,
         episode_done,
@@ -107,20 +136,13 @@ def _collect(cfg: Any, out: Path) -> int:
         remove_partial,
         write_manifest,
     )
-    from irlsim.errors import IrlsimError
     from irlsim.road.network import build_net
     from irlsim.utils import progress
 
     manifest_path = out / "manifest.json"
+    config = data_config(cfg)
     if manifest_path.is_file():
-        try:
-            old = json.loads(manifest_path.read_text())
-        except json.JSONDecodeError:
-            raise IrlsimError(f"{manifest_path} is corrupt: delete it and re-run the same command") from None
-        if old.get("config") != to_dict(cfg):
-            raise IrlsimError(
-                f"{out} was collected with another config: choose another --out or delete {out}"
-            )
+        _check_resumable(manifest_path, config)
     build_net()  # once, before the workers start (they only read it)
 
     jobs, seeds = [], {}
@@ -150,7 +172,7 @@ def _collect(cfg: Any, out: Path) -> int:
         # a small one; it lists the config, so a re-run with another config is refused
         write_manifest(
             out,
-            {"config": to_dict(cfg), "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
+            {"config": config, "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
         )
 
     t0 = time.perf_counter()
@@ -174,9 +196,7 @@ def _collect(cfg: Any, out: Path) -> int:
             pool.terminate()
             pool.join()
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
-    manifest = write_manifest(
-        out, {"config": to_dict(cfg), "seeds": seeds, "splits": splits, "complete": True}
-    )
+    manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
     wall = time.perf_counter() - t0
     if jobs:
         print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require
+from irlsim.config import require, to_dict
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW
 from irlsim.planner.config import PlannerConfig
 from irlsim.sim.config import ScenarioConfig
@@ -86,6 +86,39 @@ class CollectConfig:
         """(episode id, seed) of every episode of ``split``."""
         n = getattr(self, f"{split}_episodes")
         return [(i, self.seed * SEED_STRIDE + SPLIT_OFFSET[split] + i) for i in range(n)]
+
+
+#: CollectConfig fields that do not change a byte of the data (workers=1 and workers=2 write the same
+#: files): left out of the manifest's config, so a run may be resumed with another value
+DATA_NEUTRAL_FIELDS: tuple[str, ...] = ("workers",)
+
+
+def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
+    """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
+    types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
+    d = cfg if isinstance(cfg, dict) else to_dict(cfg)
+    return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS}
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "(not set)"
+
+
+#: stands for a key one of two configs lacks
+MISSING: Any = _Missing()
+
+
+def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
+    """The first dotted key whose value differs between two nested dicts, with both values (a key
+    missing on one side gives ``MISSING`` there), or None when they are equal."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for key in [*new, *(k for k in old if k not in new)]:
+            diff = first_difference(old.get(key, MISSING), new.get(key, MISSING), f"{prefix}{key}.")
+            if diff is not None:
+                return diff
+        return None
+    return None if old == new else (prefix.rstrip("."), old, new)
 
 
 @dataclass(frozen=True)

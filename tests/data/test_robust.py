@@ -196,3 +196,22 @@ def test_remove_partial_drops_unpaired_files(dataset: Path) -> None:
         "episode_00000.cycles.parquet",
         "episode_00000.policies.parquet",
     ]
+
+
+def test_first_difference_names_the_dotted_key() -> None:
+    from irlsim.data.collection import MISSING, data_config, first_difference
+
+    old = {"seed": 0, "workers": 1, "planner": {"n_policies": 120, "dt": 0.1}}
+    assert first_difference(old, old) is None
+    assert first_difference(old, {**old, "planner": {"n_policies": 121, "dt": 0.1}}) == (
+        "planner.n_policies",
+        120,
+        121,
+    )
+    assert first_difference(old, {"seed": 0, "workers": 1, "planner": {"n_policies": 120}}) == (
+        "planner.dt",
+        0.1,
+        MISSING,
+    )
+    assert repr(MISSING) == "(not set)"
+    assert first_difference(data_config(old), data_config({**old, "workers": 2})) is None

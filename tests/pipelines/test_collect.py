@@ -19,6 +19,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from irlsim.cli import main
+from irlsim.data.demos import W_YAW
 from tests.conftest import TINY_COLLECT
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -115,22 +116,56 @@ def test_killed_collect_resumes_to_the_same_bytes(tiny_dataset, tmp_path, capsys
     assert m1 == m2 and m1["complete"] is True
 
 
-def test_rerun_with_another_config_is_refused(tiny_dataset, capsys):
-    rc = main(
-        [
-            "collect",
-            "--config",
-            "configs/collect/tiny.toml",
-            "--out",
-            str(tiny_dataset),
-            *TINY_COLLECT,
-            "--set",
-            "max_cycles=41",
-        ]
-    )
-    assert rc == 2
+@pytest.mark.parametrize(
+    "extra, difference",
+    [
+        (["--set", "max_cycles=41"], "(max_cycles = 40 there, 41 now)"),
+        (["--set", "demo.w_yaw=2.5"], f"(demo.w_yaw = {W_YAW!r} there, 2.5 now)"),
+    ],
+)
+def test_rerun_with_another_config_is_refused(tiny_dataset, capsys, extra, difference):
+    before = (tiny_dataset / "manifest.json").read_bytes()
+    capsys.readouterr()
+    assert main(_tiny(tiny_dataset, *extra)) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "another config" in err[0]
+    assert err == [
+        f"irlsim: error: {tiny_dataset} was collected with another config {difference}: "
+        f"choose another --out or delete {tiny_dataset}"
+    ]
+    assert (tiny_dataset / "manifest.json").read_bytes() == before
+
+
+def test_workers_do_not_block_a_resume(tiny_dataset, tmp_path, capsys):
+    """workers changes no byte of the data: it is not recorded, and a manifest that still records it
+    (written before) resumes with any value."""
+    out = _copy_dataset(tiny_dataset, tmp_path / "workers")
+    manifest = json.loads((out / "manifest.json").read_text())
+    assert "workers" not in manifest["config"]
+    manifest["config"]["workers"] = 3
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    assert main(_tiny(out, "--set", "workers=2")) == 0
+    assert "4 episodes (4 already done)" in capsys.readouterr().out
+    assert (out / "manifest.json").read_bytes() == (tiny_dataset / "manifest.json").read_bytes()
+
+
+@pytest.mark.parametrize(
+    "key, value, needle",
+    [
+        ("schema_version", 0, "holds a dataset of schema version 0, this irlsim writes 1"),
+        ("feature_names", ["acc_lon"], "holds a dataset of other features than this irlsim computes"),
+    ],
+)
+def test_collect_refuses_a_dataset_of_another_version(tiny_dataset, tmp_path, capsys, key, value, needle):
+    out = _copy_dataset(tiny_dataset, tmp_path / "old")
+    manifest = json.loads((out / "manifest.json").read_text())
+    manifest[key] = value
+    (out / "manifest.json").write_text(json.dumps(manifest))
+    before = {p: p.read_bytes() for p in out.rglob("*") if p.is_file() and p.name != ".lock"}
+    capsys.readouterr()
+    assert main(_tiny(out)) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"irlsim: error: {out} {needle}: choose another --out or delete {out}"]
+    assert {p: p.read_bytes() for p in out.rglob("*") if p.is_file() and p.name != ".lock"} == before
 
 
 @pytest.mark.parametrize(
