@@ -1,5 +1,5 @@
-"""Robustness of the dataset reader and writer: incomplete datasets, corrupt files, concurrent cache
-builds, and the ways third-party tools open a dataset folder."""
+"""Robustness of the dataset reader and writer: incomplete datasets, corrupt or foreign episode files,
+concurrent cache builds, and the resume-config comparison."""
 
 from __future__ import annotations
 
