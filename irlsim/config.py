@@ -120,8 +120,16 @@ def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any]
     for key, value in (overrides or {}).items():
         node = data
         parts = key.split(".")
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
+        for i, part in enumerate(parts[:-1]):
+            child = node.setdefault(part, {})
+            if not isinstance(child, dict):
+                # a dotted key can only descend into tables; 'seed.x' would assign into the int seed
+                table = ".".join(parts[: i + 1])
+                raise IrlsimError(
+                    f"config: cannot set '{key}': '{table}' is a value ({child!r}), not a table: "
+                    f"set '{table}' itself (e.g. --set {table}=...) or check the key"
+                )
+            node = child
         node[parts[-1]] = value
     return from_dict(cls, data)
 

@@ -1,4 +1,4 @@
-"""Small shared helpers: atomic writes, seeding, JSON output."""
+"""Small shared helpers: atomic writes, an exclusive folder lock, seeding, JSON output, worker set-up."""
 
 from __future__ import annotations
 
@@ -67,6 +67,71 @@ def write_json(path: str | Path, obj: Any) -> None:
         raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
     atomic_write_text(path, json.dumps(obj, indent=2, default=default, sort_keys=False) + "\n")
+
+
+class LockBusy(Exception):
+    """``exclusive_lock``: another process holds the lock; ``holder`` is its recorded pid ("?" if none)."""
+
+    def __init__(self, path: Path, holder: str) -> None:
+        super().__init__(f"{path} is locked by pid {holder}")
+        self.path = path
+        self.holder = holder
+
+
+@contextmanager
+def exclusive_lock(path: str | Path) -> Iterator[None]:
+    """Hold an exclusive, non-blocking ``flock`` on ``path`` for the block, or raise ``LockBusy``.
+
+    The file records the holder's pid for the error message of the next caller. It is written in place,
+    not atomically, and never deleted: a lock needs one inode that every process opens (replacing or
+    unlinking it would let two processes lock two different files). The kernel drops the lock when the
+    process ends, however it ends, so a stale file never blocks. Without ``fcntl`` (not POSIX), no lock.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - irlsim runs on Linux; keep other platforms working
+        yield
+        return
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.read(fd, 32).decode(errors="replace").strip() or "?"
+            raise LockBusy(path, holder) from None
+        os.ftruncate(fd, 0)
+        os.write(fd, f"{os.getpid()}\n".encode())
+        try:
+            yield
+        finally:
+            os.ftruncate(fd, 0)
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def die_with_parent(parent_pid: int) -> None:
+    """Worker-process set-up: ignore Ctrl-C (the parent reports it) and die when the parent dies.
+
+    On Linux the kernel sends SIGKILL to this process when its parent exits (``PR_SET_PDEATHSIG``), so a
+    SIGKILL of the parent leaves no orphan writing into a folder that a new run may then lock. Elsewhere
+    only SIGINT is ignored. ``parent_pid`` closes the race of a parent that died before the call.
+    """
+    import signal
+    import sys
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        pr_set_pdeathsig = 1  # <linux/prctl.h>
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - a libc without prctl
+            return
+        if os.getppid() != parent_pid:
+            os._exit(1)
 
 
 def seed_everything(seed: int) -> np.random.Generator:

@@ -2,7 +2,9 @@
 
 Episodes run in ``--workers`` processes (one libsumo each). Every file is written under a temporary name
 and renamed; an episode is finished once its cycles file exists. Killing the command at any moment leaves
-only complete files, and running it again resumes by skipping finished episodes.
+only complete files, and running it again resumes by skipping finished episodes; each of those is checked
+first (``check_episode``: footers, schemas, ids), and a truncated or foreign pair is deleted and collected
+again. The manifest says ``"complete": false`` until the last episode is on disk.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing as mp
+import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -31,19 +34,46 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: held by the running collect for its whole run, so two never write into one dataset folder
+LOCK_NAME = ".lock"
+
+
 def _run_job(job):  # top level: picklable for spawn workers
     from irlsim.data.collection import collect_episode
 
     return collect_episode(job)
 
 
+def _init_worker(parent_pid: int) -> None:  # top level: the spawn workers' Pool initializer
+    from irlsim.utils import die_with_parent
+
+    die_with_parent(parent_pid)
+
+
+def _start_pool(n: int) -> Any:
+    """A spawn Pool of n workers that ignore Ctrl-C and die with this process.
+
+    SIGINT is ignored here while the workers start, as they inherit that through exec: a Ctrl-C during
+    their start-up, before their initializer runs, then prints no traceback either."""
+    import os
+    import signal
+
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: signals are not ours to change
+        previous = None
+    try:
+        return mp.get_context("spawn").Pool(n, initializer=_init_worker, initargs=(os.getpid(),))
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides, to_dict
-    from irlsim.data.collection import SPLITS, CollectConfig, EpisodeJob
-    from irlsim.data.writer import episode_done, remove_partial, write_manifest
+    from irlsim.config import load_config, parse_overrides
+    from irlsim.data.collection import CollectConfig
     from irlsim.errors import IrlsimError
-    from irlsim.road.network import build_net
-    from irlsim.utils import check_non_negative, progress
+    from irlsim.utils import LockBusy, check_non_negative, exclusive_lock
 
     overrides = parse_overrides(args.set)
     if args.workers is not None:
@@ -57,16 +87,62 @@ def run(args: argparse.Namespace) -> int:
     out: Path = args.out
     if out.exists() and not out.is_dir():
         raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    try:
+        with exclusive_lock(out / LOCK_NAME):
+            return _collect(cfg, out)
+    except LockBusy as busy:
+        raise IrlsimError(
+            f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
+        ) from None
+
+
+def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
+    """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
+    from irlsim import FEATURE_NAMES
+    from irlsim.data.collection import data_config, first_difference
+    from irlsim.data.schema import SCHEMA_VERSION
+    from irlsim.errors import IrlsimError
+
+    out = manifest_path.parent
+    fix = f"choose another --out or delete {out}"
+    try:
+        old = json.loads(manifest_path.read_text())
+    except (OSError, ValueError):
+        old = None
+    if not isinstance(old, dict) or not isinstance(old.get("config"), dict):
+        raise IrlsimError(f"{manifest_path} is corrupt: delete it and re-run the same command")
+    version = old.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"{out} holds a dataset of schema version {version}, this irlsim writes {SCHEMA_VERSION}: {fix}"
+        )
+    if old.get("feature_names") != list(FEATURE_NAMES):
+        raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
+    diff = first_difference(data_config(old["config"]), config)
+    if diff is not None:
+        key, was, now = diff
+        raise IrlsimError(
+            f"{out} was collected with another config ({key} = {was!r} there, {now!r} now): {fix}"
+        )
+
+
+def _collect(cfg: Any, out: Path) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``."""
+    from irlsim.data.collection import SPLITS, EpisodeJob, data_config
+    from irlsim.data.writer import (
+        check_episode,
+        episode_done,
+        remove_episode,
+        remove_partial,
+        write_manifest,
+    )
+    from irlsim.road.network import build_net
+    from irlsim.utils import progress
+
     manifest_path = out / "manifest.json"
+    config = data_config(cfg)
     if manifest_path.is_file():
-        try:
-            old = json.loads(manifest_path.read_text())
-        except json.JSONDecodeError:
-            raise IrlsimError(f"{manifest_path} is corrupt: delete it and re-run the same command") from None
-        if old.get("config") != to_dict(cfg):
-            raise IrlsimError(
-                f"{out} was collected with another config: choose another --out or delete {out}"
-            )
+        _check_resumable(manifest_path, config)
     build_net()  # once, before the workers start (they only read it)
 
     jobs, seeds = [], {}
@@ -74,12 +150,30 @@ def run(args: argparse.Namespace) -> int:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
         for episode, seed in cfg.episodes(split):
-            if not episode_done(out, split, episode):
-                jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
+            if episode_done(out, split, episode):
+                # a finished episode is trusted only after a look at its files: a truncated or foreign
+                # pair would otherwise be kept, and break the manifest's counts or a later reader
+                problem = check_episode(
+                    out,
+                    split,
+                    episode,
+                    n_policies=cfg.planner.n_policies,
+                    n_control_points=cfg.planner.n_control_points,
+                )
+                if problem is None:
+                    continue
+                print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
+                remove_episode(out, split, episode)
+            jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
     total = sum(len(v) for v in seeds.values())
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
-    # the manifest of an unfinished run lists the config, so a re-run with another config is refused
-    write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": {s: [] for s in SPLITS}})
+    if jobs or not manifest_path.is_file():
+        # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for
+        # a small one; it lists the config, so a re-run with another config is refused
+        write_manifest(
+            out,
+            {"config": config, "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
+        )
 
     t0 = time.perf_counter()
     cycles = 0
@@ -89,7 +183,7 @@ def run(args: argparse.Namespace) -> int:
         results = map(_run_job, jobs)
         pool = None
     else:
-        pool = mp.get_context("spawn").Pool(min(cfg.workers, len(jobs)))
+        pool = _start_pool(min(cfg.workers, len(jobs)))
         results = pool.imap_unordered(_run_job, jobs)
     try:
         for stats in results:
@@ -102,7 +196,7 @@ def run(args: argparse.Namespace) -> int:
             pool.terminate()
             pool.join()
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
-    manifest = write_manifest(out, {"config": to_dict(cfg), "seeds": seeds, "splits": splits})
+    manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
     wall = time.perf_counter() - t0
     if jobs:
         print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require
+from irlsim.config import require, to_dict
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW
 from irlsim.planner.config import PlannerConfig
 from irlsim.sim.config import ScenarioConfig
@@ -88,6 +88,39 @@ class CollectConfig:
         return [(i, self.seed * SEED_STRIDE + SPLIT_OFFSET[split] + i) for i in range(n)]
 
 
+#: CollectConfig fields that do not change a byte of the data (workers=1 and workers=2 write the same
+#: files): left out of the manifest's config, so a run may be resumed with another value
+DATA_NEUTRAL_FIELDS: tuple[str, ...] = ("workers",)
+
+
+def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
+    """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
+    types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
+    d = cfg if isinstance(cfg, dict) else to_dict(cfg)
+    return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS}
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "(not set)"
+
+
+#: stands for a key one of two configs lacks
+MISSING: Any = _Missing()
+
+
+def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
+    """The first dotted key whose value differs between two nested dicts, with both values (a key
+    missing on one side gives ``MISSING`` there), or None when they are equal."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for key in [*new, *(k for k in old if k not in new)]:
+            diff = first_difference(old.get(key, MISSING), new.get(key, MISSING), f"{prefix}{key}.")
+            if diff is not None:
+                return diff
+        return None
+    return None if old == new else (prefix.rstrip("."), old, new)
+
+
 @dataclass(frozen=True)
 class EpisodeJob:
     dataset: str
@@ -100,9 +133,13 @@ class EpisodeJob:
 def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
 
-    Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``).
+    Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``). ``collect/wall_s`` and
+    ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),
+    driving, demonstrations, and writing and renaming its files; ``collect/setup_s`` is the set-up part.
     """
     import time
+
+    t_start = time.perf_counter()
 
     from irlsim.data.demos import DemoProjector
     from irlsim.data.writer import EpisodeWriter
@@ -124,41 +161,51 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
         w_yaw=cfg.demo.w_yaw,
         max_demo_distance=cfg.demo.max_distance,
     )
-    t_start = time.perf_counter()
     n_cycles = 0
     out = Path(job.dataset)
-    with Simulation(road, cfg.scenario) as sim, EpisodeWriter(out, job.split, job.episode) as writer:
-        obs = sim.reset(job.seed)
-        e = obs.ego
-        projector.push_odometry(e.t, e.s, e.d, e.yaw)
-        while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
-            traj = driver.plan(obs)
-            ps, idx = driver.last_policy_set, driver.last_index
-            assert ps is not None, "the expert keeps the policy set of its last plan()"
-            projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
-            ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
-            writer.add_cycle(n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint)
-            sim.execute(traj, steps)
-            for j in range(1, steps + 1):  # the states the ego actually drove this cycle
-                st = traj.state(j)
-                projector.push_odometry(st.t, st.s, st.d, st.yaw)
-            writer.add_demos(projector.pop_ready())
-            n_cycles += 1
-            obs = sim.observe()
+    with Simulation(road, cfg.scenario) as sim:
+        with EpisodeWriter(out, job.split, job.episode) as writer:
+            obs = sim.reset(job.seed)
+            setup = time.perf_counter() - t_start
             e = obs.ego
-        writer.add_demos(projector.finish())
-        stats = dict(sim.stats)
-        wall = time.perf_counter() - t_start
-        stats.update(
-            {
-                "collect/split": job.split,
-                "collect/episode": job.episode,
-                "collect/seed": job.seed,
-                "collect/cycles": n_cycles,
-                "collect/wall_s": round(wall, 3),
-                "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
-            }
-        )
-        # written before the cycles file (the episode's completion marker): a finished episode has both
-        write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
+            projector.push_odometry(e.t, e.s, e.d, e.yaw)
+            while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
+                traj = driver.plan(obs)
+                ps, idx = driver.last_policy_set, driver.last_index
+                assert ps is not None, "the expert keeps the policy set of its last plan()"
+                projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
+                ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
+                writer.add_cycle(
+                    n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint
+                )
+                driven = len(sim.odometry)
+                sim.execute(traj, steps)
+                # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
+                # time-out) must not complete a demonstration window with states that were never driven
+                driven = len(sim.odometry) - driven
+                for j in range(1, driven + 1):
+                    st = traj.state(j)
+                    projector.push_odometry(st.t, st.s, st.d, st.yaw)
+                writer.add_demos(projector.pop_ready())
+                n_cycles += 1
+                obs = sim.observe()
+                e = obs.ego
+            writer.add_demos(projector.finish())
+            stats = dict(sim.stats)
+    # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
+    wall = time.perf_counter() - t_start
+    stats.update(
+        {
+            "collect/split": job.split,
+            "collect/episode": job.episode,
+            "collect/seed": job.seed,
+            "collect/cycles": n_cycles,
+            "collect/setup_s": round(setup, 3),
+            "collect/wall_s": round(wall, 3),
+            "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
+        }
+    )
+    # informational, written after the episode's files (which alone make the episode complete): an
+    # episode killed just before this line is complete and lacks only its figures
+    write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
     return stats

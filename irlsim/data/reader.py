@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -113,39 +114,58 @@ class SplitTensors:
 _ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 
 
+class BadParquetFile(IrlsimError):
+    """A dataset file that is missing, truncated, corrupt, foreign or of another schema version.
+
+    ``str()`` is the one-line user message; ``problem`` is the same without the fix, for callers that
+    repair the file themselves (``irlsim collect`` re-collects the episode)."""
+
+    def __init__(self, path: Path, problem: str, fix: str) -> None:
+        super().__init__(f"{path} {problem}: {fix}")
+        self.path = path
+        self.problem = f"{path} {problem}"
+
+
+def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
+    reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+    return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
+
+
 def open_parquet(path: Path, table: str) -> pq.ParquetFile:
-    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version."""
+    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version.
+
+    Raises ``BadParquetFile`` (an ``IrlsimError``) naming the file."""
     try:
         pf = pq.ParquetFile(str(path))
     except FileNotFoundError:
-        raise IrlsimError(f"{path} is missing: re-run irlsim collect to regenerate it") from None
+        raise BadParquetFile(path, "is missing", "re-run irlsim collect to regenerate it") from None
     except (pa.ArrowException, OSError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+        raise _corrupt(path, exc) from None
     meta = pf.schema_arrow.metadata or {}
     if meta.get(META_TABLE) != table.encode():
-        raise IrlsimError(
-            f"{path} is not an irlsim {table} table (no irlsim metadata): remove it from the dataset "
-            "folder, or re-collect the dataset with 'irlsim collect'"
+        raise BadParquetFile(
+            path,
+            f"is not an irlsim {table} table (no irlsim metadata)",
+            "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
         )
     version = meta.get(META_VERSION, b"?").decode()
     if version != str(SCHEMA_VERSION):
-        raise IrlsimError(
-            f"{path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
-            "re-collect it with 'irlsim collect'"
+        raise BadParquetFile(
+            path,
+            f"has schema version {version}, this irlsim reads {SCHEMA_VERSION}",
+            "re-collect it with 'irlsim collect'",
         )
     return pf
 
 
-def _read(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
-    """pf.read / read_row_group with corrupt data turned into a one-line IrlsimError."""
+def read_parquet(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
+    """pf.read / read_row_group with corrupt data turned into a one-line ``BadParquetFile``."""
     try:
         if "row_group" in kwargs:
             return pf.read_row_group(kwargs.pop("row_group"), **kwargs)
         return pf.read(**kwargs)
     except (pa.ArrowException, OSError) as exc:
-        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise IrlsimError(f"{path} is truncated or corrupt ({reason}): {_REGENERATE}") from None
+        raise _corrupt(path, exc) from None
 
 
 def fixed_list_to_numpy(column: pa.ChunkedArray | pa.Array, width: int) -> np.ndarray:
@@ -158,15 +178,33 @@ def fixed_list_to_numpy(column: pa.ChunkedArray | pa.Array, width: int) -> np.nd
 def iter_policy_groups(pf: pq.ParquetFile, path: Path, columns: list[str]) -> Iterator[pa.Table]:
     """The row groups of a policies file, read one at a time."""
     for i in range(pf.num_row_groups):
-        yield _read(pf, path, row_group=i, columns=columns)
+        yield read_parquet(pf, path, row_group=i, columns=columns)
+
+
+def check_complete(path: Path, manifest: dict[str, Any]) -> None:
+    """Refuse the manifest of a collection that has not finished (one-line ``IrlsimError``).
+
+    ``irlsim collect`` writes ``"complete": false`` until its last episode is on disk. Manifests written
+    before that flag existed are complete unless every split is empty (how an unfinished run looked).
+    """
+    complete = manifest.get("complete")
+    if complete is None:
+        splits = manifest.get("splits")
+        complete = not isinstance(splits, dict) or any(splits.values())
+    if complete is not True:
+        raise IrlsimError(
+            f"dataset {path} is incomplete (collection was interrupted): "
+            "re-run the same 'irlsim collect' command to finish it"
+        )
 
 
 class Dataset:
-    """A validated dataset folder. Use ``open_dataset``."""
+    """A validated, complete dataset folder. Use ``open_dataset``."""
 
     def __init__(self, path: Path, manifest: dict[str, Any]) -> None:
         self.path = path
         self.manifest = manifest
+        check_complete(path, manifest)
 
     @property
     def splits(self) -> list[str]:
@@ -194,7 +232,7 @@ class Dataset:
         tables = []
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
-            tables.append(_read(open_parquet(path, TABLE_CYCLES), path))
+            tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
         if not tables:
             from irlsim.data.schema import cycles_schema
 
@@ -374,30 +412,31 @@ def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: n
 
 
 class _AtomicNpys:
-    """Memory-mapped .npy files opened under temporary names, renamed into place on success."""
+    """Memory-mapped .npy files opened under unique temporary names (``atomic_path``), renamed into place
+    on success and removed on failure, so two processes building the same cache never share a file."""
 
     def __init__(self, folder: Path, specs: dict[str, tuple[tuple[int, ...], Any]]) -> None:
         self.folder = folder
         self.specs = specs
-        self.tmps: dict[str, Path] = {}
+        self.stack = ExitStack()
         self.maps: dict[str, np.memmap] = {}
 
     def __enter__(self) -> dict[str, np.memmap]:
-        for name, (shape, dtype) in self.specs.items():
-            tmp = self.folder / f".{name}.npy.tmp"
-            self.tmps[name] = tmp
-            self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+        try:
+            for name, (shape, dtype) in self.specs.items():
+                tmp = self.stack.enter_context(atomic_path(self.folder / f"{name}.npy"))
+                self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
+        except BaseException as exc:
+            self.maps.clear()
+            self.stack.__exit__(type(exc), exc, exc.__traceback__)  # with an exception: delete, not rename
+            raise
         return self.maps
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
         for m in self.maps.values():
             m.flush()
-        self.maps.clear()
-        for name, tmp in self.tmps.items():
-            if exc_type is None:
-                tmp.replace(self.folder / f"{name}.npy")
-            else:
-                tmp.unlink(missing_ok=True)
+        self.maps.clear()  # unmapped before the rename
+        self.stack.__exit__(exc_type, exc, tb)
 
 
 def open_dataset(path: str | Path) -> Dataset:

@@ -12,6 +12,11 @@ logical type is not read by every DuckDB/polars version, and progress along the 
 (tens of metres) would lose centimetres. Float columns are written BYTE_STREAM_SPLIT + zstd (read by
 pyarrow, pandas, DuckDB and polars; tested), integer id columns dictionary-encoded.
 
+A split folder holds both tables (two schemas) and each episode's ``.stats.json``, so the folder is not one
+table (``pd.read_parquet('<ds>/train')`` fails): name the files, by glob in DuckDB and polars
+(``'<ds>/train/*.cycles.parquet'``) or by a sorted list in pyarrow.dataset and pandas (tested in
+tests/data/test_third_party.py).
+
 Both files carry Parquet key-value metadata ``irlsim.schema_version`` and ``irlsim.table`` (``cycles`` or
 ``policies``), so a foreign or outdated Parquet file in a dataset folder is recognised. Row groups hold
 ``CYCLES_PER_ROW_GROUP`` whole cycles in both files, so row group i of the cycles file describes the
