@@ -6,6 +6,7 @@ IRLSIM  := $(BIN)/irlsim
 DATA    ?= data/default
 RUNS    ?= runs/default
 SEED    ?= 0
+PRESET  ?= default
 
 .PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive bench lint clean
 
@@ -29,12 +30,15 @@ test: setup
 test-slow: setup
 	$(BIN)/pytest -q -m slow
 
+# make demo PRESET=tiny DATA=data/tiny RUNS=runs/tiny: the same chain on the smoke configs (~30 s)
 demo: setup
-	$(IRLSIM) demo --data $(DATA) --runs $(RUNS) --seed $(SEED)
+	$(IRLSIM) demo --data $(DATA) --runs $(RUNS) --seed $(SEED) --preset $(PRESET)
 
 collect: setup
 	$(IRLSIM) collect --config configs/collect/default.toml --out $(DATA)
 
+# each stage has its own config and output folder: $(RUNS)/stage1/<model>/, $(RUNS)/stage2/<model>/
+# (stage 2 reads its frozen PACNN / PACNN+S from $(RUNS)/stage1)
 train: train-stage1 train-stage2
 
 train-stage1: setup
@@ -54,6 +58,7 @@ bench: setup
 
 lint: setup
 	$(BIN)/ruff check irlsim pipelines tests
+	$(BIN)/ruff format --check irlsim pipelines tests
 	$(BIN)/mypy irlsim pipelines
 
 clean:

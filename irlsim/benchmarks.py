@@ -64,19 +64,18 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     }
 
 
-def bench_infer(
-    n_policies: int = 2500, repeats: int = 50, batch: int = 32, history: int = 10, seed: int = 0
+def _time_inference(
+    cfg: Any, n_policies: int, repeats: int, history: int, rng: np.random.Generator
 ) -> dict[str, Any]:
-    """PACNN + PTACNN inference per cycle (one thread) and stage-1 training throughput (cycles/s)."""
-    import torch
+    """PACNN + PTACNN of sizes ``cfg`` at initial weights: parameters and per-cycle inference [ms] of the
+    online predictor (one thread) on one random cycle of ``n_policies`` policies."""
+    import dataclasses
 
-    from irlsim.models.registry import ModelConfig, build_model, count_parameters
+    from irlsim.models.registry import build_model, count_parameters
     from irlsim.train.common import LoadedModel
     from irlsim.train.predictor import RewardPredictor
 
-    torch.manual_seed(seed)
-    rng = np.random.default_rng(seed)
-    cfg = ModelConfig(history=history)
+    cfg = dataclasses.replace(cfg, history=history)
     pacnn = build_model("PACNN", cfg, n_policies, None).eval()
     ptacnn = build_model("PTACNN", cfg, n_policies, None).eval()
     loaded = LoadedModel(name="PTACNN", model=ptacnn, base=pacnn, history=history, checkpoint={})
@@ -91,6 +90,29 @@ def bench_infer(
         t0 = time.perf_counter()
         pred.predict(f, cp, a)
         ms.append((time.perf_counter() - t0) * 1e3)
+    return {
+        "pacnn_parameters": count_parameters(pacnn),
+        "ptacnn_parameters": count_parameters(ptacnn),
+        "median_ms": round(statistics.median(ms), 3),
+        "p90_ms": round(float(np.percentile(ms, 90)), 3),
+    }
+
+
+def bench_infer(
+    n_policies: int = 2500, repeats: int = 50, batch: int = 32, history: int = 10, seed: int = 0
+) -> dict[str, Any]:
+    """PACNN + PTACNN inference per cycle (one thread), for the default (small) sizes and for the near-paper
+    sizes of ``ModelConfig.paper()`` (keys ``paper_*``), and stage-1 training throughput (cycles/s) of
+    the default sizes."""
+    import torch
+
+    from irlsim.models.registry import ModelConfig, build_model
+
+    torch.manual_seed(seed)
+    rng = np.random.default_rng(seed)
+    cfg = ModelConfig(history=history)
+    small = _time_inference(cfg, n_policies, repeats, history, rng)
+    paper = _time_inference(ModelConfig.paper(), n_policies, repeats, history, rng)
 
     # training throughput: PACNN forward + NLL + backward on mini-batches of cycles, 2 threads
     from irlsim.irl.objectives import nll
@@ -116,11 +138,17 @@ def bench_infer(
     return {
         "n_policies": n_policies,
         "history": history,
-        "pacnn_parameters": count_parameters(pacnn),
-        "ptacnn_parameters": count_parameters(ptacnn),
-        "infer_median_ms": round(statistics.median(ms), 3),
-        "infer_p90_ms": round(float(np.percentile(ms, 90)), 3),
+        "pacnn_parameters": small["pacnn_parameters"],
+        "ptacnn_parameters": small["ptacnn_parameters"],
+        "infer_median_ms": small["median_ms"],
+        "infer_p90_ms": small["p90_ms"],
+        "paper_pacnn_parameters": paper["pacnn_parameters"],
+        "paper_ptacnn_parameters": paper["ptacnn_parameters"],
+        "paper_infer_median_ms": paper["median_ms"],
+        "paper_infer_p90_ms": paper["p90_ms"],
         "train_cycles_per_s_pacnn_2_threads": round(batch / step, 1),
         "train_epoch_min_17000_cycles": round(PAPER_TRAIN_CYCLES / (batch / step) / 60.0, 2),
         "target": "inference <= 10 ms per cycle; one epoch over 17,000 cycles <= 5 min on 2 cores",
+        "what": "infer_*: default sizes (configs/train/stage*.toml); paper_*: ModelConfig.paper() (latent "
+        "256, LSTM 256, FC 512); per cycle incl. the PTACNN mixture, one thread, initial weights",
     }

@@ -11,26 +11,39 @@ HELP = "evaluate every trained model on the sequential test split: Table I (Mark
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=Path, required=True, help="dataset folder")
-    p.add_argument("--runs", type=Path, required=True, help="runs folder with <model>/checkpoint.pt")
+    p.add_argument(
+        "--runs",
+        type=Path,
+        required=True,
+        help="runs folder of 'irlsim train --out' (stage1/<model>/, stage2/<model>/checkpoint.pt)",
+    )
     p.add_argument("--out", type=Path, default=None, help="output folder (default: <runs>/eval)")
     p.add_argument("--split", default="test", help="split to evaluate on (default: test)")
-    p.add_argument("--history", type=int, default=10, help="H: history of predicted thetas [cycles]")
+    p.add_argument(
+        "--history",
+        type=int,
+        default=None,
+        help="H: history of predicted thetas [cycles] (default: the PTACNN's own H, else 10; "
+        "a PTACNN trained with another H is refused)",
+    )
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
 
 
 def run(args: argparse.Namespace) -> int:
     from irlsim.data.reader import open_dataset
     from irlsim.errors import IrlsimError
-    from irlsim.train.evaluate import evaluate_models, results_markdown
+    from irlsim.train.evaluate import evaluate_models
 
-    if args.history < 1:
+    if args.history is not None and args.history < 1:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")
+    if args.threads < 1:
+        raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
     out = args.out or args.runs / "eval"
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
-    rows = evaluate_models(
+    evaluate_models(
         open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
     )
-    print(results_markdown(rows, args.split, args.history))
+    print((out / "results.md").read_text())
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
     return 0

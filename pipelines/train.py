@@ -1,13 +1,17 @@
 """``irlsim train``: stage 1 (LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S) or stage 2 (PTACNN, PTACNN+S).
 
-Each stage has its own config (``configs/train/stage1.toml``, ``stage2.toml``) and writes one folder per
-model under ``--out``: ``checkpoint.pt`` (atomic, resumable), ``metrics.csv`` and ``tensorboard/``.
+Each stage has its own config (``configs/train/stage1.toml``, ``stage2.toml``) and its own output folder
+inside the runs folder ``--out RUNS``: stage 1 writes ``RUNS/stage1/<model>/``, stage 2 writes
+``RUNS/stage2/<model>/`` and reads its frozen PACNN / PACNN+S from ``--base`` (default ``RUNS/stage1``).
+Each model folder holds ``checkpoint.pt`` (atomic, resumable), ``metrics.csv`` and ``tensorboard/``;
+``RUNS/stage<N>/summary.json`` records the config, the data and each model's summary.
 """
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTACNN on frozen PACNN)"
 
@@ -18,31 +22,71 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--config", type=Path, default=None, help="TOML config (default: built-in defaults)")
     p.add_argument("--data", type=Path, required=True, help="dataset folder written by 'irlsim collect'")
-    p.add_argument("--out", type=Path, required=True, help="runs folder (one sub-folder per model)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        required=True,
+        help="runs folder: stage N writes OUT/stage<N>/<model>/ (checkpoint.pt, metrics.csv)",
+    )
+    p.add_argument(
+        "--base",
+        type=Path,
+        default=None,
+        help="stage 2 only: folder with the frozen stage-1 PACNN/ and PACNN+S/ (default: OUT/stage1)",
+    )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
+
+
+def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
+    """One line per trained model: its trainable parameters (and the frozen base's, for stage 2)."""
+    from irlsim.models.registry import format_parameters
+
+    lines = []
+    for name, s in summary.items():
+        n = int(s["parameters"])
+        line = f"  {name:<9} {format_parameters(n):>8} trainable parameters ({n:,})"
+        if "base_parameters" in s:
+            line += f" on a frozen base of {format_parameters(int(s['base_parameters']))}"
+        lines.append(line + f", selected epoch {s['selected_epoch'] or s['epochs']} of {s['epochs']}")
+    return lines
 
 
 def run(args: argparse.Namespace) -> int:
     from irlsim.config import load_config, parse_overrides, to_dict
     from irlsim.data.reader import open_dataset
+    from irlsim.errors import IrlsimError
     from irlsim.train import config as tc
+    from irlsim.train.common import stage_dir
     from irlsim.train.stage1 import train_stage1
     from irlsim.train.stage2 import train_stage2
     from irlsim.utils import write_json
 
+    if args.base is not None and args.stage != 2:
+        raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")
+    if args.out.exists() and not args.out.is_dir():
+        raise IrlsimError(f"--out {args.out} is a file: pass a runs folder such as runs/default")
     overrides = parse_overrides(args.set)
     dataset = open_dataset(args.data)
-    args.out.mkdir(parents=True, exist_ok=True)
+    out = stage_dir(args.out, args.stage)
+    extra: dict[str, Any] = {}
     if args.stage == 1:
         cfg1 = load_config(tc.Stage1Config, args.config, overrides)
-        summary = train_stage1(dataset, cfg1, args.out)
+        out.mkdir(parents=True, exist_ok=True)
+        summary = train_stage1(dataset, cfg1, out)
         cfg_dict = to_dict(cfg1)
     else:
         cfg2 = load_config(tc.Stage2Config, args.config, overrides)
-        summary = train_stage2(dataset, cfg2, args.out)
+        base = args.base if args.base is not None else stage_dir(args.out, 1)
+        if not base.is_dir():
+            hint = (
+                "pass --base" if args.base is not None else f"run 'irlsim train --stage 1 --out {args.out}'"
+            )
+            raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
+        out.mkdir(parents=True, exist_ok=True)
+        summary = train_stage2(dataset, cfg2, out, base)
         cfg_dict = to_dict(cfg2)
-    write_json(
-        args.out / f"stage{args.stage}.json", {"config": cfg_dict, "data": str(args.data), "models": summary}
-    )
-    print(f"stage {args.stage}: trained {', '.join(summary)}; checkpoints and metrics in {args.out}/<model>/")
+        extra["base"] = str(base)
+    write_json(out / "summary.json", {"config": cfg_dict, "data": str(args.data), **extra, "models": summary})
+    print(f"stage {args.stage}: trained {', '.join(summary)}; checkpoints and metrics in {out}/<model>/")
+    print("\n".join(parameter_lines(summary)))
     return 0

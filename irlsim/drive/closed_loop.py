@@ -51,7 +51,9 @@ def model_names() -> tuple[str, ...]:
 def load_drive_model(
     spec: str | Path, runs: str | Path | None = None, n_policies: int | None = None, threads: int = 1
 ) -> DriveModel:
-    """Resolve ``spec``: 'expert', a model name (``<runs>/<name>/checkpoint.pt``) or a checkpoint path.
+    """Resolve ``spec``: 'expert', a model name (found in ``runs`` by
+    :func:`irlsim.train.common.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
+    ``<runs>/<name>/``) or a checkpoint path.
 
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
     (the networks are built for the training set's N, and the features would not match anyway).
@@ -62,15 +64,18 @@ def load_drive_model(
     if spec == EXPERT:
         return DriveModel(EXPERT)
     if spec in MODEL_NAMES:
+        from irlsim.train.common import find_checkpoint, stage_dir
+
         if runs is None:
-            raise IrlsimError(f"model '{spec}' needs --runs (the folder with {spec}/checkpoint.pt)")
-        path = Path(runs) / spec / "checkpoint.pt"
-        if not path.is_file():
+            raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")
+        found = find_checkpoint(runs, spec)
+        if found is None:
             stage = 2 if spec in STAGE2_BASE else 1
             raise IrlsimError(
-                f"checkpoint {path} not found: run 'irlsim train --stage {stage} --out {runs}' first "
-                "(or point --runs at the folder holding it)"
+                f"checkpoint {stage_dir(runs, stage) / spec / 'checkpoint.pt'} not found: run 'irlsim train "
+                f"--stage {stage} --out {runs}' first (or point --runs at the folder holding it)"
             )
+        path = found
     else:
         path = Path(spec)
         if not (path.suffix == ".pt" or "/" in spec):

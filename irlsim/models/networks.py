@@ -165,10 +165,18 @@ class PACNN(RewardModel):
     """Policy attention CNN.
 
     encoder h [B, L, G] -> attention encoder (1-D conv, ReLU, per-position FC) -> softmax over the G
-    pooled positions -> alpha [B, G]; attended a = sum_g alpha_g h_g. Following SAGAN (Zhang et al. 2018,
-    the paper's [zhang2018self]) the context is residual: context = mean_g h_g + gamma * a with a learned
-    scalar gamma initialised to 0, so training starts from plain average pooling and gradually moves
-    weight onto the attended, non-local evidence. context [B, L] -> FC -> ReLU -> FC -> theta.
+    pooled positions -> alpha [B, G]; attended a = sum_g alpha_g h_g. context [B, L] -> FC -> ReLU -> FC
+    -> theta.
+
+    Deviation from the paper: the paper's context is the attended vector scaled by a learned scalar,
+    gamma * a. Here, following SAGAN (Zhang et al. 2018, the paper's [zhang2018self], where the learned
+    scalar comes from), the context is residual: context = mean_g h_g + gamma * a, gamma initialised
+    to 0. Why: with gamma * a alone and gamma = 0 at the start the context is the zero vector, theta is
+    the same for every cycle and no gradient reaches the encoder until gamma moves; initialising gamma
+    away from 0 instead lets an untrained, nearly uniform softmax decide the first epochs. The residual
+    form starts as plain average pooling (a working per-cycle model from the first step) and lets
+    training move weight onto the attended, non-local evidence as far as it helps. The attention
+    weights, the attention loss of PACNN+S and the context size are as in the paper.
     Works for any N (no N-dependent weights). PACNN+S is the same network trained with the extra
     semi-supervised attention loss (see irlsim.irl.objectives.attention_loss).
     """

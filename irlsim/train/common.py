@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import csv
 import io
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -13,6 +15,7 @@ import torch
 from torch import nn
 
 from irlsim import FEATURE_NAMES
+from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, STAGE2_BASE, ModelConfig, build_model
@@ -22,6 +25,65 @@ CHECKPOINT_NAME = "checkpoint.pt"
 METRICS_NAME = "metrics.csv"
 #: version of the checkpoint layout written here
 CHECKPOINT_FORMAT = 1
+#: sub-folders of a runs folder, one per training stage (``<runs>/stage1/<model>/``, ...)
+STAGE_FOLDERS: dict[int, str] = {1: "stage1", 2: "stage2"}
+
+
+# ------------------------------------------------------------------------------------------ runs layout
+
+
+def stage_dir(runs: str | Path, stage: int) -> Path:
+    """The output folder of training stage ``stage`` (1 or 2) inside the runs folder ``runs``."""
+    return Path(runs) / STAGE_FOLDERS[stage]
+
+
+def model_stage(name: str) -> int:
+    return 2 if name in STAGE2_BASE else 1
+
+
+def find_checkpoint(runs: str | Path, name: str) -> Path | None:
+    """Where model ``name``'s checkpoint is in ``runs``, or None: ``<runs>/stage{1,2}/<name>/checkpoint.pt``
+    (what ``irlsim train --out RUNS`` writes) if ``runs`` has a stage folder, else
+    ``<runs>/<name>/checkpoint.pt`` (``runs`` is itself a stage folder, or a flat folder written by the
+    library's ``train_stage1`` / ``train_stage2`` or by irlsim before the stage folders). A runs folder
+    with stage folders is read only through them, so a stale checkpoint of the flat layout beside them is
+    never mixed into a table."""
+    runs = Path(runs)
+    if any(stage_dir(runs, s).is_dir() for s in STAGE_FOLDERS):
+        path = stage_dir(runs, model_stage(name)) / name / CHECKPOINT_NAME
+    else:
+        path = runs / name / CHECKPOINT_NAME
+    return path if path.is_file() else None
+
+
+# -------------------------------------------------------------------------------------- reproducibility
+
+
+def provenance() -> dict[str, Any]:
+    """What besides seeds and data decides the trained bytes: torch's version, its CPU thread count and
+    the vector instruction set its kernels dispatch to. The same seed and data give the same weights on
+    every run with these three equal; a different thread count or instruction set (another CPU) changes
+    the float summation order of convolutions and matrix products, so the weights differ in the last bits
+    and the selected epoch (and Table I) can differ visibly."""
+    return {
+        "torch": str(torch.__version__),  # a TorchVersion, which weights_only loading refuses
+        "threads": int(torch.get_num_threads()),
+        "cpu_capability": str(torch.backends.cpu.get_cpu_capability()),
+    }
+
+
+@contextmanager
+def deterministic(threads: int) -> Iterator[None]:
+    """Run torch with ``threads`` CPU threads and deterministic algorithms only (an op without a
+    deterministic CPU kernel raises instead of silently varying between runs); restores both after."""
+    old_threads, old_det = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
+    torch.set_num_threads(threads)
+    torch.use_deterministic_algorithms(True)
+    try:
+        yield
+    finally:
+        torch.use_deterministic_algorithms(old_det)
+        torch.set_num_threads(old_threads)
 
 
 def as_dataset(dataset: Any) -> Any:
@@ -42,15 +104,39 @@ def get_split(dataset: Any, name: str) -> Any:
 
 
 def dataset_meta(dataset: Any) -> dict[str, Any]:
-    """Schema version and feature names stored in checkpoints (from ``dataset.manifest`` if present)."""
+    """Schema version and feature names stored in checkpoints (from ``dataset.manifest``; an in-memory
+    dataset without one is taken to be current)."""
     manifest = getattr(dataset, "manifest", None) or {}
     names = list(manifest.get("feature_names", FEATURE_NAMES))
+    version = manifest.get("schema_version", SCHEMA_VERSION)
     if names != list(FEATURE_NAMES):
         raise IrlsimError(
             f"dataset features {names} differ from this irlsim's {list(FEATURE_NAMES)}: "
             "re-run 'irlsim collect'"
         )
-    return {"schema_version": manifest.get("schema_version"), "feature_names": names}
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"dataset schema version {version} differs from this irlsim's {SCHEMA_VERSION}: "
+            "re-run 'irlsim collect'"
+        )
+    return {"schema_version": version, "feature_names": names}
+
+
+def check_split_shape(name: str, entry: dict[str, Any], split: Any, split_name: str) -> None:
+    """Refuse (one line) a split whose policies per cycle N or control points K differ from those the
+    stage-1 ``entry`` (a checkpoint, or a stage-2 checkpoint's 'base') was trained on."""
+    n, k = split.features.shape[1], split.control_points.shape[2]
+    trained_n, trained_k = int(entry["n_policies"]), int(entry["feature_stats"]["k"])
+    if trained_n != n:
+        raise IrlsimError(
+            f"{name} was trained on N={trained_n} policies per cycle, the {split_name} split has {n}: "
+            f"evaluate on a dataset collected with planner.n_policies={trained_n}, or retrain on this one"
+        )
+    if trained_k != k:
+        raise IrlsimError(
+            f"{name} was trained on K={trained_k} control points per policy, the {split_name} split has "
+            f"{k}: evaluate on the dataset it was trained on, or retrain on this one"
+        )
 
 
 def to_tensor(a: Any, dtype: torch.dtype = torch.float32) -> torch.Tensor:
@@ -81,7 +167,13 @@ def predict_split(
     from irlsim.utils import progress
 
     model.eval()
-    n = split.features.shape[0]
+    n, n_policies = split.features.shape[:2]
+    built_for = getattr(model, "n_policies", n_policies)
+    if built_for != n_policies:  # 1DCNN / Bi1DCNN would fail on a raw shape error deep inside
+        raise IrlsimError(
+            f"{type(model).__name__} was trained on N={built_for} policies per cycle, the split has "
+            f"{n_policies}: use a dataset collected with planner.n_policies={built_for}, or retrain"
+        )
     parts: dict[str, list[np.ndarray]] = {}
     starts = range(0, n, chunk)
     for start in progress(starts, desc=desc, disable=desc is None, leave=False):
@@ -125,6 +217,20 @@ def read_checkpoint(path: str | Path) -> dict[str, Any]:
         raise IrlsimError(
             f"checkpoint {path} has format {ckpt.get('format')}, this irlsim reads {CHECKPOINT_FORMAT}: "
             "retrain"
+        )
+    # its theta weighs the features by position: another feature set or schema makes it meaningless
+    names = list(ckpt.get("feature_names") or ())
+    if names != list(FEATURE_NAMES):
+        differ = sorted(set(names) ^ set(FEATURE_NAMES))
+        what = f"features {', '.join(differ)} differ" if differ else "its features are in another order"
+        raise IrlsimError(
+            f"checkpoint {path} was trained on another feature set than this irlsim's ({what}): delete it "
+            "and retrain on a dataset collected by this irlsim"
+        )
+    if ckpt.get("schema_version") != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"checkpoint {path} was trained on dataset schema version {ckpt.get('schema_version')}, this "
+            f"irlsim reads {SCHEMA_VERSION}: delete it and retrain on a dataset collected by this irlsim"
         )
     return ckpt
 

@@ -21,7 +21,7 @@ class Stage1Config:
     """Stage 1: LIRL and the per-cycle deep models, trained on the (shuffled) train split."""
 
     models: tuple[str, ...] = STAGE1_MODELS
-    """which stage-1 models to train (each into <out>/<model>/)"""
+    """which stage-1 models to train (each into <runs>/stage1/<model>/)"""
     epochs: int = 20
     """passes over the train cycles that have a demonstration"""
     batch_size: int = 32
@@ -47,7 +47,9 @@ class Stage1Config:
     seed: int = 0
     """seed of the weight initialisation and the shuffling"""
     threads: int = 2
-    """torch CPU threads (torch.set_num_threads)"""
+    """torch CPU threads (torch.set_num_threads). Part of what decides the trained bytes: another count
+    changes the float summation order, so the same seed gives slightly different weights (recorded in the
+    checkpoint's 'provenance')"""
     max_cycles: int = 0
     """use only the first this many cycles of the train split (0 = all)"""
     eval_batch: int = 64
@@ -101,7 +103,8 @@ class Stage2Config:
     """Stage 2: PTACNN(+S) on the frozen PACNN(+S) of stage 1, trained with the NLL of cycle t+1."""
 
     models: tuple[str, ...] = tuple(STAGE2_BASE)
-    """which stage-2 models to train (PTACNN needs <runs>/PACNN, PTACNN+S needs <runs>/PACNN+S)"""
+    """which stage-2 models to train, each into <runs>/stage2/<model>/ (PTACNN needs <base>/PACNN, PTACNN+S
+    needs <base>/PACNN+S; <base> = <runs>/stage1 unless 'irlsim train --base' names another folder)"""
     epochs: int = 20
     """passes over the train split's (history, next cycle) pairs"""
     batch_size: int = 64
@@ -121,7 +124,7 @@ class Stage2Config:
     seed: int = 0
     """seed of the weight initialisation and the shuffling"""
     threads: int = 2
-    """torch CPU threads"""
+    """torch CPU threads; like stage 1's, another count gives slightly different weights"""
     max_cycles: int = 0
     """use only the first this many cycles of the train split (0 = all)"""
     eval_batch: int = 64

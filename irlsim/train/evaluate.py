@@ -2,10 +2,12 @@
 
 Protocol (DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
 t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
-temporal mixture over the H-cycle history ending at t. Metrics are averaged over cycles that have a
-demonstration. References: each model's OPD at its initial weights (column 'OPD untrained', same sizes
-and normalisation, seed 0) and a 'random policy' row (a uniformly random policy per cycle; ED is the
-mean distance over the policy set, OPD the distance of the random pick, no EVD).
+temporal mixture over the H-cycle history ending at t. PTACNN's H is fixed by its weights (one softmax
+weight per history entry), so every row uses that H; asking for another is refused. Metrics are
+averaged over cycles that have a demonstration. References: each model's OPD at its initial weights
+(column 'OPD untrained', same sizes and normalisation, seed 0) and a 'random policy' row (a uniformly
+random policy per cycle; ED is the mean distance over the policy set, OPD the distance of the random
+pick, no EVD).
 """
 
 from __future__ import annotations
@@ -17,29 +19,61 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.train.common import (
-    CHECKPOINT_NAME,
     METRICS_NAME,
+    STAGE_FOLDERS,
     LoadedModel,
     as_dataset,
+    check_split_shape,
+    find_checkpoint,
     get_split,
     load_model,
     model_config_from,
     predict_split,
+    provenance,
     read_metrics,
 )
 from irlsim.train.stage2 import predict_temporal
 from irlsim.utils import atomic_path, atomic_write_text, write_json
 
 METRIC_KEYS = ("evd", "ed", "opd", "demo")
+#: H [cycles] when no --history is given and no temporal model fixes it (the paper's H)
+DEFAULT_HISTORY = 10
+
+
+def resolve_history(loaded: dict[str, LoadedModel], H: int | None) -> int:
+    """The history H every row uses: ``H`` if given, else the temporal models' own H, else
+    DEFAULT_HISTORY. A temporal model trained with another H than the one asked for is refused."""
+    temporal = {name: lm.history for name, lm in loaded.items() if lm.history is not None}
+    if H is None:
+        if len(set(temporal.values())) > 1:
+            found = ", ".join(f"{n} H={h}" for n, h in temporal.items())
+            raise IrlsimError(
+                f"the temporal models were trained with different histories ({found}): evaluate them in "
+                "separate runs folders"
+            )
+        return next(iter(temporal.values()), DEFAULT_HISTORY)
+    if H < 1:
+        raise IrlsimError(f"--history must be >= 1, got {H}")
+    for name, h in temporal.items():
+        if h != H:
+            raise IrlsimError(
+                f"{name} was trained with a history of H={h} cycles and cannot use --history {H} (it weighs "
+                f"exactly H past cycles): pass --history {h} (or omit it), or retrain stage 2 with "
+                f"--set model.history={H}"
+            )
+    return H
 
 
 def predict_sequential(loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64) -> np.ndarray:
     """Thetas [C, 15] a model uses on a sequential split (history mean or temporal mixture)."""
     episode = np.asarray(split.episode)
+    if loaded.history is not None and loaded.history != H:
+        resolve_history({loaded.name: loaded}, H)  # raises the one-line refusal
     if loaded.base is None:
         return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H)
     base = predict_split(loaded.base, split, chunk)
@@ -101,7 +135,7 @@ def _fmt(v: float) -> str:
 
 def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str:
     lines = [
-        f"# Results on the {split_name} split (history H = {H})",
+        f"# Results on the {split_name} split (history H = {H} cycles)",
         "",
         "| model | trainable parameters | EVD | ED [m] | OPD [m] | DEMO [m] | OPD untrained [m] | epoch |",
         "|---|---|---|---|---|---|---|---|",
@@ -121,7 +155,15 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
         "over cycles with a demonstration.",
         "",
     ]
+    trained = sorted({_provenance_text(r["provenance"]) for r in rows if r.get("provenance")})
+    if trained:  # the weights' bytes depend on these (irlsim.train.common.provenance)
+        lines += [f"Trained with {'; '.join(trained)}.", ""]
     return "\n".join(lines)
+
+
+def _provenance_text(p: dict[str, Any]) -> str:
+    threads = f"{p['threads']} thread" + ("s" if p["threads"] != 1 else "")
+    return f"torch {p['torch']}, {threads}, {p['cpu_capability']} kernels"
 
 
 def _savefig(fig: Any, path: Path) -> None:
@@ -129,16 +171,17 @@ def _savefig(fig: Any, path: Path) -> None:
         fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
 
 
-def plot_convergence(runs_dir: Path, models: list[str], path: Path) -> None:
-    """Train EVD per epoch and validation ED per validation epoch, one line per model (metrics.csv)."""
+def plot_convergence(metrics: dict[str, Path], path: Path) -> None:
+    """Train EVD per epoch and validation ED per validation epoch, one line per model
+    (``metrics``: model -> its metrics.csv)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
-    for m in models:
-        rows = read_metrics(runs_dir / m / METRICS_NAME)
+    for m, csv_path in metrics.items():
+        rows = read_metrics(csv_path)
         if not rows:
             continue
         ep = np.array([r["epoch"] for r in rows])
@@ -190,36 +233,56 @@ def evaluate_models(
     dataset: Any,
     runs_dir: str | Path,
     out_dir: str | Path,
-    H: int = 10,
+    H: int | None = None,
     split: str = "test",
     threads: int = 2,
 ) -> list[dict[str, Any]]:
-    """Evaluate every trained model in ``runs_dir/<model>/checkpoint.pt`` on ``split``.
+    """Evaluate every trained model in ``runs_dir`` on ``split``.
 
-    Writes ``out_dir/results.md``, ``results.json``, ``convergence.png`` and ``opd_distribution.png``
-    (all atomically); returns the Table-I rows (model, parameters, parameter_counts, evd, ed, opd, demo,
-    cycles, opd_untrained, selected_epoch), trained models in registry order, then 'random policy'.
+    Checkpoints are found by :func:`irlsim.train.common.find_checkpoint` (``<runs>/stage1/<model>/``,
+    ``<runs>/stage2/<model>/``, or ``<runs>/<model>/``). ``H``: the history [cycles]; None = the temporal
+    models' own H (else 10); a temporal model trained with another H is refused. Writes
+    ``out_dir/results.md``, ``results.json`` (with the H used and this process's provenance),
+    ``convergence.png`` and ``opd_distribution.png`` (all atomically); returns the Table-I rows (model,
+    parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
+    provenance), trained models in registry order, then 'random policy'.
     """
-    torch.set_num_threads(threads)
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
-    data = get_split(dataset, split)
-    rows, opd = [], {}
-    trained = [m for m in MODEL_NAMES if (runs_dir / m / CHECKPOINT_NAME).exists()]
-    loaded: dict[str, LoadedModel] = {}
-    for name in trained:
-        lm = loaded[name] = load_model(runs_dir / name / CHECKPOINT_NAME)
-        metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
-        a, b = lm.parameters
-        params = (
-            format_parameters(a) if lm.base is None else f"{format_parameters(a)} + {format_parameters(b)}"
+    found = {m: p for m in MODEL_NAMES if (p := find_checkpoint(runs_dir, m)) is not None}
+    if not found:
+        raise IrlsimError(
+            f"no trained model in {runs_dir} (looked for {'/, '.join(STAGE_FOLDERS.values())}/<model>/"
+            f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
-        row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
-        untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
-        row["opd_untrained"] = summarize(untrained)["opd"]
-        row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
-        rows.append(row)
-        opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+    data = get_split(dataset, split)
+    loaded = {name: load_model(path) for name, path in found.items()}
+    for name, lm in loaded.items():
+        check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
+    H = resolve_history(loaded, H)
+    old_threads = torch.get_num_threads()
+    torch.set_num_threads(threads)
+    try:
+        rows, opd = [], {}
+        for name, lm in loaded.items():
+            metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
+            a, b = lm.parameters
+            params = (
+                format_parameters(a)
+                if lm.base is None
+                else f"{format_parameters(a)} + {format_parameters(b)}"
+            )
+            row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
+            untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
+            row["opd_untrained"] = summarize(untrained)["opd"]
+            row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
+            # what the weights were trained with (older checkpoints: unknown)
+            row["provenance"] = lm.checkpoint.get("provenance")
+            rows.append(row)
+            opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+        evaluated_with = provenance()
+    finally:
+        torch.set_num_threads(old_threads)
 
     rnd = random_policy_metrics(data)
     rows.append(_row("random policy", "0", [0], rnd))
@@ -227,7 +290,10 @@ def evaluate_models(
 
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
-    write_json(out_dir / "results.json", {"split": split, "history": H, "rows": rows})
-    plot_convergence(runs_dir, trained, out_dir / "convergence.png")
+    write_json(
+        out_dir / "results.json",
+        {"split": split, "history": H, "provenance": evaluated_with, "rows": rows},
+    )
+    plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
     plot_opd(opd, demo, out_dir / "opd_distribution.png")
     return rows

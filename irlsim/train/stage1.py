@@ -39,9 +39,11 @@ from irlsim.train.common import (
     as_dataset,
     check_finite,
     dataset_meta,
+    deterministic,
     gather_batch,
     get_split,
     predict_split,
+    provenance,
     read_checkpoint,
     save_checkpoint,
 )
@@ -73,8 +75,16 @@ def _resume(path: Path, name: str, cfg: Stage1Config, n_policies: int) -> dict[s
 
 
 def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) -> dict[str, Any]:
-    """Train (or resume) one stage-1 model into ``out_dir/<name>/``; returns its summary."""
-    torch.set_num_threads(cfg.threads)
+    """Train (or resume) one stage-1 model into ``out_dir/<name>/``; returns its summary.
+
+    Runs with ``cfg.threads`` torch threads and deterministic algorithms: the same seed, data, thread
+    count and torch build give byte-identical weights in any process (see common.provenance)."""
+    with deterministic(cfg.threads):
+        return _train_one_stage1(name, dataset, cfg, out_dir)
+
+
+def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) -> dict[str, Any]:
+    meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
     run_dir = out_dir / name
     ckpt_path = run_dir / CHECKPOINT_NAME
     train = get_split(dataset, "train")
@@ -99,7 +109,6 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
     log = MetricsLog(run_dir, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
     best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
     semi = name in SEMI_SUPERVISED
-    meta = dataset_meta(dataset)
 
     def checkpoint(epochs_done: int) -> dict[str, Any]:
         return {
@@ -115,6 +124,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
             "parameters": count_parameters(model),
             "metrics": log.rows,
             "best": best.best,
+            "provenance": provenance(),
             **meta,
         }
 
@@ -162,6 +172,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
         "parameters": count_parameters(model),
         "selected_epoch": best.epoch,
         "final": log.rows[-1] if log.rows else {},
+        "provenance": provenance(),
     }
 
 

@@ -33,9 +33,11 @@ from irlsim.train.common import (
     as_dataset,
     check_finite,
     dataset_meta,
+    deterministic,
     get_split,
     inference_state,
     predict_split,
+    provenance,
     read_checkpoint,
     rebuild_stage1,
     save_checkpoint,
@@ -73,13 +75,31 @@ def next_cycle_pairs(episode: np.ndarray, demo_index: np.ndarray) -> np.ndarray:
     return t[(episode[1:] == episode[:-1]) & (demo_index[1:] >= 0)]
 
 
-def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path) -> dict[str, Any]:
-    """Train (or resume) one temporal model into ``runs_dir/<name>/``; returns its summary."""
-    torch.set_num_threads(cfg.threads)
+def train_one_stage2(
+    name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path | None = None
+) -> dict[str, Any]:
+    """Train (or resume) one temporal model into ``out_dir/<name>/`` on the frozen stage-1 model in
+    ``base_dir/<base>/`` (default ``out_dir``); returns its summary. Deterministic like stage 1."""
+    with deterministic(cfg.threads):
+        return _train_one_stage2(name, dataset, cfg, out_dir, out_dir if base_dir is None else base_dir)
+
+
+def _train_one_stage2(
+    name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path
+) -> dict[str, Any]:
+    meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
     base_name = STAGE2_BASE[name]
-    base_path = runs_dir / base_name / CHECKPOINT_NAME
+    base_path = base_dir / base_name / CHECKPOINT_NAME
+    if not base_dir.is_dir():
+        raise IrlsimError(
+            f"{name} needs the stage-1 folder {base_dir}, which does not exist: run 'irlsim train --stage 1' "
+            "into it first (or point --base at the folder holding PACNN/ and PACNN+S/)"
+        )
     if not base_path.exists():
-        raise IrlsimError(f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 first")
+        raise IrlsimError(
+            f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 with {base_name} in "
+            "its models first (or point --base at the folder holding it)"
+        )
     base_ckpt = read_checkpoint(base_path)
     base = rebuild_stage1(base_ckpt)
     for p in base.parameters():
@@ -106,7 +126,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
             "the train split has no (cycle, next cycle with a demonstration) pair: collect more"
         )
 
-    ckpt_path = runs_dir / name / CHECKPOINT_NAME
+    ckpt_path = out_dir / name / CHECKPOINT_NAME
     ckpt = read_checkpoint(ckpt_path) if ckpt_path.exists() else None
     if ckpt and (
         ckpt["model"] != name
@@ -126,9 +146,8 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
         model.load_state_dict(ckpt["state_dict"])
         optimizer.load_state_dict(ckpt["optimizer"])
         start_epoch = int(ckpt["epoch"])
-    log = MetricsLog(runs_dir / name, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
+    log = MetricsLog(out_dir / name, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
     best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
-    meta = dataset_meta(dataset)
 
     def checkpoint(epochs_done: int) -> dict[str, Any]:
         return {
@@ -144,6 +163,7 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
             "base": base_entry,
             "metrics": log.rows,
             "best": best.best,
+            "provenance": provenance(),
             **meta,
         }
 
@@ -189,12 +209,17 @@ def train_one_stage2(name: str, dataset: Any, cfg: Stage2Config, runs_dir: Path)
         "base_parameters": int(base_ckpt["parameters"]),
         "selected_epoch": best.epoch,
         "final": log.rows[-1] if log.rows else {},
+        "provenance": provenance(),
     }
 
 
-def train_stage2(dataset: Any, cfg: Stage2Config, runs_dir: str | Path) -> dict[str, Any]:
-    """Train every model of ``cfg.models`` into ``runs_dir/<model>/`` on the frozen stage-1 checkpoints
-    ``runs_dir/PACNN`` / ``runs_dir/PACNN+S``. Resumes from existing checkpoints. Returns {model: summary}."""
+def train_stage2(
+    dataset: Any, cfg: Stage2Config, out_dir: str | Path, base_dir: str | Path | None = None
+) -> dict[str, Any]:
+    """Train every model of ``cfg.models`` into ``out_dir/<model>/`` on the frozen stage-1 checkpoints
+    ``base_dir/PACNN`` / ``base_dir/PACNN+S`` (``base_dir`` defaults to ``out_dir``; ``irlsim train --stage
+    2 --out RUNS`` passes ``RUNS/stage2`` and ``RUNS/stage1``). Resumes from existing checkpoints.
+    Returns {model: summary}."""
     dataset = as_dataset(dataset)
-    runs_dir = Path(runs_dir)
-    return {name: train_one_stage2(name, dataset, cfg, runs_dir) for name in cfg.models}
+    out, base = Path(out_dir), Path(base_dir) if base_dir is not None else None
+    return {name: train_one_stage2(name, dataset, cfg, out, base) for name in cfg.models}

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
+from irlsim.data.schema import SCHEMA_VERSION
 
 
 @dataclass(frozen=True)
@@ -94,7 +95,7 @@ class SyntheticDataset:
     splits: dict[str, Any]
     theta_true: np.ndarray
     manifest: dict[str, Any] = field(
-        default_factory=lambda: {"schema_version": 0, "feature_names": list(FEATURE_NAMES)}
+        default_factory=lambda: {"schema_version": SCHEMA_VERSION, "feature_names": list(FEATURE_NAMES)}
     )
 
     def split_tensors(self, name: str) -> Any:

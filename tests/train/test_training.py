@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from irlsim.config import load_config
+from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import evaluate_thetas, summarize
 from irlsim.models import build_model
@@ -77,7 +78,7 @@ def test_resume_equals_uninterrupted(dataset, tmp_path):
     res = torch.load(tmp_path / "resumed" / "Bi1DCNN" / "checkpoint.pt", weights_only=True)
     assert res["epoch"] == 3 and len(res["metrics"]) == 3
     assert _states_equal(full["state_dict"], res["state_dict"])
-    assert res["schema_version"] == 0 and len(res["feature_names"]) == 15
+    assert res["schema_version"] == SCHEMA_VERSION and len(res["feature_names"]) == 15
 
 
 def test_inference_uses_the_validation_selected_epoch(dataset, tmp_path):
@@ -136,8 +137,13 @@ def test_config_loading(tmp_path):
 
 def test_stage2_evaluate_and_predictor(dataset, tmp_path):
     train_stage1(dataset, _cfg(models=("LIRL", "PACNN", "PACNN+S"), epochs=1), tmp_path)
-    with pytest.raises(IrlsimError, match="run stage 1 first"):
-        train_stage2(dataset, Stage2Config.smoke(), tmp_path / "empty")
+    with pytest.raises(IrlsimError, match="does not exist"):
+        train_stage2(dataset, Stage2Config.smoke(), tmp_path / "out", tmp_path / "empty")
+    (tmp_path / "no_pacnn").mkdir()
+    with pytest.raises(
+        IrlsimError, match=r"needs a trained PACNN \(.*no_pacnn/PACNN/checkpoint.pt not found"
+    ):
+        train_stage2(dataset, Stage2Config.smoke(), tmp_path / "out", tmp_path / "no_pacnn")
     cfg2 = dataclasses.replace(Stage2Config.smoke(), epochs=2)
     summary = train_stage2(dataset, cfg2, tmp_path)
     assert set(summary) == {"PTACNN", "PTACNN+S"}
