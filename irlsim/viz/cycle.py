@@ -1,7 +1,10 @@
-"""One planning cycle as a picture: policies on the road coloured by value, the chosen one, vehicles.
+"""One planning cycle of a :class:`PolicySet` as a picture (``irlsim plot-cycle``): the policies on the road
+coloured by value, the executed one, the vehicles and what the planner predicts they do.
 
-``draw_cycle(ax, road, ps, value, ...)`` is reusable: the drive stage passes ``highlight`` (e.g. the
-highest-attention policies) to draw them in blue on top.
+The drawing itself is :func:`irlsim.viz.drive.draw_policies`, the same as the drive stage's cycle pictures;
+this module only turns a PolicySet, values and vehicle states into its arrays. The vehicles' predictions
+are the planner's own (:func:`irlsim.planner.features._predicted_motion`: constant speed, or braking to
+stand at the next stop line), so the picture shows what the proximity feature and the collision label see.
 """
 
 from __future__ import annotations
@@ -11,17 +14,40 @@ from typing import Any
 import numpy as np
 
 from irlsim.planner.policy_set import PolicySet
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.road import Road
 from irlsim.sim.types import VehicleStates
 
 
-def _box(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
-    """Corners [5, 2] of a box whose front-bumper centre is (x, y)."""
-    c, s = np.cos(yaw), np.sin(yaw)
-    loc = np.array(
-        [[0, -width / 2], [0, width / 2], [-length, width / 2], [-length, -width / 2], [0, -width / 2]]
-    )
-    return np.stack([x + loc[:, 0] * c - loc[:, 1] * s, y + loc[:, 0] * s + loc[:, 1] * c], axis=1)
+def value_ranks(value: np.ndarray) -> np.ndarray:
+    """[N] float32 rank of each value among all N, 0 = lowest, 1 = highest (ties in index order)."""
+    n = len(value)
+    rank = np.empty(n, dtype=np.float32)
+    rank[np.argsort(np.asarray(value), kind="stable")] = np.arange(n, dtype=np.float32) / max(n - 1, 1)
+    return rank
+
+
+def drawn_subset(n: int, max_drawn: int, always: np.ndarray) -> np.ndarray:
+    """Sorted indices of the policies to draw: ``always`` (chosen, highlighted) plus an even spread over
+    the N policies (they are sorted by progress), at most ``max_drawn`` of the spread."""
+    spread = np.linspace(0, n - 1, min(max_drawn, n)).round().astype(np.int64)
+    return np.unique(np.concatenate([np.asarray(always, dtype=np.int64), spread]))
+
+
+def predicted_vehicles(road: Road, s_ego: float, vehicles: VehicleStates, t: np.ndarray) -> np.ndarray:
+    """[M, K, 3] world (x, y, yaw) of each vehicle's front bumper at times ``t`` [K] (s), as the planner
+    predicts it from the ego at unwrapped route position ``s_ego`` [m] (constant d)."""
+    from irlsim.planner.features import F32, _predicted_motion
+
+    m = vehicles.count
+    if m == 0:
+        return np.zeros((0, len(t), 3))
+    lap = road.lap_length
+    ds0 = (vehicles.s - (s_ego % lap) + lap / 2) % lap - lap / 2  # as the planner relates them to the ego
+    stops = tuple(float(sl.s) for sl in road.stop_lines)
+    centre, _ = _predicted_motion(np.ones(m, bool), ds0, vehicles, lap, np.asarray(t, F32), stops)
+    s = s_ego + centre.astype(np.float64) + vehicles.length[:, None] / 2  # centre -> front bumper
+    x, y = road.to_xy(s, np.broadcast_to(vehicles.d[:, None], s.shape))
+    return np.stack([x, y, road.heading(s)], axis=-1)
 
 
 def draw_cycle(
@@ -36,60 +62,36 @@ def draw_cycle(
     highlight: np.ndarray | None = None,
     max_drawn: int = 2500,
 ) -> None:
-    """Draw road lines around the ego, policies coloured by ``value`` [N] (green high, red low), the
-    ``chosen`` policy (thick black), ``highlight`` indices (blue), vehicles and their constant-velocity
-    predictions over ``horizon`` seconds (route frame, constant d)."""
-    from matplotlib import cm
-    from matplotlib.collections import LineCollection
+    """Draw the cycle ``ps`` on ``ax``: policies coloured by the rank of ``value`` [N] (green high, red
+    low; a colour bar), ``chosen`` (black), ``highlight`` indices (blue, e.g. the highest-attention
+    policies), ``vehicles`` with the planner's predictions over ``horizon`` [s], the road around the ego.
+    At most ``max_drawn`` policies plus the chosen and highlighted ones are drawn."""
+    from irlsim.drive.closed_loop import road_lines
+    from irlsim.viz.drive import draw_policies
 
+    n = ps.n_policies
+    value = np.asarray(value, dtype=np.float64)
+    assert value.shape == (n,), f"value must be [{n}], got {value.shape}"
+    hl = np.zeros(0, np.int64) if highlight is None else np.asarray(highlight, dtype=np.int64)
+    always = hl if chosen is None else np.append(hl, chosen)
+    idx = drawn_subset(n, max_drawn, always)
     s0 = float(ps.s[0, 0])
-    s_line = s0 + np.linspace(-60.0, max(ps.s[:, -1].max() - s0, 20.0) + 40.0, 200)
-    for d in np.arange(-HALF_ROAD, HALF_ROAD + 1e-6, LANE_WIDTH):
-        x, y = road.to_xy(s_line, np.full_like(s_line, d))
-        edge = abs(abs(d) - HALF_ROAD) < 1e-6
-        ax.plot(
-            x, y, color="0.3" if edge else "0.7", lw=1.2 if edge else 0.8, ls="-" if edge else "--", zorder=1
-        )
-    for ex in road.exits:
-        rs = (ex.ramp_s - s0 + road.lap_length / 2) % road.lap_length - road.lap_length / 2 + s0
-        if np.any(np.abs(rs - s0) < 200):
-            x, y = road.to_xy(rs, ex.ramp_d)
-            ax.plot(x, y, color="0.5", lw=6, alpha=0.3, zorder=1)
-    idx = np.arange(ps.n_policies)
-    if len(idx) > max_drawn:
-        idx = idx[np.linspace(0, len(idx) - 1, max_drawn).astype(int)]
-    v = np.asarray(value, dtype=np.float64)[idx]
-    lo, hi = np.percentile(v, 5), np.percentile(v, 100)
-    norm = np.clip((v - lo) / max(hi - lo, 1e-9), 0, 1)
-    order = np.argsort(norm)  # best drawn last (on top)
-    segs = np.stack([ps.x[idx[order]], ps.y[idx[order]]], axis=2)
-    ax.add_collection(
-        LineCollection(list(segs), colors=cm.RdYlGn(norm[order]), linewidths=0.6, alpha=0.6, zorder=2)
+    veh = vehicles if vehicles is not None else VehicleStates.empty()
+    boxes = (
+        np.stack([veh.x, veh.y, veh.yaw, veh.length, veh.width], axis=1) if veh.count else np.zeros((0, 5))
     )
-    if highlight is not None and len(highlight):
-        hs = np.stack([ps.x[highlight], ps.y[highlight]], axis=2)
-        ax.add_collection(LineCollection(list(hs), colors="tab:blue", linewidths=1.2, alpha=0.9, zorder=3))
-    if chosen is not None:
-        ax.plot(ps.x[chosen], ps.y[chosen], color="k", lw=2.2, zorder=4, label="executed")
-    ax.fill(*_box(ps.x[0, 0], ps.y[0, 0], ps.yaw[0, 0], *ego_size).T, color="tab:blue", zorder=5, label="ego")
-    if vehicles is not None and vehicles.count:
-        t = np.linspace(0.0, horizon, 11)
-        for k in range(vehicles.count):
-            ds = (
-                vehicles.s[k] - s0 % road.lap_length + road.lap_length / 2
-            ) % road.lap_length - road.lap_length / 2
-            if not -60 < ds < 200:
-                continue
-            sp = s0 + ds + vehicles.v[k] * t
-            px, py = road.to_xy(sp, np.full_like(sp, vehicles.d[k]))
-            ax.plot(px, py, color="tab:purple", lw=1.0, ls=":", zorder=3)
-            ax.fill(
-                *_box(vehicles.x[k], vehicles.y[k], vehicles.yaw[k], vehicles.length[k], vehicles.width[k]).T,
-                color="0.25",
-                zorder=5,
-            )
-    ax.set_aspect("equal")
-    ax.set_xlim(ps.x.min() - 15, ps.x.max() + 15)
-    ax.set_ylim(ps.y.min() - 15, ps.y.max() + 15)
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
+    t = np.linspace(0.0, horizon, ps.n_steps)
+    draw_policies(
+        ax,
+        ps.x[idx],
+        ps.y[idx],
+        value_ranks(value)[idx],
+        np.isin(idx, hl),
+        None if chosen is None else int(np.searchsorted(idx, chosen)),
+        (float(ps.x[0, 0]), float(ps.y[0, 0]), float(ps.yaw[0, 0]), float(ps.v[0, 0]), *ego_size),
+        boxes,
+        road_lines(road, s0),
+        view_yaw=float(road.heading(np.array(s0))),
+        predictions=predicted_vehicles(road, s0, veh, t) if veh.count else None,
+        title=f"t = {ps.t:.1f} s   v = {3.6 * float(ps.v[0, 0]):.0f} km/h",
+    )

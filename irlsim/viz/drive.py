@@ -9,7 +9,13 @@ The cycle picture follows the paper's Fig. 1: policies coloured by value from re
 the colour being the policy's value *rank* among all N policies of the cycle (values of a learned reward
 span orders of magnitude; ranks keep the gradient readable); the top-k policies by policy attention in
 blue; the executed policy in black. Only a subset of the policies is drawn (``CycleFrame`` keeps at most
-a few hundred), as in the paper.
+a few hundred), as in the paper. :func:`draw_policies` draws such a scene from plain arrays; ``irlsim
+plot-cycle`` (:mod:`irlsim.viz.cycle`) uses it too.
+
+Layout (why the figure height is computed): the scene is drawn to scale (equal aspect) in a window fitted
+to the road and the drawn policies (:func:`scene_window`), about 90 m x 12 m at speed. A fixed figure
+shape would leave most of its height empty, so the figures' heights follow the window
+(:func:`cycle_figure_size`); an animation uses one window, the union over its frames, so its axes stay put.
 """
 
 from __future__ import annotations
@@ -27,11 +33,26 @@ from irlsim import FEATURE_NAMES
 
 #: line kinds of :attr:`CycleFrame.lines` and how they are drawn
 LINE_STYLE = {
-    "edge": {"color": "0.35", "lw": 1.2, "ls": "-"},
-    "divider": {"color": "0.6", "lw": 0.8, "ls": (0, (4, 4))},
-    "ramp": {"color": "0.5", "lw": 0.9, "ls": "-"},
-    "stop": {"color": "tab:red", "lw": 2.0, "ls": "-"},
+    "edge": {"color": "0.3", "lw": 1.4, "ls": "-"},
+    "divider": {"color": "0.55", "lw": 1.0, "ls": (0, (5, 5))},
+    "ramp": {"color": "0.45", "lw": 1.0, "ls": "-"},
+    "stop": {"color": "#b00000", "lw": 3.0, "ls": "-"},
 }
+
+#: font sizes [pt]: legible at 100 dpi in the stills and at 70 dpi in the GIF (10-inch-wide figures)
+FONT = {"title": 13.0, "label": 11.0, "tick": 10.0, "legend": 10.0}
+
+#: the highest-attention policies: a saturated blue, distinct from every colour of the value map
+TOP_COLOR = "#1d4ed8"
+VEHICLE_COLOR = "0.45"
+PREDICTION_COLOR = "#7e22ce"
+EGO_COLOR = "tab:orange"
+
+#: figure margins around the cycle axes [in]: left (y label), right (colour bar), top (title), bottom
+#: (x label, then the legend row)
+_MARGIN = {"left": 0.8, "right": 1.05, "top": 0.45, "bottom": 0.95}
+#: [in] from the axes' bottom edge down to the legend row (below the tick labels and the x label)
+_LEGEND_DROP = 0.55
 
 
 @dataclass(frozen=True)
@@ -49,6 +70,8 @@ class CycleFrame:
     vehicles:        [M, 5] float64  (x, y, yaw, length, width) of the other vehicles, front bumpers
     lines:           road lines around the ego: (kind in LINE_STYLE, [Q, 2] xy)
     view_yaw:        [rad] direction drawn to the right: the road's heading at the ego (None: ego's yaw)
+    predictions:     [M, K, 3] float64 or None  the planner's prediction of each vehicle (rows of
+                     ``vehicles``): front-bumper x [m], y [m], yaw [rad] at K times over the horizon
     """
 
     model: str
@@ -67,6 +90,7 @@ class CycleFrame:
     lines: tuple[tuple[str, np.ndarray], ...] = ()
     info: dict[str, Any] = field(default_factory=dict)
     view_yaw: float | None = None
+    predictions: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         p, t = self.x.shape
@@ -77,6 +101,13 @@ class CycleFrame:
         assert self.vehicles.ndim == 2 and self.vehicles.shape[1] == 5, self.vehicles.shape
         if self.attention is not None:
             assert self.attention.shape == (p,), self.attention.shape
+        if self.predictions is not None:
+            shape = self.predictions.shape
+            assert len(shape) == 3 and (shape[0], shape[2]) == (len(self.vehicles), 3), shape
+
+    @property
+    def title(self) -> str:
+        return f"{self.model}   cycle {self.cycle}   t = {self.t:.1f} s   v = {3.6 * self.ego[3]:.0f} km/h"
 
 
 # ------------------------------------------------------------------------------------------ figure plumbing
@@ -103,7 +134,34 @@ def save_figure(fig: Any, path: str | Path, dpi: int = 100) -> Path:
     return path
 
 
-# ------------------------------------------------------------------------------------------ drawing
+def _axes_in(fig: Any, left: float, bottom: float, width: float, height: float, **kw: Any) -> Any:
+    """Axes placed in inches from the figure's lower left corner (exact, unlike tight_layout with an
+    equal-aspect axes)."""
+    fw, fh = fig.get_size_inches()
+    return fig.add_axes((left / fw, bottom / fh, width / fw, height / fh), **kw)
+
+
+# ------------------------------------------------------------------------------------------ the scene
+
+
+@dataclass(frozen=True)
+class Window:
+    """Axis limits of a cycle picture in the view frame [m]: x along the road from the ego, y to the left."""
+
+    x0: float
+    x1: float
+    y0: float
+    y1: float
+
+    @property
+    def aspect(self) -> float:
+        """height / width"""
+        return (self.y1 - self.y0) / (self.x1 - self.x0)
+
+    def union(self, other: Window) -> Window:
+        return Window(
+            min(self.x0, other.x0), max(self.x1, other.x1), min(self.y0, other.y0), max(self.y1, other.y1)
+        )
 
 
 def _box(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
@@ -116,80 +174,255 @@ def _box(x: float, y: float, yaw: float, length: float, width: float) -> np.ndar
     return local @ rot.T + np.array([cx, cy])
 
 
-def draw_cycle(ax: Any, frame: CycleFrame, view: float = 70.0, legend: bool = True) -> None:
-    """The cycle from above on axes ``ax``: road, vehicles, policies by value, attention, executed policy.
+@dataclass
+class _Scene:
+    """A cycle's geometry in the view frame (ego front bumper at the origin, road heading to the right)."""
 
-    Drawn around the ego (at the origin) rotated so that ``frame.view_yaw`` (the road's heading there)
-    points right: x ahead along the road, y to the left, so the lanes run left to right. ``view`` [m]: the
-    window covers every drawn policy and at least view/4 behind and view ahead of the ego.
-    """
-    from matplotlib import colormaps
-    from matplotlib.collections import LineCollection
-    from matplotlib.lines import Line2D
+    px: np.ndarray  # [P, T] policies
+    py: np.ndarray
+    lines: list[tuple[str, np.ndarray]]  # [Q, 2] each
+    boxes: np.ndarray  # [M, 5, 2] vehicle outlines
+    ego_box: np.ndarray  # [5, 2]
+    pred: np.ndarray | None  # [M, K, 2] predicted front bumpers
+    pred_boxes: np.ndarray | None  # [M, 5, 2] predicted outlines at the horizon
 
-    ex, ey, eyaw, ev, el, ew = frame.ego
-    vyaw0 = eyaw if frame.view_yaw is None else frame.view_yaw
+
+def _scene(
+    x: np.ndarray,
+    y: np.ndarray,
+    ego: Sequence[float],
+    vehicles: np.ndarray,
+    lines: Sequence[tuple[str, np.ndarray]],
+    view_yaw: float | None,
+    predictions: np.ndarray | None,
+) -> _Scene:
+    ex, ey, eyaw, _, el, ew = (float(v) for v in ego)
+    vyaw0 = eyaw if view_yaw is None else float(view_yaw)
     c, s = math.cos(vyaw0), math.sin(vyaw0)
 
-    def local(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # world -> view frame (x along the road, y left), so the road runs left to right
-        dx, dy = np.asarray(x, dtype=np.float64) - ex, np.asarray(y, dtype=np.float64) - ey
+    def local(xx: np.ndarray, yy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        dx, dy = np.asarray(xx, dtype=np.float64) - ex, np.asarray(yy, dtype=np.float64) - ey
         return c * dx + s * dy, -s * dx + c * dy
 
-    for kind, xy in frame.lines:
-        st = LINE_STYLE.get(kind, LINE_STYLE["edge"])
-        lx, ly = local(xy[:, 0], xy[:, 1])
-        ax.plot(lx, ly, color=st["color"], lw=st["lw"], ls=st["ls"], zorder=1)
-    px, py = local(frame.x, frame.y)
-    segs = np.stack([px, py], axis=-1)  # [P, T, 2]
-    cmap = colormaps["RdYlGn"]
-    order = np.argsort(frame.value_rank, kind="stable")  # high values drawn last (on top)
-    ax.add_collection(
-        LineCollection(
-            list(segs[order]), colors=cmap(frame.value_rank[order]), linewidths=0.7, alpha=0.8, zorder=2
-        )
-    )
-    top = np.flatnonzero(frame.top_attention)
-    if len(top):
-        ax.add_collection(
-            LineCollection(list(segs[top]), colors="tab:blue", linewidths=1.6, alpha=0.95, zorder=3)
-        )
-    ch = segs[frame.chosen]
-    ax.plot(ch[:, 0], ch[:, 1], color="white", lw=4.0, zorder=4, solid_capstyle="round")
-    ax.plot(ch[:, 0], ch[:, 1], color="black", lw=2.0, zorder=5, solid_capstyle="round")
-    for vx, vy, vyaw, vl, vw in frame.vehicles:
-        lx, ly = local(vx, vy)
-        b = _box(float(lx), float(ly), vyaw - vyaw0, vl, vw)
-        ax.fill(b[:, 0], b[:, 1], color="0.45", ec="0.15", lw=0.6, zorder=6)
-    b = _box(0.0, 0.0, eyaw - vyaw0, el, ew)
-    ax.fill(b[:, 0], b[:, 1], color="tab:orange", ec="black", lw=0.8, zorder=7)
-    # window: every drawn policy, at least view/4 behind and view ahead, +-view/4 sideways
-    x0 = min(float(px.min()), -view / 4) - 5.0
-    x1 = max(float(px.max()), view) + 5.0
-    yh = max(float(np.abs(py).max()), 8.0) + 4.0
-    ax.set_xlim(x0, x1)
-    ax.set_ylim(-yh, yh)
-    ax.set_aspect("equal")
-    ax.set_xlabel("along the road from the ego [m]", fontsize=7)
-    ax.set_ylabel("left [m]", fontsize=7)
-    ax.tick_params(labelsize=6)
-    ax.set_title(
-        f"{frame.model}  cycle {frame.cycle}  t = {frame.t:.1f} s  v = {3.6 * ev:.0f} km/h", fontsize=8
-    )
-    if legend:
-        handles = [
-            Line2D([], [], color=cmap(1.0), lw=1.5, label="high value"),
-            Line2D([], [], color=cmap(0.0), lw=1.5, label="low value"),
-            Line2D([], [], color="black", lw=2.0, label="executed"),
+    px, py = local(x, y)
+    out_lines = [(kind, np.stack(local(xy[:, 0], xy[:, 1]), axis=1)) for kind, xy in lines]
+    veh = np.asarray(vehicles, dtype=np.float64).reshape(-1, 5)
+    vx, vy = local(veh[:, 0], veh[:, 1])
+    boxes = np.array(
+        [
+            _box(float(a), float(b), yaw - vyaw0, ln, wd)
+            for a, b, (_, _, yaw, ln, wd) in zip(vx, vy, veh, strict=True)
         ]
-        if len(top):
-            handles.insert(2, Line2D([], [], color="tab:blue", lw=1.6, label=f"top-{len(top)} attention"))
-        ax.legend(handles=handles, loc="upper right", fontsize=6, framealpha=0.8)
+    ).reshape(-1, 5, 2)
+    pred = pred_boxes = None
+    if predictions is not None and len(predictions):
+        qx, qy = local(predictions[:, :, 0], predictions[:, :, 1])
+        pred = np.stack([qx, qy], axis=-1)
+        pred_boxes = np.array(
+            [
+                _box(float(qx[k, -1]), float(qy[k, -1]), float(predictions[k, -1, 2]) - vyaw0, ln, wd)
+                for k, (_, _, _, ln, wd) in enumerate(veh)
+            ]
+        ).reshape(-1, 5, 2)
+    return _Scene(px, py, out_lines, boxes, _box(0.0, 0.0, eyaw - vyaw0, el, ew), pred, pred_boxes)
+
+
+def _fit(sc: _Scene, view: float, margin: float = 1.2) -> Window:
+    """The window of one scene: x from a little behind the ego (a follower shows) to the farthest drawn
+    policy (at least ``view`` ahead); y over the road's edges, the policies, the vehicles and the
+    predictions inside that x range, plus ``margin``."""
+    x0 = min(float(sc.px.min()), -(float(np.ptp(sc.ego_box[:, 0])) + 8.0)) - 1.0
+    x1 = max(float(sc.px.max()), view) + 4.0
+    ys = [sc.py.ravel(), sc.ego_box[:, 1]]
+    for kind, xy in sc.lines:
+        if kind == "edge":
+            ys.append(xy[(xy[:, 0] >= x0) & (xy[:, 0] <= x1), 1])
+    for pts in [sc.boxes] + ([sc.pred, sc.pred_boxes] if sc.pred is not None else []):
+        flat = np.asarray(pts).reshape(-1, 2)
+        ys.append(flat[(flat[:, 0] >= x0) & (flat[:, 0] <= x1), 1])
+    yy = np.concatenate(ys)
+    return Window(x0, x1, float(yy.min()) - margin, float(yy.max()) + margin)
+
+
+def scene_window(
+    x: np.ndarray,
+    y: np.ndarray,
+    ego: Sequence[float],
+    vehicles: np.ndarray,
+    lines: Sequence[tuple[str, np.ndarray]] = (),
+    view_yaw: float | None = None,
+    predictions: np.ndarray | None = None,
+    view: float = 40.0,
+) -> Window:
+    """The window :func:`draw_policies` fits to these arrays (arguments as there)."""
+    return _fit(_scene(x, y, ego, vehicles, lines, view_yaw, predictions), view)
+
+
+def cycle_window(frame: CycleFrame, view: float = 40.0) -> Window:
+    """The window of a frame's cycle picture: :func:`scene_window` of its arrays."""
+    return scene_window(
+        frame.x, frame.y, frame.ego, frame.vehicles, frame.lines, frame.view_yaw, frame.predictions, view
+    )
+
+
+def cycle_figure_size(window: Window, width: float = 10.0) -> tuple[float, float]:
+    """(width, height) [in] of a figure holding only the cycle axes: the axes keep the window's aspect."""
+    w = width - _MARGIN["left"] - _MARGIN["right"]
+    # whole tenths of an inch: an integer number of pixels at any dpi that is a multiple of 10
+    return width, round(_MARGIN["top"] + w * window.aspect + _MARGIN["bottom"], 1)
+
+
+def cycle_axes(fig: Any, window: Window, top: float = 0.0) -> Any:
+    """The cycle axes on ``fig``: full width between the margins, as tall as the window's aspect needs,
+    ``top`` [in] below the figure's top edge."""
+    fw, fh = fig.get_size_inches()
+    w = fw - _MARGIN["left"] - _MARGIN["right"]
+    h = w * window.aspect
+    return _axes_in(fig, _MARGIN["left"], fh - top - _MARGIN["top"] - h, w, h)
+
+
+def draw_policies(
+    ax: Any,
+    x: np.ndarray,
+    y: np.ndarray,
+    value_rank: np.ndarray,
+    top: np.ndarray,
+    chosen: int | None,
+    ego: Sequence[float],
+    vehicles: np.ndarray,
+    lines: Sequence[tuple[str, np.ndarray]] = (),
+    view_yaw: float | None = None,
+    predictions: np.ndarray | None = None,
+    *,
+    window: Window | None = None,
+    view: float = 40.0,
+    title: str | None = None,
+    legend: bool = True,
+    colorbar: bool = True,
+) -> Window:
+    """One planning cycle from above on ``ax``; the one drawing of policy sets (drive stage and plot-cycle).
+
+    x, y [P, T] world positions of the drawn policies; value_rank [P] in [0, 1] (red low, green high);
+    top [P] bool, the highest-attention policies (blue); chosen: the executed policy (black); ego
+    (x, y, yaw, v, length, width) with x, y the front bumper; vehicles [M, 5] (x, y, yaw, length, width);
+    lines (kind, [Q, 2] world xy) road lines; predictions [M, K, 3] (x, y, yaw) of the vehicles, dotted.
+
+    Drawn around the ego (origin) in the view frame: ``view_yaw`` (the road's heading at the ego; None =
+    the ego's yaw) points right. Layers, bottom to top: road, policies by value (best last), the top
+    policies (thick blue, with their end points), the executed one (black), vehicles, predictions, ego.
+    The window is ``window``, or fitted (:func:`scene_window`); equal aspect. Returns the window.
+    """
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.collections import LineCollection
+    from matplotlib.colors import Normalize
+
+    sc = _scene(x, y, ego, vehicles, lines, view_yaw, predictions)
+    win = window or _fit(sc, view)
+    for kind, xy in sc.lines:
+        st = LINE_STYLE.get(kind, LINE_STYLE["edge"])
+        ax.plot(xy[:, 0], xy[:, 1], color=st["color"], lw=st["lw"], ls=st["ls"], zorder=1)
+    segs = np.stack([sc.px, sc.py], axis=-1)  # [P, T, 2]
+    cmap = colormaps["RdYlGn"]
+    rank = np.asarray(value_rank, dtype=np.float64)
+    order = np.argsort(rank, kind="stable")  # high values drawn last (on top)
+    ax.add_collection(
+        LineCollection(list(segs[order]), colors=cmap(rank[order]), linewidths=0.8, alpha=0.75, zorder=2)
+    )
+    handles = []
+    top_idx = np.flatnonzero(np.asarray(top, dtype=bool))
+    if len(top_idx):
+        # above every value-coloured policy and thicker than the executed one, so a top policy on the
+        # executed path still shows as a blue band around the black line; the end points tell apart
+        # policies that share a path at different speeds
+        ax.add_collection(
+            LineCollection(list(segs[top_idx]), colors=TOP_COLOR, linewidths=3.2, zorder=4, capstyle="round")
+        )
+        ax.scatter(segs[top_idx, -1, 0], segs[top_idx, -1, 1], s=30, color=TOP_COLOR, zorder=4, lw=0)
+        label = f"top-{len(top_idx)} attention"
+        handles.append(ax.plot([], [], color=TOP_COLOR, lw=3.2, marker="o", ms=5, label=label)[0])
+    if chosen is not None:
+        ch = segs[chosen]
+        ax.plot(ch[:, 0], ch[:, 1], color="black", lw=1.8, zorder=5, solid_capstyle="round")
+        ax.plot(ch[-1, 0], ch[-1, 1], "o", color="black", ms=5, zorder=5)
+        handles.append(ax.plot([], [], color="black", lw=1.8, marker="o", ms=5, label="executed")[0])
+    for b in sc.boxes:
+        ax.fill(b[:, 0], b[:, 1], color=VEHICLE_COLOR, ec="0.1", lw=0.8, zorder=6)
+    if len(sc.boxes):
+        handles.append(
+            ax.plot([], [], ls="none", marker="s", ms=10, mfc=VEHICLE_COLOR, mec="0.1", label="vehicle")[0]
+        )
+    if sc.pred is not None and sc.pred_boxes is not None:
+        for path, b in zip(sc.pred, sc.pred_boxes, strict=True):
+            ax.plot(path[:, 0], path[:, 1], color=PREDICTION_COLOR, lw=1.6, ls=":", zorder=6)
+            ax.plot(b[:, 0], b[:, 1], color=PREDICTION_COLOR, lw=1.2, ls="--", zorder=6)
+        handles.append(
+            ax.plot([], [], color=PREDICTION_COLOR, lw=1.6, ls=":", label="predicted (end: dashed box)")[0]
+        )
+    ax.fill(sc.ego_box[:, 0], sc.ego_box[:, 1], color=EGO_COLOR, ec="black", lw=1.0, zorder=7)
+    handles.append(ax.plot([], [], ls="none", marker="s", ms=10, mfc=EGO_COLOR, mec="black", label="ego")[0])
+    ax.set_xlim(win.x0, win.x1)
+    ax.set_ylim(win.y0, win.y1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("along the road from the ego [m]", fontsize=FONT["label"])
+    ax.set_ylabel("left [m]", fontsize=FONT["label"])
+    ax.tick_params(labelsize=FONT["tick"])
+    if legend:
+        # one row under the x label (a fixed offset in inches, whatever the axes' height): the road
+        # stays uncovered, and a caller's own title (default pad) does not collide with it
+        from matplotlib.transforms import ScaledTranslation
+
+        below = ax.transAxes + ScaledTranslation(0.0, -_LEGEND_DROP, ax.figure.dpi_scale_trans)
+        ax.legend(
+            handles=handles,
+            loc="upper left",
+            bbox_to_anchor=(0.0, 0.0),
+            bbox_transform=below,
+            ncol=len(handles),
+            fontsize=FONT["legend"],
+            frameon=False,
+            borderaxespad=0.0,
+            handlelength=2.2,
+            columnspacing=1.4,
+        )
+    if title:
+        ax.set_title(title, fontsize=FONT["title"])
+    if colorbar:
+        # an inset axes follows the axes box after the equal-aspect adjustment, whatever the caller's layout
+        cax = ax.inset_axes((1.01, 0.0, 0.015, 1.0))
+        cb = ax.figure.colorbar(ScalarMappable(Normalize(0.0, 1.0), cmap), cax=cax, ticks=[0.0, 1.0])
+        cb.ax.set_yticklabels(["low", "high"], fontsize=FONT["tick"])
+        cb.set_label("value", fontsize=FONT["label"], labelpad=-6.0)
+    return win
+
+
+def draw_cycle(
+    ax: Any, frame: CycleFrame, view: float = 40.0, legend: bool = True, window: Window | None = None
+) -> Window:
+    """A frame's cycle on axes ``ax`` (:func:`draw_policies`); ``window`` fixed, or fitted with at least
+    ``view`` [m] ahead. Returns the window."""
+    return draw_policies(
+        ax,
+        frame.x,
+        frame.y,
+        frame.value_rank,
+        frame.top_attention,
+        frame.chosen,
+        frame.ego,
+        frame.vehicles,
+        frame.lines,
+        frame.view_yaw,
+        frame.predictions,
+        window=window,
+        view=view,
+        title=frame.title,
+        legend=legend,
+    )
 
 
 def draw_temporal(ax: Any, weights: np.ndarray | None, model: str = "") -> None:
     """Bar chart of the temporal attention weights [H] (oldest first; the last bar is the current cycle)."""
-    ax.set_title("temporal attention", fontsize=8)
+    ax.set_title("temporal attention", fontsize=FONT["title"])
     if weights is None or len(weights) == 0:
         ax.text(
             0.5,
@@ -197,7 +430,7 @@ def draw_temporal(ax: Any, weights: np.ndarray | None, model: str = "") -> None:
             f"no temporal attention\n({model or 'this model'} has none)",
             ha="center",
             va="center",
-            fontsize=7,
+            fontsize=FONT["label"],
             transform=ax.transAxes,
         )
         ax.set_xticks([])
@@ -208,28 +441,30 @@ def draw_temporal(ax: Any, weights: np.ndarray | None, model: str = "") -> None:
     lags = np.arange(-(h - 1), 1)
     ax.bar(lags, w, color="tab:purple", width=0.8)
     ax.set_xticks(lags)
-    ax.set_xticklabels([str(k) if k else "t" for k in lags], fontsize=6)
-    ax.set_xlabel("history [cycles before now]", fontsize=7)
-    ax.set_ylabel("weight", fontsize=7)
+    ax.set_xticklabels([str(k) if k else "now" for k in lags], fontsize=FONT["tick"])
+    ax.set_xlabel("history [cycles before now]", fontsize=FONT["label"])
+    ax.set_ylabel("weight", fontsize=FONT["label"])
     ax.set_ylim(0.0, max(1.0 / h * 1.5, float(w.max()) * 1.1))
-    ax.axhline(1.0 / h, color="0.5", lw=0.8, ls="--")  # uniform weights
-    ax.tick_params(labelsize=6)
+    ax.axhline(1.0 / h, color="0.4", lw=1.0, ls="--", label="uniform")
+    ax.legend(loc="best", fontsize=FONT["legend"], frameon=False)
+    ax.tick_params(labelsize=FONT["tick"])
 
 
 # ------------------------------------------------------------------------------------------ files
 
 
 def save_cycle(path: str | Path, frame: CycleFrame, dpi: int = 100) -> Path:
-    """``cycle_XXXX.png``: the policy set from above (10 x 3.6 in)."""
-    fig = new_figure((10.0, 3.6))
-    draw_cycle(fig.add_subplot(111), frame)
-    fig.tight_layout()
+    """``cycle_XXXX.png``: the policy set from above, 10 in wide, as tall as its window needs
+    (:func:`cycle_figure_size`)."""
+    win = cycle_window(frame)
+    fig = new_figure(cycle_figure_size(win))
+    draw_cycle(cycle_axes(fig, win), frame, window=win)
     return save_figure(fig, path, dpi)
 
 
 def save_temporal(path: str | Path, frame: CycleFrame, dpi: int = 100) -> Path:
-    """``temporal_XXXX.png``: the temporal attention weights (5 x 3 in)."""
-    fig = new_figure((5.0, 3.0))
+    """``temporal_XXXX.png``: the temporal attention weights (6 x 3.6 in)."""
+    fig = new_figure((6.0, 3.6))
     draw_temporal(fig.add_subplot(111), frame.temporal_weights, frame.model)
     fig.tight_layout()
     return save_figure(fig, path, dpi)
@@ -256,17 +491,31 @@ def save_frame_pictures(
     ]
 
 
-def draw_panels(fig: Any, frame: CycleFrame, reference: np.ndarray | None = None) -> None:
-    """The animation's layout on ``fig``: the cycle from above (top, full width), radar of theta (bottom
-    left), temporal attention (bottom right)."""
+#: height [in] of the animation's bottom row (radar and temporal attention)
+_PANEL_ROW = 4.6
+
+
+def panels_figure_size(window: Window, width: float = 10.0) -> tuple[float, float]:
+    """(width, height) [in] of the animation's figure: the cycle (its window's aspect) over a row of
+    :data:`_PANEL_ROW` inches."""
+    w, h = cycle_figure_size(window, width)
+    return w, round(h + _PANEL_ROW, 1)
+
+
+def draw_panels(
+    fig: Any, frame: CycleFrame, reference: np.ndarray | None = None, window: Window | None = None
+) -> None:
+    """The animation's layout on ``fig`` (sized by :func:`panels_figure_size`): the cycle from above (top,
+    full width, in ``window`` or its own), radar of theta (bottom left), temporal attention (bottom right)."""
     from irlsim.viz.radar import draw_radar
 
     fig.clear()
-    gs = fig.add_gridspec(2, 2, width_ratios=(1.5, 1.0), height_ratios=(1.0, 1.0))
-    draw_cycle(fig.add_subplot(gs[0, :]), frame)
-    draw_radar(fig.add_subplot(gs[1, 0], projection="polar"), frame.theta, reference=reference, title="theta")
-    draw_temporal(fig.add_subplot(gs[1, 1]), frame.temporal_weights, frame.model)
-    fig.tight_layout()
+    win = window or cycle_window(frame)
+    draw_cycle(cycle_axes(fig, win), frame, window=win)
+    row = _PANEL_ROW
+    radar = _axes_in(fig, 1.35, 0.55, row - 1.45, row - 1.45, projection="polar")
+    draw_radar(radar, frame.theta, reference=reference, title="theta")
+    draw_temporal(_axes_in(fig, 6.0, 0.75, 3.7, row - 1.55), frame.temporal_weights, frame.model)
 
 
 def save_animation(
@@ -275,11 +524,13 @@ def save_animation(
     reference: np.ndarray | None = None,
     fps: int = 5,
     dpi: int = 70,
-    size: tuple[float, float] = (10.0, 8.0),
+    width: float = 10.0,
 ) -> Path:
     """``episode.gif``: the panels of every frame, ``fps`` frames per second (matplotlib PillowWriter).
 
-    Written to a temporary ``.gif`` beside ``path`` and renamed, so a killed run leaves no half file.
+    One window for all frames (the union of their windows), so the road does not jump between frames;
+    the figure is ``width`` inches wide and as tall as :func:`panels_figure_size` says. Written to a
+    temporary ``.gif`` beside ``path`` and renamed, so a killed run leaves no half file.
     """
     from matplotlib.animation import PillowWriter
 
@@ -288,12 +539,15 @@ def save_animation(
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.stem}.{os.getpid()}.partial.gif")
-    fig = new_figure(size)
+    win = cycle_window(frames[0])
+    for fr in frames[1:]:
+        win = win.union(cycle_window(fr))
+    fig = new_figure(panels_figure_size(win, width))
     writer = PillowWriter(fps=fps)
     try:
         with writer.saving(fig, str(tmp), dpi):
             for fr in frames:
-                draw_panels(fig, fr, reference)
+                draw_panels(fig, fr, reference, win)
                 writer.grab_frame()
         os.replace(tmp, path)
     finally:

@@ -60,12 +60,13 @@ def draw_radar(
     ax.set_theta_offset(np.pi / 2)
     ax.set_theta_direction(-1)
     ax.set_ylim(0.0, 1.0)
+    ax.set_rlabel_position(180.0 / f)  # ring labels between the first two axes, clear of their names
     rings = np.arange(np.ceil(low), np.floor(high) + 1)
     ax.set_yticks((rings - low) / (high - low))
     if reference is None:
-        ax.set_yticklabels([f"1e{int(k)}" for k in rings], fontsize=6)
+        ax.set_yticklabels([f"1e{int(k)}" for k in rings], fontsize=9)
     else:
-        ax.set_yticklabels([f"x{10.0**k:g}" for k in rings], fontsize=6)
+        ax.set_yticklabels([f"x{10.0**k:g}" for k in rings], fontsize=9)
         ax.plot(
             np.append(angles, angles[0]),
             np.full(f + 1, (0.0 - low) / (high - low)),
@@ -75,16 +76,21 @@ def draw_radar(
             label=f"{reference_label} (x1)",
         )
     ax.set_xticks(angles)
-    ax.set_xticklabels(list(names), fontsize=6)
+    ax.set_xticklabels(list(names), fontsize=10)
+    # names grow away from the circle (left-aligned on the right half, right-aligned on the left half),
+    # so neighbours near the top and bottom do not run into each other
+    side = np.sin(angles)  # clockwise from the top: > 0 on the right
+    for label, sn in zip(ax.get_xticklabels(), side, strict=True):
+        label.set_horizontalalignment("left" if sn > 0.05 else "right" if sn < -0.05 else "center")
     ax.plot(np.append(angles, angles[0]), np.append(r, r[0]), color=color, lw=1.5)
     ax.fill(np.append(angles, angles[0]), np.append(r, r[0]), color=color, alpha=0.25)
     neg = theta < 0
     if neg.any():
         ax.plot(angles[neg], r[neg], "x", color="tab:red", ms=6, label="negative weight")
     if title:
-        ax.set_title(title, fontsize=8, pad=12)
+        ax.set_title(title, fontsize=12, pad=18)
     if reference is not None or neg.any():
-        ax.legend(loc="lower right", bbox_to_anchor=(1.25, -0.12), fontsize=6, frameon=False)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=9, frameon=False)
 
 
 def save_radar(
