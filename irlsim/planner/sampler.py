@@ -266,7 +266,7 @@ class Sampler:
             durs = durs_f
         pick = np.array(sorted({int(cand[0]), int(cand[len(cand) // 2]), int(cand[-1])}))
         ps, vs, as_, _ = quintic(0.0, v0, a0, dist, durs[pick], self.t[None, :])
-        return np.maximum(vs, 0.0), as_, ps
+        return _hold_after_stop(ps, vs, as_)
 
     # ------------------------------------------------------------------ lateral
     def lat_bank(self, d0: float, dd0: float, ddd0: float) -> LatBank:
@@ -338,7 +338,7 @@ class Sampler:
         else:
             return None
         p, v, a, j = _quintic(d0, dd0, ddd0, -LANE_WIDTH, self._exit_grid)
-        s_abs = ex.s_start + rel + lon.s  # [L, T] in the exit's own unwrapped frame
+        s_abs = ex.s_start - rel + lon.s  # [L, T] in the exit's own unwrapped frame (ego at s_start - rel)
         ramp = np.interp(s_abs, ex.ramp_s, ex.ramp_d, left=-LANE_WIDTH, right=ex.ramp_d[-1]) + LANE_WIDTH
         d = p + ramp
         dd = np.gradient(d, cfg.dt, axis=1)
@@ -358,6 +358,22 @@ class Sampler:
             bound_lon=idx.astype(np.int64),
             keep=np.zeros(len(idx), bool),
         )
+
+
+def _hold_after_stop(
+    s: np.ndarray, v: np.ndarray, a: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(v, a, s) of stop profiles [P, T] that stand still once they reach v = 0: a quintic cut at the
+    horizon (the fallback when no stop is feasible) may otherwise turn negative and roll backwards."""
+    stopped = np.maximum.accumulate((v <= 0.0) & (np.arange(v.shape[1]) > 0), axis=1)
+    first = np.argmax(stopped, axis=1)
+    # the furthest point reached (v crosses 0 between steps: the quintic may already be backing up)
+    s_stop = np.maximum.accumulate(s, axis=1)[np.arange(len(s)), first][:, None]
+    return (
+        np.where(stopped, 0.0, v),
+        np.where(stopped, 0.0, a),
+        np.where(stopped, s_stop, s),
+    )
 
 
 def concat_lat(a: LatBank, b: LatBank | None) -> LatBank:

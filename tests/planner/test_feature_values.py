@@ -366,12 +366,6 @@ def test_end_heading_of_exit_profiles(road, planner, grid):
 # them into failures, which is the reminder to drop the marker.
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="sampler.exit_bank places the ego at ex.s_start + rel in the exit's frame (rel = distance "
-    "to the exit start ahead), 2 rel too far along the ramp: the exit profiles start at d = -7.24 m "
-    "instead of the ego's -3.2 m 30 m before exit 0 (expected ex.s_start - rel)",
-)
 def test_exit_profiles_start_at_the_ego(road, planner):
     ex = road.exits[0]
     ps = planner.plan(make_obs(road, ex.s_start - 30.0, -LANE_WIDTH, 15.0))
@@ -380,12 +374,6 @@ def test_exit_profiles_start_at_the_ego(road, planner):
     np.testing.assert_allclose(ps.d[exits, 0], -LANE_WIDTH, atol=1e-6)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="sampler._stop_profiles: with no feasible quintic stop (here a standing car 2 m ahead, stop "
-    "distance clipped to 0) the fallback's 30 s quintic is cut at 5 s with v clamped to 0 but s and a "
-    "kept: the profile rolls back 6.2 m while 'standing' and brakes at a < 0 (acc_lon charges it)",
-)
 def test_stop_profiles_never_roll_back(road, planner):
     from .conftest import make_vehicles
 
@@ -395,3 +383,7 @@ def test_stop_profiles_never_roll_back(road, planner):
     stops = planner.last.kind == 2
     assert stops.any()
     assert np.all(np.diff(ps.s[stops], axis=1) >= -1e-9)
+    # once standing, a stop profile stays put: v = 0 and a = 0 from then on
+    standing = np.maximum.accumulate((ps.v[stops] <= 0.0) & (np.arange(ps.n_steps) > 0), axis=1)
+    assert standing.any()
+    assert np.all(ps.v[stops][standing] == 0) and np.all(planner.last.a[stops][standing] == 0)

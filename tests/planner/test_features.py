@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from irlsim import FEATURE_NAMES
-from irlsim.road import LANE_WIDTH
+from irlsim.road import HALF_ROAD, LANE_WIDTH
 
 from .conftest import make_obs, make_vehicles
 
@@ -171,10 +171,19 @@ def test_taking_an_exit_costs_progress(road, planner):
     exits = np.flatnonzero(ps.labels[:, 2])
     assert len(exits)
     keep = np.all(np.abs(ps.d + LANE_WIDTH) < 1e-6, axis=1)
+    obs = inner.obs
+    goal = obs.target_s - obs.ego.s + planner.cfg.progress_lookahead
+    w = planner.w.astype(np.float64)
     for i in exits[:20]:
         same_lon = np.flatnonzero(keep & (inner.lon_idx == inner.lon_idx[i]))
         assert len(same_lon)
-        assert ps.features[i, F["progress"]] > ps.features[same_lon[0], F["progress"]] + 100.0
+        # on the ramp the target is unreachable: the remaining distance is one lap instead of goal - s
+        off = ps.d[i] < -HALF_ROAD
+        prog = np.maximum(goal - (ps.s[i] - obs.ego.s), 0.0)
+        extra = float((off * (road.lap_length - prog)) @ w)
+        assert extra > 0
+        diff = ps.features[i, F["progress"]] - ps.features[same_lon[0], F["progress"]]
+        assert np.isclose(diff, extra, rtol=1e-4)
 
 
 def test_mission_lane_prefers_the_required_lane(road, planner):
