@@ -17,12 +17,18 @@ HELP = (
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--runs", type=Path, default=None, help="runs folder with <model>/checkpoint.pt")
+    p.add_argument(
+        "--runs",
+        type=Path,
+        default=None,
+        help="the runs folder 'irlsim train --out' wrote (models in stage1/, stage2/)",
+    )
     p.add_argument(
         "--model",
         default="expert",
-        help="comma-separated: expert, LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S "
-        "or checkpoint paths (default: expert)",
+        help="comma-separated: expert (hand-tuned theta + model-based selection), expert-theta (that theta "
+        "alone, argmax V), LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S or checkpoint paths "
+        "(default: expert)",
     )
     p.add_argument("--episodes", type=int, default=1, help="episodes per model (default: 1)")
     p.add_argument("--laps", type=int, default=1, help="laps per episode (default: 1)")

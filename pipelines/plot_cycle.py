@@ -71,7 +71,6 @@ def run(args: argparse.Namespace) -> int:
         f"seed {args.seed}, t = {obs.ego.t:.1f} s: {ps.n_policies} policies coloured by value "
         f"(green high, red low), executed in black"
     )
-    ax.legend(loc="upper right")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     with atomic_path(args.out) as tmp:
         fig.savefig(tmp, dpi=120, format="png", bbox_inches="tight")

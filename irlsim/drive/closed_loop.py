@@ -27,6 +27,23 @@ from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
 from irlsim.sim.types import Observation
 
 EXPERT = "expert"
+#: the expert's hand-tuned theta alone: argmax V every cycle, without the expert's model-based selection
+#: (the best a single linear reward of these features is known to do; LIRL's reference)
+EXPERT_THETA = "expert-theta"
+
+
+class FixedTheta:
+    """A reward 'predictor' that always returns the expert's theta (``expert-theta``)."""
+
+    name = EXPERT_THETA
+
+    def predict(self, features: Any, control_points: Any, actions: Any) -> tuple[np.ndarray, dict[str, Any]]:
+        from irlsim.planner.expert import THETA_EXPERT
+
+        return THETA_EXPERT.copy(), {}
+
+    def reset(self) -> None:
+        pass
 
 
 @dataclass
@@ -45,13 +62,13 @@ class DriveModel:
 def model_names() -> tuple[str, ...]:
     from irlsim.models.registry import MODEL_NAMES
 
-    return (EXPERT, *MODEL_NAMES)
+    return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
 
 
 def load_drive_model(
     spec: str | Path, runs: str | Path | None = None, n_policies: int | None = None, threads: int = 1
 ) -> DriveModel:
-    """Resolve ``spec``: 'expert', a model name (found in ``runs`` by
+    """Resolve ``spec``: 'expert', 'expert-theta', a model name (found in ``runs`` by
     :func:`irlsim.train.common.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
     ``<runs>/<name>/``) or a checkpoint path.
 
@@ -63,6 +80,8 @@ def load_drive_model(
     spec = str(spec)
     if spec == EXPERT:
         return DriveModel(EXPERT)
+    if spec == EXPERT_THETA:
+        return DriveModel(EXPERT_THETA, predictor=FixedTheta())
     if spec in MODEL_NAMES:
         from irlsim.train.common import find_checkpoint, stage_dir
 
