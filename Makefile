@@ -51,7 +51,7 @@ evaluate: setup
 	$(IRLSIM) evaluate --data $(DATA) --runs $(RUNS) --out $(RUNS)/eval
 
 drive: setup
-	$(IRLSIM) drive --runs $(RUNS) --model expert,PACNN+S,PTACNN+S --episodes 2 --laps 1 --seed 100 --config configs/collect/default.toml --out $(RUNS)/drive
+	$(IRLSIM) drive --runs $(RUNS) --model expert,expert-theta,LIRL,PACNN+S,PTACNN+S --episodes 3 --laps 1 --seed 100 --config configs/collect/default.toml --out $(RUNS)/drive
 
 bench: setup
 	$(IRLSIM) bench --out bench

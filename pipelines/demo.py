@@ -30,6 +30,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--skip-drive", action="store_true", help="stop after the evaluation")
 
 
+#: who drives in the demo's closed loop: the demonstrator, its theta alone (argmax V, no selection), the
+#: linear IRL baseline, and the attention models
+DRIVE_MODELS = ("expert", "expert-theta", "LIRL", "PACNN+S", "PTACNN+S")
+
+
 def steps(args: argparse.Namespace) -> list[list[str]]:
     preset = args.preset
     data, runs = str(args.data), str(args.runs)
@@ -37,7 +42,7 @@ def steps(args: argparse.Namespace) -> list[list[str]]:
     drive_args = (
         ["--episodes", "1", "--laps", "1", "--max-cycles", "30", "--frames", "3"]
         if preset == "tiny"
-        else ["--episodes", "2", "--laps", "1"]
+        else ["--episodes", "3", "--laps", "1"]
     )
     out = [
         ["net"],
@@ -80,7 +85,7 @@ def steps(args: argparse.Namespace) -> list[list[str]]:
             "--runs",
             runs,
             "--model",
-            "expert,PACNN+S,PTACNN+S",
+            ",".join(DRIVE_MODELS),
             *drive_args,
             "--seed",
             str(100 + args.seed),
@@ -112,7 +117,7 @@ def outputs(args: argparse.Namespace) -> list[tuple[str, list[str]]]:
         ("Table I", [f"{r}/eval/results.{{md,json}}", f"{r}/eval/{{convergence,opd_distribution}}.png"]),
     ]
     if not args.skip_drive:
-        drivers = "{expert,PACNN+S,PTACNN+S}"
+        drivers = "{" + ",".join(DRIVE_MODELS) + "}"
         out += [
             ("closed loop", [f"{r}/drive/drive.{{md,json}}", f"{r}/drive/{drivers}/episode.gif"]),
             ("with --safety", [f"{r}/drive_safety/drive.{{md,json}}"]),
