@@ -3,10 +3,10 @@ PY      ?= python3.11
 VENV    ?= .venv
 BIN     := $(VENV)/bin
 IRLSIM  := $(BIN)/irlsim
-DATA    ?= data/default
-RUNS    ?= runs/default
-SEED    ?= 0
 PRESET  ?= default
+DATA    ?= data/$(PRESET)
+RUNS    ?= runs/$(PRESET)
+SEED    ?= 0
 
 .PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive bench lint clean
 
@@ -30,7 +30,7 @@ test: setup
 test-slow: setup
 	$(BIN)/pytest -q -m slow
 
-# make demo PRESET=tiny DATA=data/tiny RUNS=runs/tiny: the same chain on the smoke configs (~30 s)
+# make demo PRESET=tiny: the same chain on the smoke configs into data/tiny, runs/tiny (~30 s)
 demo: setup
 	$(IRLSIM) demo --data $(DATA) --runs $(RUNS) --seed $(SEED) --preset $(PRESET)
 
