@@ -79,7 +79,7 @@ class PlannerConfig:
     """[m] extra longitudinal margin of the predicted-collision label"""
     collision_margin_lat: float = 0.25
     """[m] extra lateral margin of the predicted-collision label (covers the yaw of a lane change)"""
-    proximity_sigma_s: float = 3.0
+    proximity_sigma_s: float = 1.0
     """[m] proximity: the safety distance D at standstill (bumper gap; D grows with speed, see below)"""
     proximity_headway: float = 0.8
     """[s] proximity: time headway in D when the ego is behind the other vehicle (at the ego's speed)"""
@@ -89,7 +89,7 @@ class PlannerConfig:
     """[m/s^2] proximity: braking assumed in D's closing term max(0, v_behind^2 - v_ahead^2) / (2 b)"""
     proximity_sigma_d: float = 1.6
     """[m] lateral length scale of the proximity Gaussian (centre to centre)"""
-    proximity_overlap: float = 10.0
+    proximity_overlap: float = 50.0
     """[-] proximity: extra cost per second that the boxes are predicted to overlap (the collision
     label's test), on top of the Gaussian closeness (at most 1 per second)"""
     safety_gap: float = 2.0

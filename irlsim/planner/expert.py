@@ -36,6 +36,7 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES
 from irlsim.planner.config import PlannerConfig
+from irlsim.planner.features import predicted_stop_distance
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road
@@ -122,8 +123,9 @@ def lane_outlook(
     shortfall: by how much the policy falls short, at worst over the check times
     ``sel.follow_times`` [s], of a safe following distance to the vehicle predicted ahead of it in its
     lane then: required gap = headway v + gap + max(0, v^2 - v_m^2) / (2 b) (it could still fall back
-    behind that vehicle braking ``follow_decel``). Vehicles are predicted at constant speed, standing at
-    a stop line within 80 m ahead of them (as the planner predicts them). Without it the expert, whose
+    behind that vehicle braking ``follow_decel``). Vehicles are predicted at constant speed, standing
+    where they will stop before a stop line within 80 m, queue included
+    (:func:`irlsim.planner.features.predicted_stop_distance`). Without it the expert, whose
     safety zone looks 3 s ahead, keeps choosing policies that brake late in the horizon, closes in on
     slow vehicles at full speed and is then pushed out of its lane by the safety zone.
 
@@ -152,11 +154,11 @@ def lane_outlook(
     v_m = veh.v[near][:, None]  # [M, 1]
     travel = v_m * t[None, :]  # [M, C]
     v_c = np.broadcast_to(v_m, travel.shape).copy()
-    if stop_lines:
-        ahead = np.stack([(sl - veh.s[near]) % lap for sl in stop_lines]).min(axis=0)[:, None]
-        stands = (ahead < 80.0) & (travel >= ahead - 0.3)
-        travel = np.where(stands, np.maximum(ahead - 0.3, 0.0), travel)
-        v_c = np.where(stands, 0.0, v_c)
+    # where each stands at the next stop line, queue included (the planner's prediction)
+    to_stop = predicted_stop_distance(veh.s, veh.d, veh.length, veh.width, stop_lines, lap)[near][:, None]
+    stands = travel >= to_stop  # False where to_stop is inf (no stop line within reach)
+    travel = np.where(stands, to_stop, travel)
+    v_c = np.where(stands, 0.0, v_c)
     rear = ds0[near][:, None] + travel - veh.length[near][:, None]  # [M, C] rear bumpers
     s_e = lon.s[:, cols][internals.lon_idx]  # [N, C] front bumper, relative
     v_e = lon.v[:, cols][internals.lon_idx]

@@ -375,6 +375,38 @@ def proximity_lon(
     return np.exp(gap, out=gap)
 
 
+#: [m] background vehicles heading for a stop line within this distance are predicted to stop
+STOP_PREDICTION_REACH = 80.0
+#: [m] bumper gap a queued background vehicle keeps to the one ahead (vtypes.add.xml minGap)
+QUEUE_GAP = 2.5
+
+
+def predicted_stop_distance(
+    s: np.ndarray,
+    d: np.ndarray,
+    length: np.ndarray,
+    width: np.ndarray,
+    stop_lines_s: tuple[float, ...],
+    lap: float,
+) -> np.ndarray:
+    """[M] distance [m] each vehicle (front bumper at wrapped route position ``s``, offset ``d``) still
+    travels before it stands at the next stop line, queue included; inf without a stop line within
+    ``STOP_PREDICTION_REACH``. A vehicle stands 0.3 m before the line, or ``QUEUE_GAP`` behind the rear of
+    the last vehicle queued ahead of it in its lane (the vehicles of its lane between it and the same
+    line, each taking its length + QUEUE_GAP): without the queue, a follower is predicted to roll on to
+    the line and the gap behind it looks metres larger than it will be."""
+    m = len(s)
+    if not stop_lines_s or m == 0:
+        return np.full(m, np.inf)
+    ahead = np.stack([(sl - s) % lap for sl in stop_lines_s]).min(axis=0)  # [M] to the next line
+    stops = ahead < STOP_PREDICTION_REACH
+    # n is queued before m: same lane, heading for the same line, closer to it
+    same_lane = np.abs(d[:, None] - d[None, :]) < (width[:, None] + width[None, :]) / 2
+    before = stops[None, :] & (ahead[None, :] < ahead[:, None]) & same_lane  # [m, n]
+    queue = (before * (length + QUEUE_GAP)[None, :]).sum(axis=1)
+    return np.where(stops, np.maximum(ahead - 0.3 - queue, 0.1), np.inf)
+
+
 def _predicted_motion(
     near: np.ndarray,
     ds0: np.ndarray,
@@ -384,20 +416,23 @@ def _predicted_motion(
     stop_lines_s: tuple[float, ...],
 ) -> tuple[np.ndarray, np.ndarray]:
     """([M, T], [M, T]) float32: predicted route-frame centre (relative to the ego) and speed of each
-    near vehicle: constant speed, or braking at constant deceleration to stand at the next stop line
-    within 80 m (they all stop there; SUMO brakes about like that)."""
+    near vehicle: constant speed, or braking at constant deceleration to stand where it will stop before
+    the next stop line (:func:`predicted_stop_distance`; SUMO brakes about like that)."""
     v_m = vehicles.v[near].astype(F32)[:, None]
     travel = v_m * t[None, :]
     speed = np.broadcast_to(v_m, travel.shape)
-    if stop_lines_s:
-        ahead = np.stack([(sl - vehicles.s[near]) % lap for sl in stop_lines_s]).min(axis=0)
-        dist = np.maximum(ahead - 0.3, 0.1).astype(F32)[:, None]
+    # the queue counts every vehicle, not only the near ones
+    to_stop = predicted_stop_distance(
+        vehicles.s, vehicles.d, vehicles.length, vehicles.width, stop_lines_s, lap
+    )[near]
+    stops = np.isfinite(to_stop)
+    if stops.any():
+        dist = np.where(stops, to_stop, 1.0).astype(F32)[:, None]
         b = v_m * v_m / (2 * dist) + F32(1e-3)
         tt = np.minimum(t[None, :], v_m / b)
         braking = np.minimum(v_m * tt - 0.5 * b * tt * tt, dist)
-        stops = dist < 80.0
-        travel = np.where(stops, braking, travel)
-        speed = np.where(stops, np.maximum(v_m - b * tt, 0.0), speed)
+        travel = np.where(stops[:, None], braking, travel)
+        speed = np.where(stops[:, None], np.maximum(v_m - b * tt, 0.0), speed)
     centre = ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
     return centre.astype(F32), np.ascontiguousarray(speed, dtype=F32)
 

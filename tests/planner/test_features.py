@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from irlsim import FEATURE_NAMES
 from irlsim.road import HALF_ROAD, LANE_WIDTH
@@ -200,3 +201,21 @@ def test_velocity_target_is_zero_at_an_active_stop_line(road, planner):
     f = ps.features[:, F["velocity"]]
     stop = ps.v[:, -1] < 0.1
     assert f[stop].min() < f[~stop].min()
+
+
+def test_vehicles_queue_before_a_stop_line(road):
+    """A vehicle heading for a stop line stands 0.3 m before it, or QUEUE_GAP behind the rear of each
+    vehicle queued ahead of it in its lane; vehicles of other lanes or beyond reach do not count."""
+    from irlsim.planner.features import QUEUE_GAP, predicted_stop_distance
+
+    line = road.stop_lines[0].s
+    lap = road.lap_length
+    s = np.array([line - 10.0, line - 30.0, line - 20.0, line - 200.0]) % lap
+    d = np.array([0.0, 0.0, LANE_WIDTH, 0.0])
+    size = np.array([4.5, 4.5, 4.5, 4.5]), np.full(4, 1.8)
+    out = predicted_stop_distance(s, d, *size, tuple(sl.s for sl in road.stop_lines), lap)
+    assert out[0] == pytest.approx(10.0 - 0.3)  # first in its lane
+    assert out[1] == pytest.approx(30.0 - 0.3 - (4.5 + QUEUE_GAP))  # behind vehicle 0
+    assert out[2] == pytest.approx(20.0 - 0.3)  # alone in the left lane
+    assert np.isinf(out[3])  # the line is beyond reach
+    assert np.all(np.isinf(predicted_stop_distance(s, d, *size, (), lap)))
