@@ -249,22 +249,16 @@ def make_frame(
 ) -> Any:
     """A CycleFrame of one cycle: a subset of ``ps``'s policies (chosen, top-k attention, an even spread
     over the progress order), value ranks over all N policies, the vehicles and the road around the ego."""
-    from irlsim.viz.drive import CycleFrame
+    from irlsim.viz.drive import CycleFrame, drawn_subset, value_ranks
 
-    n = ps.n_policies
-    value = ps.value(theta)
-    rank = np.empty(n, dtype=np.float32)
-    rank[np.argsort(value, kind="stable")] = np.arange(n, dtype=np.float32) / max(n - 1, 1)
     att = info.get("attention")
     top = np.zeros(0, dtype=np.int64)
     if att is not None and top_k > 0:
         top = np.argsort(-np.asarray(att), kind="stable")[:top_k]
-    spread = np.linspace(0, n - 1, min(max_policies, n)).round().astype(np.int64)
-    idx = np.unique(np.concatenate([[chosen], top, spread]))
-    ego, veh = obs.ego, obs.vehicles
-    vehicles = (
-        np.stack([veh.x, veh.y, veh.yaw, veh.length, veh.width], axis=1) if veh.count else np.zeros((0, 5))
-    )
+    idx = drawn_subset(ps.n_policies, max_policies, np.append(top, chosen))
+    rank = value_ranks(ps.value(theta))
+    ego = obs.ego
+    vehicles = obs.vehicles.boxes()
     tw = info.get("temporal_weights")
     return CycleFrame(
         model=model,

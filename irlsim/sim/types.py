@@ -51,6 +51,12 @@ class VehicleStates:
     def count(self) -> int:
         return len(self.ids)
 
+    def boxes(self) -> np.ndarray:
+        """[M, 5] (x, y, yaw, length, width) of every vehicle, front-bumper centre (the pictures' boxes)."""
+        if not self.count:
+            return np.zeros((0, 5))
+        return np.stack([self.x, self.y, self.yaw, self.length, self.width], axis=1)
+
     @staticmethod
     def empty() -> VehicleStates:
         z = np.zeros(0)

@@ -18,21 +18,6 @@ from irlsim.road import Road
 from irlsim.sim.types import VehicleStates
 
 
-def value_ranks(value: np.ndarray) -> np.ndarray:
-    """[N] float32 rank of each value among all N, 0 = lowest, 1 = highest (ties in index order)."""
-    n = len(value)
-    rank = np.empty(n, dtype=np.float32)
-    rank[np.argsort(np.asarray(value), kind="stable")] = np.arange(n, dtype=np.float32) / max(n - 1, 1)
-    return rank
-
-
-def drawn_subset(n: int, max_drawn: int, always: np.ndarray) -> np.ndarray:
-    """Sorted indices of the policies to draw: ``always`` (chosen, highlighted) plus an even spread over
-    the N policies (they are sorted by progress), at most ``max_drawn`` of the spread."""
-    spread = np.linspace(0, n - 1, min(max_drawn, n)).round().astype(np.int64)
-    return np.unique(np.concatenate([np.asarray(always, dtype=np.int64), spread]))
-
-
 def predicted_vehicles(road: Road, s_ego: float, vehicles: VehicleStates, t: np.ndarray) -> np.ndarray:
     """[M, K, 3] world (x, y, yaw) of each vehicle's front bumper at times ``t`` [K] (s), as the planner
     predicts it from the ego at unwrapped route position ``s_ego`` [m] (constant d)."""
@@ -67,7 +52,7 @@ def draw_cycle(
     policies), ``vehicles`` with the planner's predictions over ``horizon`` [s], the road around the ego.
     At most ``max_drawn`` policies plus the chosen and highlighted ones are drawn."""
     from irlsim.drive.closed_loop import road_lines
-    from irlsim.viz.drive import draw_policies
+    from irlsim.viz.drive import draw_policies, drawn_subset, value_ranks
 
     n = ps.n_policies
     value = np.asarray(value, dtype=np.float64)
@@ -77,9 +62,6 @@ def draw_cycle(
     idx = drawn_subset(n, max_drawn, always)
     s0 = float(ps.s[0, 0])
     veh = vehicles if vehicles is not None else VehicleStates.empty()
-    boxes = (
-        np.stack([veh.x, veh.y, veh.yaw, veh.length, veh.width], axis=1) if veh.count else np.zeros((0, 5))
-    )
     t = np.linspace(0.0, horizon, ps.n_steps)
     draw_policies(
         ax,
@@ -89,7 +71,7 @@ def draw_cycle(
         np.isin(idx, hl),
         None if chosen is None else int(np.searchsorted(idx, chosen)),
         (float(ps.x[0, 0]), float(ps.y[0, 0]), float(ps.yaw[0, 0]), float(ps.v[0, 0]), *ego_size),
-        boxes,
+        veh.boxes(),
         road_lines(road, s0),
         view_yaw=float(road.heading(np.array(s0))),
         predictions=predicted_vehicles(road, s0, veh, t) if veh.count else None,

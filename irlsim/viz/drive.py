@@ -55,6 +55,21 @@ _MARGIN = {"left": 0.8, "right": 1.05, "top": 0.45, "bottom": 0.95}
 _LEGEND_DROP = 0.55
 
 
+def value_ranks(value: np.ndarray) -> np.ndarray:
+    """[N] float32 rank of each value among all N, 0 = lowest, 1 = highest (ties in index order)."""
+    n = len(value)
+    rank = np.empty(n, dtype=np.float32)
+    rank[np.argsort(np.asarray(value), kind="stable")] = np.arange(n, dtype=np.float32) / max(n - 1, 1)
+    return rank
+
+
+def drawn_subset(n: int, max_drawn: int, always: np.ndarray) -> np.ndarray:
+    """Sorted indices of the policies to draw: ``always`` (chosen, highlighted) plus an even spread over
+    the N policies (they are sorted by progress), at most ``max_drawn`` of the spread."""
+    spread = np.linspace(0, n - 1, min(max_drawn, n)).round().astype(np.int64)
+    return np.unique(np.concatenate([np.asarray(always, dtype=np.int64), spread]))
+
+
 @dataclass(frozen=True)
 class CycleFrame:
     """What the pictures of one planning cycle need. P drawn policies (a subset of the cycle's N), T states.
