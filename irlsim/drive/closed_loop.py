@@ -75,7 +75,7 @@ def load_drive_model(
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
     (the networks are built for the training set's N, and the features would not match anyway).
     """
-    from irlsim.models.registry import MODEL_NAMES, STAGE2_BASE
+    from irlsim.models.registry import MODEL_NAMES
 
     spec = str(spec)
     if spec == EXPERT:
@@ -83,13 +83,13 @@ def load_drive_model(
     if spec == EXPERT_THETA:
         return DriveModel(EXPERT_THETA, predictor=FixedTheta())
     if spec in MODEL_NAMES:
-        from irlsim.train.common import find_checkpoint, stage_dir
+        from irlsim.train.common import find_checkpoint, model_stage, stage_dir
 
         if runs is None:
             raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")
         found = find_checkpoint(runs, spec)
         if found is None:
-            stage = 2 if spec in STAGE2_BASE else 1
+            stage = model_stage(spec)
             raise IrlsimError(
                 f"checkpoint {stage_dir(runs, stage) / spec / 'checkpoint.pt'} not found: run 'irlsim train "
                 f"--stage {stage} --out {runs}' first (or point --runs at the folder holding it)"

@@ -73,17 +73,27 @@ def provenance() -> dict[str, Any]:
 
 
 @contextmanager
-def deterministic(threads: int) -> Iterator[None]:
-    """Run torch with ``threads`` CPU threads and deterministic algorithms only (an op without a
-    deterministic CPU kernel raises instead of silently varying between runs); restores both after."""
-    old_threads, old_det = torch.get_num_threads(), torch.are_deterministic_algorithms_enabled()
+def num_threads(threads: int) -> Iterator[None]:
+    """Run torch with ``threads`` CPU threads; restores the caller's count after."""
+    old = torch.get_num_threads()
     torch.set_num_threads(threads)
-    torch.use_deterministic_algorithms(True)
     try:
         yield
     finally:
+        torch.set_num_threads(old)
+
+
+@contextmanager
+def deterministic(threads: int) -> Iterator[None]:
+    """Run torch with ``threads`` CPU threads and deterministic algorithms only (an op without a
+    deterministic CPU kernel raises instead of silently varying between runs); restores both after."""
+    old_det = torch.are_deterministic_algorithms_enabled()
+    torch.use_deterministic_algorithms(True)
+    try:
+        with num_threads(threads):
+            yield
+    finally:
         torch.use_deterministic_algorithms(old_det)
-        torch.set_num_threads(old_threads)
 
 
 def as_dataset(dataset: Any) -> Any:

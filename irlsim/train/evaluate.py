@@ -33,6 +33,7 @@ from irlsim.train.common import (
     get_split,
     load_model,
     model_config_from,
+    num_threads,
     predict_split,
     provenance,
     read_metrics,
@@ -260,9 +261,7 @@ def evaluate_models(
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
-    old_threads = torch.get_num_threads()
-    torch.set_num_threads(threads)
-    try:
+    with num_threads(threads):
         rows, opd = [], {}
         for name, lm in loaded.items():
             metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
@@ -281,8 +280,6 @@ def evaluate_models(
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
         evaluated_with = provenance()
-    finally:
-        torch.set_num_threads(old_threads)
 
     rnd = random_policy_metrics(data)
     rows.append(_row("random policy", "0", [0], rnd))
