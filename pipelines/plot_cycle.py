@@ -34,9 +34,8 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.road import load_road
     from irlsim.sim.config import ScenarioConfig
     from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import atomic_path
+    from irlsim.utils import atomic_path, check_output_file
     from irlsim.viz.cycle import draw_cycle
-    from pipelines.sim import check_output_file
 
     # validate everything before driving, so a bad option fails at once and writes nothing
     if args.seed < 0 or args.time < 0:

@@ -12,7 +12,6 @@ Episode i uses seed ``--seed + i``. The JSON is written atomically once all epis
 from __future__ import annotations
 
 import argparse
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -63,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.road import load_road
     from irlsim.sim.drivers import make_driver
     from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import check_non_negative, write_json
+    from irlsim.utils import check_non_negative, check_output_file, write_json
 
     # validate everything before any work, so a bad option never leaves a partial result
     if args.episodes < 1:
@@ -128,29 +127,6 @@ def run(args: argparse.Namespace) -> int:
         write_json(args.json, result)
         print(f"wrote {args.json}")
     return 0
-
-
-def check_output_file(path: Path, option: str, example: str) -> None:
-    """A one-line IrlsimError now, before any work, when ``path`` cannot be written later: it is a
-    directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
-    with a temporary file that is removed at once). Missing folders are fine: the writer creates them."""
-    from irlsim.errors import IrlsimError
-
-    if path.is_dir():
-        raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
-    folder = path.absolute().parent
-    try:
-        while not folder.exists():
-            folder = folder.parent
-        if not folder.is_dir():
-            raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise IrlsimError(
-            f"{option} {path} cannot be written ({e.strerror or type(e).__name__} in {folder}): "
-            "choose a writable place"
-        ) from None
 
 
 _COLUMNS = (

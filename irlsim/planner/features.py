@@ -223,7 +223,7 @@ def cross_features(
     ctx: Context,
     w: np.ndarray,
     pairs: Pairs,
-    v_floor: float = 1.0,
+    v_floor: float,
 ) -> np.ndarray:
     """Mixed parts of the candidate pairs [C, 4] float32, columns ``CROSS_COLS`` (acc_lat, jerk_lat,
     mission_lane, end_heading; the other features have no mixed part)."""
@@ -298,7 +298,8 @@ def vehicle_terms(
     half_w = (cfg.ego_width + vwid) / 2
     # proximity: sum_m sum_t w_t p_lon p_lat as one matrix product (p_lon depends on the lon profile and
     # the vehicle only, p_lat on the lat profile and the vehicle only)
-    p_lon = proximity_lon(dS, half_l, lon.v.astype(F32)[None, :, :], vm[:, None, :], cfg) * w
+    v_ego = lon.v.astype(F32)[None, :, :]  # [1, L, T]
+    p_lon = proximity_lon(dS, half_l, v_ego, vm[:, None, :], cfg) * w
     p_lat = np.exp(-np.square(dD / F32(cfg.proximity_sigma_d)))
     a_lat = p_lat.transpose(1, 0, 2).reshape(J, M * T)
     a_lon = p_lon.transpose(1, 0, 2).reshape(L, M * T)
@@ -321,7 +322,6 @@ def vehicle_terms(
     coll = overlap > 0.0
     prox = prox + F32(cfg.proximity_overlap) * overlap
     # safety zone: headway ahead of the ego (at its speed), a shorter one behind it (at the other's)
-    v_ego = lon.v.astype(F32)[None, :, :]
     front = half_l + cfg.safety_gap + cfg.safety_headway * v_ego
     rear = half_l + 1.0 + cfg.safety_rear_headway * vv
     omega = (np.exp(-t / 2.0) * (t > 0) * (t <= cfg.safety_time + 1e-6)).astype(F32)

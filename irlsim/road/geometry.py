@@ -229,7 +229,7 @@ class Road:
         self._ky = (self._n1y - self._n0y) / self._seg_len
         u_x_n0 = self._ux * self._n0y - self._uy * self._n0x  # cross(u, n0)
         u_x_k = self._ux * self._ky - self._uy * self._kx  # cross(u, k)
-        # one row per segment, so a projection gathers once: [M, 11]
+        # one row per segment, so a projection gathers once: [M, 14]
         self._proj_tab = np.stack(
             [self._rx, self._ry, self._ux, self._uy, self._n0x, self._n0y, self._n1x, self._n1y]
             + [self._kx, self._ky, u_x_n0, u_x_k, self._seg_len, self.ref_s],
@@ -496,12 +496,6 @@ class Road:
         s = (tab[:, 13] + best_t) % self.lap_length
         return s, (qx - footx) * (nx / norm) + (qy - footy) * (ny / norm)
 
-    def _normal_at(self, seg: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Unit left normal [..., 2] at distance t along segment seg, linear between vertex normals."""
-        f = (t / self._seg_len[seg])[..., None]
-        n = self._vtx_normal[seg] * (1.0 - f) + self._vtx_normal[(seg + 1) % len(self.ref_xy)] * f
-        return n / np.linalg.norm(n, axis=-1, keepdims=True)
-
     def segment_of(self, s: np.ndarray) -> np.ndarray:
         """Index of the reference segment containing route position(s) s (wrapped)."""
         sw = np.asarray(s, dtype=np.float64) % self.lap_length
@@ -531,7 +525,7 @@ class Road:
         sw = s % self.lap_length
         seg = self._segment_of_wrapped(sw % self.lap_length)
         t = sw - self.ref_s[seg]
-        # the normal interpolated between vertex normals, as _normal_at (per component, same operations)
+        # the unit left normal interpolated linearly between the vertex normals (per component)
         f = t / self._seg_len[seg]
         g = 1.0 - f
         nx = self._n0x[seg] * g + self._n1x[seg] * f
@@ -665,10 +659,6 @@ class Road:
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), c.lane) for c in self.checkpoints],
         }
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
 
 
 def _dilate(a: np.ndarray, r: int, op: np.ufunc, fill: int) -> np.ndarray:

@@ -27,7 +27,7 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
+from irlsim.sim.traffic import BackgroundTraffic, LoopEdges, _wrap
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
@@ -268,7 +268,7 @@ class Simulation:
             s = rng.uniform(0.0, lap, 256)
             u = np.stack([s, s + lap], axis=1)[:, :, None]  # [C, 2, 1] e.s0 / e.s1 may exceed lap
             on_edge = ((u >= e.s0 + 1.0) & (u <= e.s1 - 1.0)).any(axis=(1, 2))
-            gap = np.abs((s[:, None] - marks + lap / 2) % lap - lap / 2)  # [C, marks]
+            gap = np.abs(_wrap(s[:, None] - marks, lap))  # [C, marks]
             clear = (gap >= cfg.ego_start_clearance).all(axis=1)
             before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance).any(axis=1)
             ok = np.flatnonzero(on_edge & clear & ~before_cp)
