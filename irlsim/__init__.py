@@ -25,3 +25,13 @@ FEATURE_NAMES: tuple[str, ...] = (
     "proximity",
 )
 N_FEATURES = len(FEATURE_NAMES)
+
+#: environment variables that size numpy's / torch's CPU thread pools; set to 1 for single-threaded
+#: processes (``irlsim bench``, collection workers: see :func:`irlsim.utils.spawn_pool`). Read once, when
+#: the libraries load, so they must be set before numpy / torch are imported.
+THREAD_VARS: tuple[str, ...] = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)

@@ -5,7 +5,6 @@ Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the fig
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import statistics
 import tempfile
 import time
@@ -37,12 +36,13 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     wall time of the paper config (17,000 train cycles) with 2 workers is extrapolated from the latter.
     """
     from irlsim.road.network import build_net
+    from irlsim.utils import spawn_pool
 
     build_net()
     with tempfile.TemporaryDirectory() as tmp:
         one = _collect_one((tmp + "/one", seed, cycles, n_policies))
         t0 = time.perf_counter()
-        with mp.get_context("spawn").Pool(2) as pool:
+        with spawn_pool(2) as pool:  # as irlsim collect starts its workers
             two = pool.map(
                 _collect_one,
                 [(tmp + "/two", seed + 1, cycles, n_policies), (tmp + "/two", seed + 2, cycles, n_policies)],

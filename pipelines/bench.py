@@ -10,8 +10,10 @@ from __future__ import annotations
 
 import os
 
+from irlsim import THREAD_VARS  # the package root imports no numpy
+
 # one thread, set before numpy / torch are imported (the targets are per core)
-for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"):
+for _var in THREAD_VARS:
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402

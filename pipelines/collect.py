@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing as mp
 import sys
 import time
 from collections.abc import Iterator
@@ -34,9 +33,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-#: thread-pool sizes pinned to 1 in the worker processes (see _start_pool)
-WORKER_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS")
-
 #: held by the running collect for its whole run, so two never write into one dataset folder
 LOCK_NAME = ".lock"
 
@@ -45,41 +41,6 @@ def _run_job(job):  # top level: picklable for spawn workers
     from irlsim.data.collection import collect_episode
 
     return collect_episode(job)
-
-
-def _init_worker(parent_pid: int) -> None:  # top level: the spawn workers' Pool initializer
-    from irlsim.utils import die_with_parent
-
-    die_with_parent(parent_pid)
-
-
-def _start_pool(n: int) -> Any:
-    """A spawn Pool of n workers that ignore Ctrl-C and die with this process.
-
-    SIGINT is ignored here while the workers start, as they inherit that through exec: a Ctrl-C during
-    their start-up, before their initializer runs, then prints no traceback either."""
-    import os
-    import signal
-
-    try:
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread: signals are not ours to change
-        previous = None
-    # Each worker is one process on one core: numpy's OpenBLAS (and torch's OpenMP) would otherwise start
-    # a thread per core in every worker, and with 2 workers on 2 cores the spinning threads cut the
-    # total rate from ~160 to ~56 cycles/s (paper config). Spawned children read these on start-up.
-    saved = {var: os.environ.get(var) for var in WORKER_THREAD_VARS}
-    os.environ.update({var: "1" for var in WORKER_THREAD_VARS})
-    try:
-        return mp.get_context("spawn").Pool(n, initializer=_init_worker, initargs=(os.getpid(),))
-    finally:
-        for var, value in saved.items():
-            if value is None:
-                os.environ.pop(var, None)
-            else:
-                os.environ[var] = value
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -150,7 +111,7 @@ def _collect(cfg: Any, out: Path) -> int:
         write_manifest,
     )
     from irlsim.road.network import build_net
-    from irlsim.utils import progress
+    from irlsim.utils import progress, spawn_pool
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)
@@ -196,7 +157,7 @@ def _collect(cfg: Any, out: Path) -> int:
         results = map(_run_job, jobs)
         pool = None
     else:
-        pool = _start_pool(min(cfg.workers, len(jobs)))
+        pool = spawn_pool(min(cfg.workers, len(jobs)))
         results = pool.imap_unordered(_run_job, jobs)
     try:
         for stats in results:

@@ -142,6 +142,7 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     t_start = time.perf_counter()
 
     from irlsim.data.demos import DemoProjector
+    from irlsim.data.schema import stats_name
     from irlsim.data.writer import EpisodeWriter
     from irlsim.planner.expert import ExpertDriver
     from irlsim.road import load_road
@@ -207,5 +208,5 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     )
     # informational, written after the episode's files (which alone make the episode complete): an
     # episode killed just before this line is complete and lacks only its figures
-    write_json(out / job.split / f"episode_{job.episode:05d}.stats.json", stats)
+    write_json(out / job.split / stats_name(job.episode), stats)
     return stats

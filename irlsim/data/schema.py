@@ -122,3 +122,8 @@ def cycles_name(episode: int) -> str:
 
 def policies_name(episode: int) -> str:
     return f"{episode_stem(episode)}.policies.parquet"
+
+
+def stats_name(episode: int) -> str:
+    """The episode's driving figures (JSON), written beside its two tables."""
+    return f"{episode_stem(episode)}.stats.json"

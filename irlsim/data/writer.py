@@ -49,9 +49,9 @@ from irlsim.data.schema import (
     TABLE_POLICIES,
     cycles_name,
     cycles_schema,
-    episode_stem,
     policies_name,
     policies_schema,
+    stats_name,
 )
 from irlsim.errors import IrlsimError
 from irlsim.planner.policy_set import PolicySet
@@ -112,7 +112,7 @@ def remove_partial(dataset_dir: str | Path, split: str) -> list[Path]:
 def remove_episode(dataset_dir: str | Path, split: str, episode: int) -> None:
     """Delete an episode's files; the cycles file (the completion marker) goes first."""
     cycles, policies = episode_paths(dataset_dir, split, episode)
-    for p in (cycles, policies, cycles.with_name(f"{episode_stem(episode)}.stats.json")):
+    for p in (cycles, policies, cycles.with_name(stats_name(episode))):
         p.unlink(missing_ok=True)
 
 
@@ -138,14 +138,18 @@ def check_episode(
         ppf = open_parquet(policies_path, TABLE_POLICIES)
         if not cpf.schema_arrow.equals(cycles_schema()):
             return f"{cycles_path} does not have the columns of an irlsim cycles table"
-        try:
-            k = ppf.schema_arrow.field("control_points").type.list_size // 3
-        except (KeyError, AttributeError):
-            k = -1
-        if n_control_points is not None and k != n_control_points:
-            k = -1
+        k = n_control_points
+        if k is None:  # any count: the one the file's control_points column has
+            try:
+                k = ppf.schema_arrow.field("control_points").type.list_size // 3
+            except (KeyError, AttributeError):
+                k = -1
         if k < 0 or not ppf.schema_arrow.equals(policies_schema(k)):
-            want = f"{n_control_points} control points" if n_control_points else "irlsim policies columns"
+            want = (
+                f"{n_control_points} control points"
+                if n_control_points is not None
+                else "irlsim policies columns"
+            )
             return f"{policies_path} does not have the columns of an irlsim policies table ({want})"
         table = read_parquet(cpf, cycles_path, columns=["episode", "n_policies"])
     except BadParquetFile as exc:
