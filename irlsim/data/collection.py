@@ -143,6 +143,7 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
 
     from irlsim.data.demos import DemoProjector
     from irlsim.data.schema import stats_name
+    from irlsim.data.situations import situation_of
     from irlsim.data.writer import EpisodeWriter
     from irlsim.planner.expert import ExpertDriver
     from irlsim.road import load_road
@@ -177,7 +178,12 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
                 projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
                 ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
                 writer.add_cycle(
-                    n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint
+                    n_cycles,
+                    ps,
+                    ego,
+                    executed_index=idx,
+                    target_checkpoint=obs.target_checkpoint,
+                    situation=situation_of(obs, road),
                 )
                 driven = len(sim.odometry)
                 sim.execute(traj, steps)

@@ -8,6 +8,11 @@ averaged over cycles that have a demonstration. References: each model's OPD at 
 (column 'OPD untrained', same sizes and normalisation, seed 0) and a 'random policy' row (a uniformly
 random policy per cycle; ED is the mean distance over the policy set, OPD the distance of the random
 pick, no EVD).
+
+Reference rows (irlsim.irl.references, issue 13): 'expert-theta' (the hand-tuned theta, argmax V),
+'executed' (the policy the demonstrator executed), 'oracle' (a per-cycle linear theta fitted to that
+cycle's own demonstration: an optimistic bound, not a model). On a dataset read from disk every row also
+gets OPD / ED per situation label and its reward stability (irlsim.irl.breakdown).
 """
 
 from __future__ import annotations
@@ -20,7 +25,9 @@ import numpy as np
 import torch
 
 from irlsim.errors import IrlsimError
+from irlsim.irl.breakdown import CycleContext, breakdown_markdown, row_breakdown
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
+from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle_metrics
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.train.common import (
@@ -153,9 +160,13 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
         "demonstration; OPD: distance of the optimal policy; DEMO: distance of the demonstration "
         "(lower bound of OPD); OPD untrained: the same model at its initial weights; epoch: the "
         "validation-selected epoch whose weights were evaluated (select_by in the train config). Means "
-        "over cycles with a demonstration.",
+        "over cycles with a demonstration. Reference rows: expert-theta = the expert's hand-tuned theta, "
+        "argmax V; executed = the policy the demonstrator executed (a choice: ED = OPD); oracle = a "
+        "per-cycle linear theta fitted to that cycle's own demonstration, an OPTIMISTIC BOUND on any "
+        "linear reward over the 15 features (it sees the answer), not a model.",
         "",
     ]
+    lines.append(breakdown_markdown(rows))
     trained = sorted({_provenance_text(r["provenance"]) for r in rows if r.get("provenance")})
     if trained:  # the weights' bytes depend on these (irlsim.train.common.provenance)
         lines += [f"Trained with {'; '.join(trained)}.", ""]
@@ -230,6 +241,34 @@ def plot_opd(per_model: dict[str, np.ndarray], demo: np.ndarray, path: Path) -> 
     plt.close(fig)
 
 
+def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
+    """Situations, ego (s, d) and time of the split's cycles; None for an in-memory dataset."""
+    if not hasattr(dataset, "read_cycles"):
+        return None
+    horizon = float(((dataset.manifest.get("config") or {}).get("planner") or {}).get("horizon", 5.0))
+    return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon)
+
+
+def reference_rows(data: Any, ctx: CycleContext | None) -> list[dict[str, Any]]:
+    """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``)."""
+    from irlsim.planner.expert import THETA_EXPERT
+
+    oracle, oracle_thetas = oracle_metrics(data)
+    refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = [
+        ("expert-theta", expert_theta_metrics(data, THETA_EXPERT), {"thetas": np.tile(THETA_EXPERT, (data.n_cycles, 1))}),
+        ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
+        ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),
+        ("random policy", random_policy_metrics(data), {}),
+    ]
+    rows = []
+    for name, metrics, extra in refs:
+        row = _row(name, "15 per cycle" if name.startswith("oracle") else "0", [0], metrics)
+        if ctx is not None:
+            row.update(row_breakdown(metrics, data, ctx, **extra))
+        rows.append(row)
+    return rows
+
+
 def evaluate_models(
     dataset: Any,
     runs_dir: str | Path,
@@ -246,7 +285,8 @@ def evaluate_models(
     ``out_dir/results.md``, ``results.json`` (with the H used and this process's provenance),
     ``convergence.png`` and ``opd_distribution.png`` (all atomically); returns the Table-I rows (model,
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
-    provenance), trained models in registry order, then 'random policy'.
+    provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
+    then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)', 'random policy'.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -261,10 +301,12 @@ def evaluate_models(
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
+    ctx = cycle_context(dataset, split, data)
     with num_threads(threads):
         rows, opd = [], {}
         for name, lm in loaded.items():
-            metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
+            thetas = predict_sequential(lm, data, H)
+            metrics = evaluate_thetas(thetas, data)
             a, b = lm.parameters
             params = (
                 format_parameters(a)
@@ -277,13 +319,15 @@ def evaluate_models(
             row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
             # what the weights were trained with (older checkpoints: unknown)
             row["provenance"] = lm.checkpoint.get("provenance")
+            if ctx is not None:
+                row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+        rows += reference_rows(data, ctx)
         evaluated_with = provenance()
 
-    rnd = random_policy_metrics(data)
-    rows.append(_row("random policy", "0", [0], rnd))
-    demo = np.where(rnd["valid"], rnd["demo"], np.nan)
+    demo_index = np.asarray(data.demo_index)
+    demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
