@@ -38,8 +38,12 @@ class CycleContext:
         """From a cycles DataFrame (``Dataset.read_cycles``) in (episode, cycle) order; checks alignment."""
         ep = np.asarray(cycles["episode"]).astype(np.int64)
         cy = np.asarray(cycles["cycle"]).astype(np.int64)
-        c = split.n_cycles
-        if len(ep) < c or (ep[:c] != np.asarray(split.episode)).any() or (cy[:c] != np.asarray(split.cycle)).any():
+        c = split.features.shape[0]
+        if (
+            len(ep) < c
+            or (ep[:c] != np.asarray(split.episode)).any()
+            or (cy[:c] != np.asarray(split.cycle)).any()
+        ):
             raise ValueError("cycles table and split tensors are not aligned (rebuild the dataset cache)")
         sit = np.asarray(cycles["situation"])[:c] if "situation" in cycles else np.full(c, -1)
         return CycleContext(
@@ -53,7 +57,7 @@ class CycleContext:
 
 def argmax_policies(thetas: np.ndarray, split: Any, chunk: int = 256) -> np.ndarray:
     """[C] index of argmax V = -theta^T f per cycle (ties: lowest index, as OPD)."""
-    c = split.n_cycles
+    c = split.features.shape[0]
     out = np.zeros(c, dtype=np.int64)
     with torch.no_grad():
         for start in range(0, c, chunk):
@@ -97,7 +101,7 @@ def row_breakdown(
     plan = (
         plan_change(chosen, split.control_points, ctx.ego_s, ctx.ego_d, ctx.t, episode, ctx.horizon)
         if chosen is not None
-        else np.full(split.n_cycles, np.nan)
+        else np.full(split.features.shape[0], np.nan)
     )
     theta = theta_change(thetas, episode) if thetas is not None else None
     sit = ctx.situation if (ctx.situation >= 0).all() else None
@@ -147,9 +151,31 @@ def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
         )
     lines += [
         "",
-        "theta change: mean |theta_{t+1} - theta_t| / |theta_t| between consecutive cycles; plan change: mean "
-        "distance over their common time span between the policies chosen at t+1 and t (irlsim.irl.stability); "
+        "theta change: mean |theta_{t+1} - theta_t| / |theta_t| between consecutive cycles; plan change: "
+        "mean distance over their common time span between the policies chosen at t+1 and t "
+        "(irlsim.irl.stability); "
         f"'at switches': pairs within {SWITCH_WINDOW} cycles of a situation change.",
         "",
     ]
+    temporal = [r for r in rows if r.get("temporal")]
+    if temporal:
+        lines += [
+            "## Temporal attention",
+            "",
+            "| model | newest-entry weight | at switches | weight shift (L1) | at switches |",
+            "|---|---|---|---|---|",
+        ]
+        for r in temporal:
+            w = r["temporal"]
+            lines.append(
+                f"| {r['model']} | {_f(w['newest_weight'])} | {_f(w['newest_weight_switch'])} | "
+                f"{_f(w['weight_shift'])} | {_f(w['weight_shift_switch'])} |"
+            )
+        lines += [
+            "",
+            "newest-entry weight: mean softmax weight of the current cycle in the H-cycle history (1 = the "
+            "history is ignored, 1/H = the H-mean); weight shift: mean L1 change of the weights between "
+            "consecutive cycles.",
+            "",
+        ]
     return "\n".join(lines)

@@ -36,13 +36,13 @@ def expert_theta_metrics(split: Any, theta: np.ndarray | None = None) -> dict[st
 
         theta = THETA_EXPERT
     theta = np.asarray(theta, dtype=np.float64).reshape(N_FEATURES)
-    return evaluate_thetas(np.tile(theta, (split.n_cycles, 1)), split)
+    return evaluate_thetas(np.tile(theta, (split.features.shape[0], 1)), split)
 
 
 def chosen_metrics(split: Any, index: np.ndarray, chunk: int = 256) -> dict[str, np.ndarray]:
     """Per-cycle metrics of a chosen policy per cycle (``index`` [C]): OPD = ED = its distance."""
     index = np.asarray(index, dtype=np.int64)
-    c = split.n_cycles
+    c = split.features.shape[0]
     assert index.shape == (c,), f"index {index.shape}, split has {c} cycles"
     opd = np.zeros(c)
     demo = np.full(c, np.nan)
@@ -55,7 +55,14 @@ def chosen_metrics(split: Any, index: np.ndarray, chunk: int = 256) -> dict[str,
         di = demo_index[sl]
         demo[sl] = np.where(di >= 0, d[r, np.maximum(di, 0)], np.nan)
     nan = np.full(c, np.nan)
-    return {"nll": nan, "evd": nan.copy(), "ed": opd.copy(), "opd": opd, "demo": demo, "valid": demo_index >= 0}
+    return {
+        "nll": nan,
+        "evd": nan.copy(),
+        "ed": opd.copy(),
+        "opd": opd,
+        "demo": demo,
+        "valid": demo_index >= 0,
+    }
 
 
 def executed_metrics(split: Any) -> dict[str, np.ndarray]:
@@ -75,7 +82,7 @@ def fit_oracle_thetas(
     of the cycle's standardised features (f - mean) / std over its policies (the mean shift leaves the
     softmax unchanged). Convex per cycle; solved by Adam on all cycles of a chunk at once. Cycles without
     a demonstration get zeros. Deterministic (float64, start at 0)."""
-    c = split.n_cycles
+    c = split.features.shape[0]
     out = np.zeros((c, N_FEATURES))
     demo_index = np.asarray(split.demo_index)
     for start in range(0, c, chunk):

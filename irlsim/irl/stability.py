@@ -124,3 +124,31 @@ def stability_summary(
         "theta_change_switch": mean(theta_chg, near) if near is not None else float("nan"),
         "plan_change_switch": mean(plan_chg, near) if near is not None else float("nan"),
     }
+
+
+def temporal_weight_summary(
+    weights: np.ndarray, situation: np.ndarray | None, episode: np.ndarray, window: int = 2
+) -> dict[str, float]:
+    """Of PTACNN's temporal weights [C, H] (oldest first, newest last): 'newest_weight' (mean weight of
+    the newest entry; 1 = the history is ignored), 'weight_shift' (mean L1 change of the weight vector
+    between consecutive cycles), and both '..._switch' over the cycles near a situation switch."""
+    weights = np.asarray(weights, dtype=np.float64)
+    newest = weights[:, -1]
+    shift = np.full(len(weights), np.nan)
+    pair = consecutive_pairs(episode)
+    if len(weights) > 1:
+        shift[1:] = np.where(pair[1:], np.abs(weights[1:] - weights[:-1]).sum(1), np.nan)
+    near = None
+    if situation is not None and (np.asarray(situation) >= 0).all():
+        near = near_switch(situation, episode, window)
+
+    def mean(v: np.ndarray, mask: np.ndarray | None) -> float:
+        ok = np.isfinite(v) if mask is None else np.isfinite(v) & mask
+        return float(v[ok].mean()) if ok.any() else float("nan")
+
+    return {
+        "newest_weight": mean(newest, None),
+        "weight_shift": mean(shift, None),
+        "newest_weight_switch": mean(newest, near) if near is not None else float("nan"),
+        "weight_shift_switch": mean(shift, near) if near is not None else float("nan"),
+    }

@@ -28,6 +28,7 @@ from irlsim.errors import IrlsimError
 from irlsim.irl.breakdown import CycleContext, breakdown_markdown, row_breakdown
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
 from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle_metrics
+from irlsim.irl.stability import temporal_weight_summary
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.train.common import (
@@ -49,6 +50,8 @@ from irlsim.train.stage2 import predict_temporal
 from irlsim.utils import atomic_path, atomic_write_text, write_json
 
 METRIC_KEYS = ("evd", "ed", "opd", "demo")
+#: the reference rows after the trained models, in this order (irlsim.irl.references)
+REFERENCE_ROWS = ("expert-theta", "executed", "oracle (optimistic bound)", "random policy")
 #: H [cycles] when no --history is given and no temporal model fixes it (the paper's H)
 DEFAULT_HISTORY = 10
 
@@ -79,13 +82,20 @@ def resolve_history(loaded: dict[str, LoadedModel], H: int | None) -> int:
 
 def predict_sequential(loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64) -> np.ndarray:
     """Thetas [C, 15] a model uses on a sequential split (history mean or temporal mixture)."""
+    return predict_sequential_weights(loaded, split, H, chunk)[0]
+
+
+def predict_sequential_weights(
+    loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """(thetas [C, 15], temporal weights [C, H] or None for a stage-1 model) on a sequential split."""
     episode = np.asarray(split.episode)
     if loaded.history is not None and loaded.history != H:
         resolve_history({loaded.name: loaded}, H)  # raises the one-line refusal
     if loaded.base is None:
-        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H)
+        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H), None
     base = predict_split(loaded.base, split, chunk)
-    return predict_temporal(loaded.model, base["context"], base["theta"], episode)[0]
+    return predict_temporal(loaded.model, base["context"], base["theta"], episode)
 
 
 def random_policy_metrics(split: Any, seed: int = 0, chunk: int = 256) -> dict[str, np.ndarray]:
@@ -255,7 +265,11 @@ def reference_rows(data: Any, ctx: CycleContext | None) -> list[dict[str, Any]]:
 
     oracle, oracle_thetas = oracle_metrics(data)
     refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = [
-        ("expert-theta", expert_theta_metrics(data, THETA_EXPERT), {"thetas": np.tile(THETA_EXPERT, (data.n_cycles, 1))}),
+        (
+            "expert-theta",
+            expert_theta_metrics(data, THETA_EXPERT),
+            {"thetas": np.tile(THETA_EXPERT, (data.features.shape[0], 1))},
+        ),
         ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
         ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),
         ("random policy", random_policy_metrics(data), {}),
@@ -267,6 +281,35 @@ def reference_rows(data: Any, ctx: CycleContext | None) -> list[dict[str, Any]]:
             row.update(row_breakdown(metrics, data, ctx, **extra))
         rows.append(row)
     return rows
+
+
+def temporal_outputs(
+    name: str, weights: np.ndarray, data: Any, ctx: CycleContext | None, out_dir: Path
+) -> dict[str, Any]:
+    """A temporal model's weight summary (irlsim.irl.stability.temporal_weight_summary) and its strips
+    over the split's first stop-line approach and first lane change (``temporal_<model>_<situation>.png``)."""
+    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
+    from irlsim.viz.temporal import onset_window, save_temporal_strip
+
+    episode = np.asarray(data.episode)
+    sit = ctx.situation if ctx is not None and (ctx.situation >= 0).all() else None
+    out: dict[str, Any] = temporal_weight_summary(weights, sit, episode)
+    if sit is None or ctx is None:
+        return out
+    for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
+        win = onset_window(sit, episode, code)
+        if win is None:
+            continue
+        path = out_dir / f"temporal_{name.replace('+', 'p')}_{label}.png"
+        save_temporal_strip(
+            path,
+            weights[win],
+            sit[win],
+            ctx.t[win],
+            title=f"{name}: temporal attention, {label.replace('_', ' ')}",
+        )
+        out[f"strip_{label}"] = path.name
+    return out
 
 
 def evaluate_models(
@@ -302,10 +345,11 @@ def evaluate_models(
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
     ctx = cycle_context(dataset, split, data)
+    out_dir.mkdir(parents=True, exist_ok=True)
     with num_threads(threads):
         rows, opd = [], {}
         for name, lm in loaded.items():
-            thetas = predict_sequential(lm, data, H)
+            thetas, weights = predict_sequential_weights(lm, data, H)
             metrics = evaluate_thetas(thetas, data)
             a, b = lm.parameters
             params = (
@@ -321,6 +365,8 @@ def evaluate_models(
             row["provenance"] = lm.checkpoint.get("provenance")
             if ctx is not None:
                 row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
+            if weights is not None:
+                row["temporal"] = temporal_outputs(name, weights, data, ctx, out_dir)
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
         rows += reference_rows(data, ctx)

@@ -56,7 +56,12 @@ def test_each_rule_on_a_constructed_cycle() -> None:
     assert _label(ego_s=250.0, ego_lane=0, ego_d=-3.2) == EXIT
     assert _label(ego_s=250.0, ego_lane=1) == FREE  # not in the exit lane
     # priority: a queue at a stop line beats a lane change and a vehicle ahead
-    assert _label(ego_s=960.0, ego_v=0.5, target_s=1100.0, target_lane=2, **{**veh, "vehicles_s": np.array([975.0])}) == STOP_QUEUE
+    assert (
+        _label(
+            ego_s=960.0, ego_v=0.5, target_s=1100.0, target_lane=2, **{**veh, "vehicles_s": np.array([975.0])}
+        )
+        == STOP_QUEUE
+    )
 
 
 def test_switches_stay_inside_episodes() -> None:

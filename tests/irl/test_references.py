@@ -6,11 +6,13 @@ import numpy as np
 
 from irlsim import N_FEATURES
 from irlsim.data.reader import SplitTensors
-from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle_metrics
 from irlsim.irl.objectives import summarize
+from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle_metrics
 
 
-def _split(feats2: np.ndarray, distances: np.ndarray, demo_index: list[int], executed: list[int]) -> SplitTensors:
+def _split(
+    feats2: np.ndarray, distances: np.ndarray, demo_index: list[int], executed: list[int]
+) -> SplitTensors:
     c, n, _ = feats2.shape
     f = np.zeros((c, n, N_FEATURES), np.float32)
     f[:, :, : feats2.shape[2]] = feats2
