@@ -27,6 +27,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "a PTACNN trained with another H is refused)",
     )
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument(
+        "--no-references",
+        action="store_true",
+        help="leave out the reference rows expert-theta, executed and oracle (the oracle's per-cycle fit "
+        "is the slow part); 'random policy' stays",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -42,7 +48,13 @@ def run(args: argparse.Namespace) -> int:
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     evaluate_models(
-        open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
+        open_dataset(args.data),
+        args.runs,
+        out,
+        H=args.history,
+        split=args.split,
+        threads=args.threads,
+        references=not args.no_references,
     )
     print((out / "results.md").read_text())
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
