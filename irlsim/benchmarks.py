@@ -1,4 +1,4 @@
-"""Benchmarks of collection and inference (DESIGN.md section 9); the planner's lives in pipelines/bench.py.
+"""Benchmarks of collection and inference (docs/DESIGN.md section 9); the planner's is in pipelines/bench.py.
 
 Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
 """

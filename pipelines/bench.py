@@ -1,4 +1,4 @@
-"""``irlsim bench``: the performance figures of DESIGN.md section 9, as JSON and Markdown.
+"""``irlsim bench``: the performance figures of docs/DESIGN.md section 9, as JSON and Markdown.
 
 Each section is a function ``(args) -> dict`` registered in ``SECTIONS`` and selected by its flag
 (``--planner``, ``--collect``, ``--infer``). Without a section
@@ -35,9 +35,9 @@ from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
 from irlsim.sim.types import EgoState, Observation, VehicleStates  # noqa: E402
 from irlsim.utils import atomic_write_text, write_json  # noqa: E402
 
-HELP = "time the planner cycle, collection and inference (DESIGN.md section 9); write JSON and Markdown"
+HELP = "time the planner cycle, collection and inference (docs/DESIGN.md section 9); write JSON and Markdown"
 
-#: DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
+#: docs/DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
 TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),

@@ -34,7 +34,7 @@ SPLIT_OFFSET = {"train": 0, "validation": 100_000, "test": 200_000}
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Projection of the odometry onto the policy set (DESIGN.md section 5)."""
+    """Projection of the odometry onto the policy set (docs/DESIGN.md section 5)."""
 
     alpha: float = ALPHA
     """discount per 0.1 s step of the distance's time weights alpha^t"""
