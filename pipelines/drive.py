@@ -67,6 +67,7 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.data.collection import CollectConfig
     from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
     from irlsim.drive.metrics import markdown_table, summarize
+    from irlsim.drive.scorecard import scorecard_table
     from irlsim.errors import IrlsimError
     from irlsim.road import load_road
     from irlsim.utils import atomic_write_text, write_json
@@ -82,6 +83,11 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
     if len(set(specs)) != len(specs):
         raise IrlsimError(f"--model names a model twice: {args.model}")
+    # the scorecard's progress term compares every model with the expert on the same seed: the expert
+    # drives first, and is added (its row shown) when --model leaves it out
+    if "expert" not in specs:
+        print("the expert also drives every seed: the scorecard's progress is measured against it")
+    specs = ["expert"] + [s for s in specs if s != "expert"]
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
@@ -89,6 +95,7 @@ def run(args: argparse.Namespace) -> int:
     road = load_road()
 
     episodes, summaries = [], []
+    expert_runs: dict[int, tuple[list[float], list[float]]] = {}  # seed -> the expert's (t, s)
     for model, spec in zip(models, specs, strict=True):
         folder = out / _folder(model.name if not model.checkpoint or spec == model.name else spec)
         recs, times = [], []
@@ -104,14 +111,19 @@ def run(args: argparse.Namespace) -> int:
                 safety=args.safety,
                 pictures=pics,
                 max_cycles=args.max_cycles,
+                expert_progress=expert_runs.get(args.seed + i),
             )
             times += rec.pop("_inference_ms")
+            progress = rec.pop("_progress")
+            if model.is_expert:
+                expert_runs[args.seed + i] = progress
             recs.append(rec)
             print(f"{model.name} episode {i} (seed {args.seed + i}): {_line(rec)}", flush=True)
         episodes += recs
         summaries.append(summarize(recs, times))
 
     table = markdown_table(summaries)
+    scores = scorecard_table(summaries)
     safety = "with" if args.safety else "without"
     md = (
         f"# Closed-loop driving\n\n{args.episodes} episode(s) per model, {args.laps} lap(s) each, seeds "
@@ -120,7 +132,12 @@ def run(args: argparse.Namespace) -> int:
         f"{cfg.planner.n_policies} policies per cycle.\n\n{table}\n"
         "stop compliance: stop lines crossed after a full stop / crossed; checkpoints in lane: passed in the "
         "required lane / passed; RMS jerk of the executed odometry; inference: reward prediction per 0.2 s "
-        "cycle (the expert: its model-based selection).\n"
+        "cycle (the expert: its model-based selection).\n\n"
+        "## Scorecard (nuPlan-style, means over episodes)\n\n"
+        f"{scores}\n"
+        "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "
+        "mean of TTC >= 0.95 s (5), progress against the expert on the same seed (5), speed limit (4), "
+        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard).\n"
     )
     write_json(
         out / "drive.json",
@@ -142,6 +159,8 @@ def run(args: argparse.Namespace) -> int:
     atomic_write_text(out / "drive.md", md)
     print()
     print(table, end="")
+    print()
+    print(scores, end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (

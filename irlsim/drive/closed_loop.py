@@ -347,6 +347,7 @@ def drive_episode(
     pictures: PictureSpec | None = None,
     max_cycles: int = 0,
     show_progress: bool = True,
+    expert_progress: tuple[Any, Any] | None = None,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -355,10 +356,16 @@ def drive_episode(
     with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``). ``max_cycles`` > 0 stops
     early (end reason 'max_cycles'). ``pictures``: write stills and an animation (see :class:`PictureSpec`).
 
+    ``expert_progress``: the expert's (t, s) per step on the same seed (``_progress`` of its record), for
+    the scorecard's progress term (None: the expert itself is measured against its own run, other models
+    get progress None).
+
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
-    ``sim/...`` keys), plus ``drive/pictures`` (paths written) and ``_inference_ms`` (every cycle's
-    inference time [ms], for pooled percentiles; not meant for JSON).
+    ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
+    ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
+    percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
+    from irlsim.drive.recorder import ScorecardObserver
     from irlsim.drive.metrics import episode_metrics
     from irlsim.sim.simulation import Simulation
     from irlsim.utils import progress, seed_everything
@@ -389,6 +396,8 @@ def drive_episode(
     )
     with Simulation(road, scenario) as sim:
         obs = sim.reset(seed)
+        scorer = ScorecardObserver()
+        scorer.on_reset(sim, obs)
         decider.reset()
         while not sim.done and (max_cycles <= 0 or cycles < max_cycles):
             traj = decider.plan(obs)
@@ -404,6 +413,7 @@ def drive_episode(
                 bar.set_postfix(v=f"{3.6 * obs.ego.v:.0f} km/h", laps=obs.info.get("laps", 0), refresh=False)
         stats = dict(sim.stats)
         odometry = sim.odometry_arrays()
+        scorer.on_end(sim)
     bar.close()
     end = stats.get("end_reason") or ("max_cycles" if max_cycles and cycles >= max_cycles else None)
     rec = episode_metrics(
@@ -421,7 +431,12 @@ def drive_episode(
     )
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(_expert_theta()) if recorder is not None else []
+    progress = scorer.progress_curve()
+    if expert_progress is None and model.is_expert:
+        expert_progress = progress
+    rec.update(scorer.scorecard(stats, expert_progress))
     rec["_inference_ms"] = inference_ms
+    rec["_progress"] = progress
     return rec
 
 
