@@ -84,10 +84,11 @@ def run(args: argparse.Namespace) -> int:
     if len(set(specs)) != len(specs):
         raise IrlsimError(f"--model names a model twice: {args.model}")
     # the scorecard's progress term compares every model with the expert on the same seed: the expert
-    # drives first, and is added (its row shown) when --model leaves it out
-    if "expert" not in specs:
-        print("the expert also drives every seed: the scorecard's progress is measured against it")
-    specs = ["expert"] + [s for s in specs if s != "expert"]
+    # drives first when --model names it; without it progress is null (left out of the score)
+    if "expert" in specs:
+        specs = ["expert"] + [s for s in specs if s != "expert"]
+    else:
+        print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
@@ -137,7 +138,9 @@ def run(args: argparse.Namespace) -> int:
         f"{scores}\n"
         "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "
         "mean of TTC >= 0.95 s (5), progress against the expert on the same seed (5), speed limit (4), "
-        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard).\n"
+        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard). "
+        "Progress needs the expert's episode on the same seed: without expert in --model it is null ('-') "
+        "and the score is the weighted mean of the other terms.\n"
     )
     write_json(
         out / "drive.json",

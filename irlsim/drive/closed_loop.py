@@ -365,8 +365,8 @@ def drive_episode(
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    from irlsim.drive.recorder import ScorecardObserver
     from irlsim.drive.metrics import episode_metrics
+    from irlsim.drive.recorder import ScorecardObserver
     from irlsim.sim.simulation import Simulation
     from irlsim.utils import progress, seed_everything
 
@@ -431,12 +431,12 @@ def drive_episode(
     )
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(_expert_theta()) if recorder is not None else []
-    progress = scorer.progress_curve()
+    curve = scorer.progress_curve()
     if expert_progress is None and model.is_expert:
-        expert_progress = progress
+        expert_progress = curve
     rec.update(scorer.scorecard(stats, expert_progress))
     rec["_inference_ms"] = inference_ms
-    rec["_progress"] = progress
+    rec["_progress"] = curve
     return rec
 
 

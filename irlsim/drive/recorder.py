@@ -76,7 +76,13 @@ class ScorecardObserver:
         ego, veh = self.arrays()
         cfg = self.sim.cfg
         return sc.episode_scorecard(
-            **ego,
+            t=ego["t"],
+            x=ego["x"],
+            y=ego["y"],
+            yaw=ego["yaw"],
+            v=ego["v"],
+            s=ego["s"],
+            d=ego["d"],
             vehicles=veh,
             ego_size=(cfg.ego_length, cfg.ego_width),
             half_road=float(HALF_ROAD),

@@ -270,7 +270,9 @@ def episode_scorecard(
     rec.update({f"score/{k}": None if val is None else round(val, 4) for k, val in terms.items()})
     for k, (lo, hi) in COMFORT_BOUNDS.items():
         q = series[k]
-        rec[f"score/comfort_{k}"] = round(float(np.mean((q >= lo - 1e-12) & (q <= hi + 1e-12))), 4) if len(q) else 1.0
+        rec[f"score/comfort_{k}"] = (
+            round(float(np.mean((q >= lo - 1e-12) & (q <= hi + 1e-12))), 4) if len(q) else 1.0
+        )
     finite = ttc[np.isfinite(ttc)]
     rec["score/ttc_min"] = round(float(finite.min()), 3) if len(finite) else None
     rec["score/drivable_intrusion_m"] = round(intrusion, 3)
@@ -311,8 +313,8 @@ def scorecard_table(summaries: Sequence[Mapping[str, Any]]) -> str:
         return "-" if x is None else f"{x:.{nd}f}"
 
     head = (
-        "| model | score (mean ± std) | no collision | no exit | stop lines | drivable area | making progress "
-        "| TTC >= 0.95 s | progress | speed limit | comfort | mission | min TTC [s] |"
+        "| model | score (mean ± std) | no collision | no exit | stop lines | drivable area "
+        "| making progress | TTC >= 0.95 s | progress | speed limit | comfort | mission | min TTC [s] |"
     )
     rows = [head, "|" + "---|" * 13]
     for s in summaries:
