@@ -22,9 +22,16 @@ from typing import Any
 import numpy as np
 
 from irlsim.data.collection import CollectConfig
+from irlsim.drive.metrics import episode_metrics
 from irlsim.errors import IrlsimError
+from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
+from irlsim.planner.planner import Planner
+from irlsim.planner.policy_set import PolicySet
 from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
-from irlsim.sim.types import Observation
+from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import Observation, Trajectory
+from irlsim.utils import progress, seed_everything
 
 EXPERT = "expert"
 #: the expert's hand-tuned theta alone: argmax V every cycle, without the expert's model-based selection
@@ -38,8 +45,6 @@ class FixedTheta:
     name = EXPERT_THETA
 
     def predict(self, features: Any, control_points: Any, actions: Any) -> tuple[np.ndarray, dict[str, Any]]:
-        from irlsim.planner.expert import THETA_EXPERT
-
         return THETA_EXPERT.copy(), {}
 
     def reset(self) -> None:
@@ -292,24 +297,27 @@ def make_frame(
 
 class _Decider:
     """The driver of one model plus per-cycle timing: ``plan(obs)`` returns the trajectory; afterwards
-    ``policy_set``, ``index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the cycle."""
+    ``last_policy_set``, ``last_index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the
+    cycle (a :class:`~irlsim.rollout.PolicyDriver`)."""
 
     def __init__(self, model: DriveModel, road: Road, cfg: CollectConfig, safety: bool):
-        from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
-        from irlsim.planner.planner import Planner
-
         self.model = model
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
+        self.plan_ms = 0.0
+        self.theta: np.ndarray = THETA_EXPERT
+        self.last_policy_set: PolicySet | None = None
+        self.last_index = -1
+        self.driver: ExpertDriver | ThetaDriver
         if model.is_expert:
-            self.driver: Any = ExpertDriver(road, cfg.planner)
+            self.driver = ExpertDriver(road, cfg.planner)
             self.planner = self.driver.planner
-            self.theta_expert = THETA_EXPERT
         else:
             self.planner = Planner(road, cfg.planner)
             self.driver = ThetaDriver(self.planner, self._theta, safe=safety)
 
-    def _theta(self, ps: Any, obs: Observation) -> np.ndarray:
+    def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
+        assert self.model.predictor is not None
         t0 = time.perf_counter()
         theta, info = self.model.predictor.predict(ps.features, ps.control_points, ps.actions)
         self.inference_ms = 1e3 * (time.perf_counter() - t0)
@@ -317,21 +325,63 @@ class _Decider:
         return theta
 
     def reset(self) -> None:
-        if not self.model.is_expert:
+        if self.model.predictor is not None:
             self.model.predictor.reset()
 
-    def plan(self, obs: Observation) -> Any:
+    def plan(self, obs: Observation) -> Trajectory:
         t0 = time.perf_counter()
         traj = self.driver.plan(obs)
         total_ms = 1e3 * (time.perf_counter() - t0)
         self.plan_ms = float(self.planner.last_ms)
-        if self.model.is_expert:  # its 'inference' is the model-based selection after planning
+        if isinstance(self.driver, ExpertDriver):  # its 'inference' is the model-based selection
             self.inference_ms = max(total_ms - self.plan_ms, 0.0)
-            self.theta, self.info = self.theta_expert, {}
+            self.theta, self.info = THETA_EXPERT, {}
         else:
+            assert self.driver.last_theta is not None
             self.theta = self.driver.last_theta
-        self.policy_set, self.index = self.driver.last_policy_set, self.driver.last_index
+        self.last_policy_set, self.last_index = self.driver.last_policy_set, self.driver.last_index
         return traj
+
+
+class _Timing(ObserverBase):
+    """Observer: every cycle's planning and inference time [ms]; resets the model's online history."""
+
+    def __init__(self, decider: _Decider):
+        self.decider = decider
+        self.inference_ms: list[float] = []
+        self.plan_ms: list[float] = []
+
+    def on_reset(self, sim: Simulation, obs: Observation) -> None:
+        self.decider.reset()
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        self.inference_ms.append(self.decider.inference_ms)
+        self.plan_ms.append(self.decider.plan_ms)
+
+
+class _Pictures(ObserverBase):
+    """Observer: hands the cycles a :class:`FrameRecorder` wants to it."""
+
+    def __init__(self, recorder: FrameRecorder, decider: _Decider):
+        self.recorder, self.decider = recorder, decider
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        if self.recorder.wants(cycle.index, cycle.obs):
+            assert cycle.policy_set is not None
+            d = self.decider
+            self.recorder.add(cycle.index, cycle.obs, cycle.policy_set, cycle.chosen, d.theta, d.info)
+
+
+class _Progress(ObserverBase):
+    """Observer: a progress bar over the cycles with speed and laps."""
+
+    def __init__(self, bar: Any):
+        self.bar = bar
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        self.bar.update(1)
+        if (cycle.index + 1) % 25 == 0 and sim.ego is not None:
+            self.bar.set_postfix(v=f"{3.6 * sim.ego.v:.0f} km/h", laps=cycle.facts["laps"], refresh=False)
 
 
 def drive_episode(
@@ -365,10 +415,7 @@ def drive_episode(
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    from irlsim.drive.metrics import episode_metrics
     from irlsim.drive.recorder import ScorecardObserver
-    from irlsim.sim.simulation import Simulation
-    from irlsim.utils import progress, seed_everything
 
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
@@ -382,9 +429,6 @@ def drive_episode(
         if pictures is not None and pictures.frames > 0
         else None
     )
-    inference_ms: list[float] = []
-    plan_ms: list[float] = []
-    cycles = 0
     t_start = time.perf_counter()
     bound = int(math.ceil(scenario.max_time / scenario.cycle))
     bar = progress(
@@ -394,53 +438,36 @@ def drive_episode(
         leave=False,
         disable=not show_progress,
     )
+    timing = _Timing(decider)
+    observers: list[Observer] = [timing]
+    if recorder is not None:
+        observers.append(_Pictures(recorder, decider))
+    observers.append(_Progress(bar))
+    scorer = ScorecardObserver()  # records every simulation step for the scorecard
+    observers.append(scorer)
     with Simulation(road, scenario) as sim:
-        obs = sim.reset(seed)
-        scorer = ScorecardObserver()
-        scorer.on_reset(sim, obs)
-        decider.reset()
-        while not sim.done and (max_cycles <= 0 or cycles < max_cycles):
-            traj = decider.plan(obs)
-            inference_ms.append(decider.inference_ms)
-            plan_ms.append(decider.plan_ms)
-            if recorder is not None and recorder.wants(cycles, obs):
-                recorder.add(cycles, obs, decider.policy_set, decider.index, decider.theta, decider.info)
-            sim.execute(traj)
-            obs = sim.observe()
-            cycles += 1
-            bar.update(1)
-            if cycles % 25 == 0:
-                bar.set_postfix(v=f"{3.6 * obs.ego.v:.0f} km/h", laps=obs.info.get("laps", 0), refresh=False)
-        stats = dict(sim.stats)
+        result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
-        scorer.on_end(sim)
     bar.close()
-    end = stats.get("end_reason") or ("max_cycles" if max_cycles and cycles >= max_cycles else None)
     rec = episode_metrics(
-        stats,
+        dict(result.stats),
         odometry,
-        inference_ms,
-        plan_ms,
+        timing.inference_ms,
+        timing.plan_ms,
         model=model.name,
         episode=episode,
         seed=seed,
         safety=safety,
-        cycles=cycles,
+        cycles=result.cycles,
         wall_s=time.perf_counter() - t_start,
-        end_reason=end,
+        end_reason=result.end_reason,
     )
     # the radar's unit ring is the expert's weight of each feature
-    rec["drive/pictures"] = recorder.write(_expert_theta()) if recorder is not None else []
+    rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
     curve = scorer.progress_curve()
     if expert_progress is None and model.is_expert:
         expert_progress = curve
-    rec.update(scorer.scorecard(stats, expert_progress))
-    rec["_inference_ms"] = inference_ms
+    rec.update(scorer.scorecard(dict(result.stats), expert_progress))
+    rec["_inference_ms"] = timing.inference_ms
     rec["_progress"] = curve
     return rec
-
-
-def _expert_theta() -> np.ndarray:
-    from irlsim.planner.expert import THETA_EXPERT
-
-    return THETA_EXPERT
