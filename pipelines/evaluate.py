@@ -6,6 +6,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.train.evaluate import evaluate_models
+
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
 
@@ -30,9 +34,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.train.evaluate import evaluate_models
 
     if args.history is not None and args.history < 1:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")

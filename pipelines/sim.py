@@ -16,6 +16,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from irlsim.config import load_config, to_dict
+from irlsim.errors import IrlsimError
+from irlsim.road import load_road
+from irlsim.rollout import EpisodeRunner, make_driver
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import MAX_SEED, Simulation
+from irlsim.utils import check_non_negative, check_output_file, write_json
+
 HELP = "run headless SUMO episodes with a simple driver and report per-episode figures"
 
 
@@ -43,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _scenario(args: argparse.Namespace) -> Any:
-    from irlsim.config import load_config
-    from irlsim.sim.config import ScenarioConfig
 
     overrides: dict[str, Any] = {}
     if args.laps is not None:
@@ -57,12 +63,6 @@ def _scenario(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import to_dict
-    from irlsim.errors import IrlsimError
-    from irlsim.road import load_road
-    from irlsim.rollout import EpisodeRunner, make_driver
-    from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import check_non_negative, check_output_file, write_json
 
     # validate everything before any work, so a bad option never leaves a partial result
     if args.episodes < 1:

@@ -13,6 +13,16 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from irlsim.config import load_config, parse_overrides, to_dict
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.models.registry import format_parameters
+from irlsim.train import config as tc
+from irlsim.train.common import stage_dir
+from irlsim.train.stage1 import train_stage1
+from irlsim.train.stage2 import train_stage2
+from irlsim.utils import write_json
+
 HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTACNN on frozen PACNN)"
 
 
@@ -39,7 +49,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
     """One line per trained model: its trainable parameters (and the frozen base's, for stage 2)."""
-    from irlsim.models.registry import format_parameters
 
     lines = []
     for name, s in summary.items():
@@ -52,14 +61,6 @@ def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides, to_dict
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.train import config as tc
-    from irlsim.train.common import stage_dir
-    from irlsim.train.stage1 import train_stage1
-    from irlsim.train.stage2 import train_stage2
-    from irlsim.utils import write_json
 
     if args.base is not None and args.stage != 2:
         raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")

@@ -17,21 +17,24 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.metrics import episode_metrics
+from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.road import Road
 from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import progress, seed_everything
+from irlsim.viz.frames import save_animation, save_frame_pictures
+from irlsim.viz.scene import CycleFrame, make_frame
 
 EXPERT = "expert"
 #: the expert's hand-tuned theta alone: argmax V every cycle, without the expert's model-based selection
@@ -39,12 +42,27 @@ EXPERT = "expert"
 EXPERT_THETA = "expert-theta"
 
 
+class ThetaPredictor(Protocol):
+    """What drives a learned model: theta [15] (and pictures' info) from one cycle's policy set;
+    :class:`irlsim.train.predictor.RewardPredictor` and :class:`FixedTheta` are ones."""
+
+    name: str
+
+    def predict(
+        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, Any]]: ...
+
+    def reset(self) -> None: ...
+
+
 class FixedTheta:
     """A reward 'predictor' that always returns the expert's theta (``expert-theta``)."""
 
     name = EXPERT_THETA
 
-    def predict(self, features: Any, control_points: Any, actions: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    def predict(
+        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         return THETA_EXPERT.copy(), {}
 
     def reset(self) -> None:
@@ -57,7 +75,7 @@ class DriveModel:
 
     name: str
     checkpoint: Path | None = None
-    predictor: Any = None  # irlsim.train.predictor.RewardPredictor
+    predictor: ThetaPredictor | None = None
 
     @property
     def is_expert(self) -> bool:
@@ -65,7 +83,7 @@ class DriveModel:
 
 
 def model_names() -> tuple[str, ...]:
-    from irlsim.models.registry import MODEL_NAMES
+    from irlsim.models.registry import MODEL_NAMES  # lazy: torch (~1.5 s), not needed to drive the expert
 
     return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
 
@@ -80,7 +98,10 @@ def load_drive_model(
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
     (the networks are built for the training set's N, and the features would not match anyway).
     """
+    # lazy: these import torch (~1.5 s); the expert and expert-theta drive without it
     from irlsim.models.registry import MODEL_NAMES
+    from irlsim.train.common import find_checkpoint, model_stage, stage_dir
+    from irlsim.train.predictor import RewardPredictor
 
     spec = str(spec)
     if spec == EXPERT:
@@ -88,8 +109,6 @@ def load_drive_model(
     if spec == EXPERT_THETA:
         return DriveModel(EXPERT_THETA, predictor=FixedTheta())
     if spec in MODEL_NAMES:
-        from irlsim.train.common import find_checkpoint, model_stage, stage_dir
-
         if runs is None:
             raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")
         found = find_checkpoint(runs, spec)
@@ -108,8 +127,6 @@ def load_drive_model(
             )
         if not path.is_file():
             raise IrlsimError(f"checkpoint {path} not found: run 'irlsim train' first (or fix the path)")
-    from irlsim.train.predictor import RewardPredictor
-
     predictor = RewardPredictor(path, threads=threads)
     ck = predictor.loaded.checkpoint
     trained_n = int((ck.get("base") or ck).get("n_policies", 0))
@@ -155,11 +172,11 @@ class PictureSpec:
 
 
 class FrameRecorder:
-    """Collects :class:`~irlsim.viz.drive.CycleFrame` records during an episode (see :class:`PictureSpec`)."""
+    """Collects :class:`~irlsim.viz.scene.CycleFrame` records during an episode (see :class:`PictureSpec`)."""
 
     def __init__(self, spec: PictureSpec, road: Road, model: str, ego_size: tuple[float, float]):
         self.spec, self.road, self.model, self.ego_size = spec, road, model, ego_size
-        self.window: deque[Any] = deque(maxlen=max(spec.frames, 1))
+        self.window: deque[CycleFrame] = deque(maxlen=max(spec.frames, 1))
         self.trigger: int | None = None
         self.after = 0
 
@@ -177,7 +194,13 @@ class FrameRecorder:
         return cycle % self.spec.stride == 0
 
     def add(
-        self, cycle: int, obs: Observation, ps: Any, chosen: int, theta: np.ndarray, info: dict[str, Any]
+        self,
+        cycle: int,
+        obs: Observation,
+        ps: PolicySet,
+        chosen: int,
+        theta: np.ndarray,
+        info: dict[str, Any],
     ) -> None:
         self.window.append(
             make_frame(
@@ -199,8 +222,6 @@ class FrameRecorder:
 
     def write(self, reference: np.ndarray | None) -> list[str]:
         """Stills and ``episode.gif`` into ``spec.out_dir``; returns the paths written."""
-        from irlsim.viz.drive import save_animation, save_frame_pictures
-
         frames = list(self.window)
         if not frames:
             return []
@@ -212,84 +233,6 @@ class FrameRecorder:
             paths += save_frame_pictures(out, frames[i], reference)
         paths.append(save_animation(out / "episode.gif", frames, reference, fps=self.spec.fps))
         return [str(p) for p in paths]
-
-
-def road_lines(
-    road: Road, s0: float, behind: float = 40.0, ahead: float = 160.0
-) -> tuple[tuple[str, np.ndarray], ...]:
-    """Lane edges, dividers, stop lines and exit ramps within [s0 - behind, s0 + ahead] as world polylines."""
-    s = np.arange(s0 - behind, s0 + ahead, 2.0)
-    lines: list[tuple[str, np.ndarray]] = []
-    for d in (-HALF_ROAD, -LANE_WIDTH / 2, LANE_WIDTH / 2, HALF_ROAD):
-        x, y = road.to_xy(s, np.full_like(s, d))
-        lines.append(("edge" if abs(d) == HALF_ROAD else "divider", np.stack([x, y], axis=1)))
-    lap = road.lap_length
-    for sl in road.stop_lines:
-        rel_s = (sl.s - s0 + behind) % lap - behind
-        if -behind <= rel_s <= ahead:
-            x, y = road.to_xy(np.full(2, s0 + rel_s), np.array([-HALF_ROAD, HALF_ROAD]))
-            lines.append(("stop", np.stack([x, y], axis=1)))
-    for ex in road.exits:
-        rel = (ex.ramp_s - s0 + behind) % lap - behind
-        ok = (rel >= -behind) & (rel <= ahead)
-        if ok.sum() >= 2:
-            for off in (-LANE_WIDTH / 2, LANE_WIDTH / 2):
-                x, y = road.to_xy(s0 + rel[ok], ex.ramp_d[ok] + off)
-                lines.append(("ramp", np.stack([x, y], axis=1)))
-    return tuple(lines)
-
-
-def make_frame(
-    road: Road,
-    model: str,
-    cycle: int,
-    obs: Observation,
-    ps: Any,
-    chosen: int,
-    theta: np.ndarray,
-    info: dict[str, Any],
-    ego_size: tuple[float, float],
-    top_k: int = 10,
-    max_policies: int = 300,
-) -> Any:
-    """A CycleFrame of one cycle: a subset of ``ps``'s policies (chosen, top-k attention, an even spread
-    over the progress order), value ranks over all N policies, the vehicles and the road around the ego."""
-    from irlsim.viz.drive import CycleFrame, drawn_subset, value_ranks
-
-    att = info.get("attention")
-    top = np.zeros(0, dtype=np.int64)
-    if att is not None and top_k > 0:
-        top = np.argsort(-np.asarray(att), kind="stable")[:top_k]
-    idx = drawn_subset(ps.n_policies, max_policies, np.append(top, chosen))
-    rank = value_ranks(ps.value(theta))
-    ego = obs.ego
-    vehicles = obs.vehicles.boxes()
-    tw = info.get("temporal_weights")
-    return CycleFrame(
-        model=model,
-        cycle=cycle,
-        t=float(ego.t),
-        x=ps.x[idx].astype(np.float32),
-        y=ps.y[idx].astype(np.float32),
-        value_rank=rank[idx],
-        top_attention=np.isin(idx, top),
-        chosen=int(np.searchsorted(idx, chosen)),
-        theta=np.asarray(theta, dtype=np.float64),
-        ego=(
-            float(ego.x),
-            float(ego.y),
-            float(ego.yaw),
-            float(ego.v),
-            float(ego_size[0]),
-            float(ego_size[1]),
-        ),
-        vehicles=vehicles.astype(np.float64),
-        attention=None if att is None else np.asarray(att, dtype=np.float32)[idx],
-        temporal_weights=None if tw is None else np.asarray(tw, dtype=np.float64),
-        lines=road_lines(road, float(ego.s)),
-        info={"lane": int(ego.lane), "target_checkpoint": int(obs.target_checkpoint)},
-        view_yaw=float(road.heading(np.array(ego.s))),
-    )
 
 
 # ------------------------------------------------------------------------------------------ the episode
@@ -405,18 +348,13 @@ def drive_episode(
     episodes), or a spec string resolved against ``runs``. ``cfg``: the collect config the model was trained
     with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``). ``max_cycles`` > 0 stops
     early (end reason 'max_cycles'). ``pictures``: write stills and an animation (see :class:`PictureSpec`).
-
-    ``expert_progress``: the expert's (t, s) per step on the same seed (``_progress`` of its record), for
-    the scorecard's progress term (None: the expert itself is measured against its own run, other models
-    get progress None).
+    ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (see :func:`_scores`).
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    from irlsim.drive.recorder import ScorecardObserver
-
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
     if not isinstance(model, DriveModel):
@@ -442,9 +380,8 @@ def drive_episode(
     observers: list[Observer] = [timing]
     if recorder is not None:
         observers.append(_Pictures(recorder, decider))
-    observers.append(_Progress(bar))
     scorer = ScorecardObserver()  # records every simulation step for the scorecard
-    observers.append(scorer)
+    observers += [_Progress(bar), scorer]
     with Simulation(road, scenario) as sim:
         result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
@@ -464,10 +401,18 @@ def drive_episode(
     )
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
-    curve = scorer.progress_curve()
-    if expert_progress is None and model.is_expert:
-        expert_progress = curve
-    rec.update(scorer.scorecard(dict(result.stats), expert_progress))
+    rec.update(_scores(scorer, dict(result.stats), model.is_expert, expert_progress))
     rec["_inference_ms"] = timing.inference_ms
-    rec["_progress"] = curve
     return rec
+
+
+def _scores(
+    scorer: ScorecardObserver, stats: dict[str, Any], is_expert: bool, expert_progress: Any
+) -> dict[str, Any]:
+    """The scorecard's ``score/...`` keys and ``_progress`` ((t, s) per step). Progress is measured against
+    ``expert_progress`` (the expert's (t, s) on the same seed); None: the expert against its own run,
+    other models get progress None."""
+    curve = scorer.progress_curve()
+    if expert_progress is None and is_expert:
+        expert_progress = curve
+    return {**scorer.scorecard(stats, expert_progress), "_progress": curve}

@@ -42,7 +42,7 @@ time-out or ``max_cycles``. ``info``: the scorecard's per-step facts of the cycl
 ``reset(seed=s)`` starts the SUMO episode with seed s (traffic and ego start): the same seed and actions
 give the same episode. Without a seed, the episode seed is drawn from the env's ``np_random``.
 ``render_mode="rgb_array"``: ``render()`` returns the cycle picture (policies coloured by value, the
-executed one, the vehicles; :mod:`irlsim.viz.drive`) as a [H, W, 3] uint8 array.
+executed one, the vehicles; :mod:`irlsim.viz.frames`) as a [H, W, 3] uint8 array.
 One libsumo simulation per process: vectorise with ``gymnasium.vector.AsyncVectorEnv`` (one per worker).
 """
 
@@ -335,8 +335,9 @@ def cycle_picture(
     road: Any, name: str, obs: Any, ps: Any, index: int, theta: np.ndarray, scenario: Any
 ) -> np.ndarray:
     """The cycle picture of the drive stage as a [H, W, 3] uint8 array."""
-    from irlsim.drive.closed_loop import make_frame
-    from irlsim.viz.drive import cycle_axes, cycle_figure_size, cycle_window, draw_cycle, new_figure
+    from irlsim.viz.figure import new_figure
+    from irlsim.viz.frames import cycle_axes, cycle_figure_size, draw_cycle
+    from irlsim.viz.scene import cycle_window, make_frame
 
     frame = make_frame(road, name, 0, obs, ps, index, theta, {}, (scenario.ego_length, scenario.ego_width))
     win = cycle_window(frame)
