@@ -56,6 +56,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="time collection end to end (SUMO + planner + demonstrations + Parquet)",
     )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
+    parser.add_argument(
+        "--env",
+        action="store_true",
+        help="Gymnasium env steps/s (irlsim/Oval-v0, 500 policies), single and 2 AsyncVectorEnv workers",
+    )
+    parser.add_argument("--env-steps", type=int, default=200, help="timed env steps (default 200)")
     parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
@@ -165,11 +171,18 @@ def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
     return run_infer(n_policies=2500, seed=args.seed)
 
 
+def bench_env(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks import bench_env as run_env
+
+    return run_env(steps=max(args.env_steps, 1), n_policies=500, n_envs=2, seed=args.seed)
+
+
 #: section name -> function; ``--<name>`` selects it
 SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
     "collect": bench_collect,
     "infer": bench_infer,
+    "env": bench_env,
 }
 
 

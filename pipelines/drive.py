@@ -15,6 +15,7 @@ from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
 from irlsim.drive.metrics import markdown_table, summarize
+from irlsim.drive.scorecard import scorecard_table
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
@@ -84,6 +85,12 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
     if len(set(specs)) != len(specs):
         raise IrlsimError(f"--model names a model twice: {args.model}")
+    # the scorecard's progress term compares every model with the expert on the same seed: the expert
+    # drives first when --model names it; without it progress is null (left out of the score)
+    if "expert" in specs:
+        specs = ["expert"] + [s for s in specs if s != "expert"]
+    else:
+        print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
@@ -91,6 +98,7 @@ def run(args: argparse.Namespace) -> int:
     road = load_road()
 
     episodes, summaries = [], []
+    expert_runs: dict[int, tuple[list[float], list[float]]] = {}  # seed -> the expert's (t, s)
     for model, spec in zip(models, specs, strict=True):
         folder = out / _folder(model.name if not model.checkpoint or spec == model.name else spec)
         recs, times = [], []
@@ -106,14 +114,19 @@ def run(args: argparse.Namespace) -> int:
                 safety=args.safety,
                 pictures=pics,
                 max_cycles=args.max_cycles,
+                expert_progress=expert_runs.get(args.seed + i),
             )
             times += rec.pop("_inference_ms")
+            progress = rec.pop("_progress")
+            if model.is_expert:
+                expert_runs[args.seed + i] = progress
             recs.append(rec)
             print(f"{model.name} episode {i} (seed {args.seed + i}): {_line(rec)}", flush=True)
         episodes += recs
         summaries.append(summarize(recs, times))
 
     table = markdown_table(summaries)
+    scores = scorecard_table(summaries)
     safety = "with" if args.safety else "without"
     md = (
         f"# Closed-loop driving\n\n{args.episodes} episode(s) per model, {args.laps} lap(s) each, seeds "
@@ -122,7 +135,14 @@ def run(args: argparse.Namespace) -> int:
         f"{cfg.planner.n_policies} policies per cycle.\n\n{table}\n"
         "stop compliance: stop lines crossed after a full stop / crossed; checkpoints in lane: passed in the "
         "required lane / passed; RMS jerk of the executed odometry; inference: reward prediction per 0.2 s "
-        "cycle (the expert: its model-based selection).\n"
+        "cycle (the expert: its model-based selection).\n\n"
+        "## Scorecard (nuPlan-style, means over episodes)\n\n"
+        f"{scores}\n"
+        "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "
+        "mean of TTC >= 0.95 s (5), progress against the expert on the same seed (5), speed limit (4), "
+        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard). "
+        "Progress needs the expert's episode on the same seed: without expert in --model it is null ('-') "
+        "and the score is the weighted mean of the other terms.\n"
     )
     write_json(
         out / "drive.json",
@@ -144,6 +164,8 @@ def run(args: argparse.Namespace) -> int:
     atomic_write_text(out / "drive.md", md)
     print()
     print(table, end="")
+    print()
+    print(scores, end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (
