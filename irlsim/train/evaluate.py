@@ -248,7 +248,7 @@ def evaluate_models(
             f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
     data = get_split(dataset, split)
-    loaded = {name: load_model(path) for name, path in found.items()}
+    loaded = {name: load_model(path, dataset) for name, path in found.items()}
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
