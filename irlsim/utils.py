@@ -180,23 +180,9 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
-    from irlsim.errors import IrlsimError
+    from irlsim.outputs import check_output_file as check
 
-    if path.is_dir():
-        raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
-    folder = path.absolute().parent
-    try:
-        while not folder.exists():
-            folder = folder.parent
-        if not folder.is_dir():
-            raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise IrlsimError(
-            f"{option} {path} cannot be written ({e.strerror or type(e).__name__} in {folder}): "
-            "choose a writable place"
-        ) from None
+    check(path, option, example)
 
 
 def _init_spawned_worker(parent_pid: int) -> None:  # top level: picklable as the Pool initializer

@@ -34,6 +34,8 @@ TARGETS: dict[str, tuple[str, str, float, str]] = {
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from irlsim.config import MAX_SEED, int_in  # here: this module sets thread variables before imports
+
     parser.add_argument("--out", type=Path, default=Path("bench"), help="output folder (default: bench/)")
     parser.add_argument(
         "--planner", action="store_true", help="time the planner cycle (2,500 policies, 15 vehicles)"
@@ -44,14 +46,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="time collection end to end (SUMO + planner + demonstrations + Parquet)",
     )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
-    parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
-        type=int,
+        type=int_in(1),
         default=150,
         help="planning cycles per timed collection episode (default 150)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
+    parser.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
+    )
 
 
 # ---------------------------------------------------------------------------------------------- planner
@@ -198,14 +202,14 @@ def _markdown(results: dict[str, dict[str, Any]]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     from irlsim.errors import IrlsimError
+    from irlsim.outputs import check_output_dir
     from irlsim.utils import atomic_write_text, write_json
 
     if args.cycles < 1:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
     if args.collect_cycles < 1:
         raise IrlsimError(f"--collect-cycles must be >= 1, got {args.collect_cycles}")
-    if args.out.exists() and not args.out.is_dir():
-        raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
+    check_output_dir(args.out, "--out")
     chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)
     for name in chosen:
         res = SECTIONS[name](args)

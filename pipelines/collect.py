@@ -17,14 +17,18 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from irlsim.config import MAX_SEED, int_in
+
 HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, default=None, help="TOML config (configs/collect/*.toml)")
     p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
-    p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
+    p.add_argument(
+        "--workers", type=int_in(1, 256), default=None, help="worker processes (overrides the config)"
+    )
+    p.add_argument("--seed", type=int_in(0, MAX_SEED), default=None, help="base seed (overrides the config)")
     p.add_argument(
         "--set",
         action="append",
@@ -45,8 +49,9 @@ def _run_job(job):  # top level: picklable for spawn workers
 
 def run(args: argparse.Namespace) -> int:
     from irlsim.config import load_config, parse_overrides
-    from irlsim.data.collection import CollectConfig
+    from irlsim.data.collection import CollectConfig, estimate_dataset_bytes
     from irlsim.errors import IrlsimError
+    from irlsim.outputs import check_output_dir
     from irlsim.utils import LockBusy, check_non_negative, exclusive_lock
 
     overrides = parse_overrides(args.set)
@@ -59,8 +64,8 @@ def run(args: argparse.Namespace) -> int:
         overrides["seed"] = args.seed
     cfg = load_config(CollectConfig, args.config, overrides)
     out: Path = args.out
-    if out.exists() and not out.is_dir():
-        raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    # before any work: a folder that takes files, with disk for the dataset (irlsim.outputs)
+    check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
             return _collect(cfg, out)

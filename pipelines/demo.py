@@ -12,6 +12,8 @@ import argparse
 import time
 from pathlib import Path
 
+from irlsim.config import int_in
+
 HELP = "run the whole chain on the default config: net, collect, train (2 stages), evaluate, drive"
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -20,7 +22,7 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=Path, default=Path("data/default"), help="dataset folder")
     p.add_argument("--runs", type=Path, default=Path("runs/default"), help="runs folder")
-    p.add_argument("--seed", type=int, default=0, help="base seed of collection and driving")
+    p.add_argument("--seed", type=int_in(0, 2147), default=0, help="base seed of collection and driving")
     p.add_argument(
         "--preset",
         default="default",

@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim.config import MAX_SEED, int_in
+
 HELP = (
     "drive the ego in SUMO with the expert and learned rewards: closed-loop table (JSON, Markdown), pictures"
 )
@@ -30,9 +32,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "alone, argmax V), LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S or checkpoint paths "
         "(default: expert)",
     )
-    p.add_argument("--episodes", type=int, default=1, help="episodes per model (default: 1)")
-    p.add_argument("--laps", type=int, default=1, help="laps per episode (default: 1)")
-    p.add_argument("--seed", type=int, default=100, help="episode i uses seed S + i (default: 100)")
+    p.add_argument("--episodes", type=int_in(1), default=1, help="episodes per model (default: 1)")
+    p.add_argument("--laps", type=int_in(1), default=1, help="laps per episode (default: 1)")
+    p.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=100, help="episode i uses seed S + i (default: 100)"
+    )
     p.add_argument(
         "--config",
         type=Path,
@@ -49,17 +53,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--frames",
-        type=int,
+        type=int_in(0),
         default=40,
         help="animation frames of the first episode of each model (0 = no pictures; default: 40)",
     )
     p.add_argument(
         "--max-cycles",
-        type=int,
+        type=int_in(0),
         default=0,
         help="stop each episode after this many planning cycles (0 = laps, collision, exit or time-out)",
     )
-    p.add_argument("--threads", type=int, default=1, help="torch CPU threads of the reward inference")
+    p.add_argument(
+        "--threads", type=int_in(1, 1024), default=1, help="torch CPU threads of the reward inference"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
     from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
     from irlsim.drive.metrics import markdown_table, summarize
     from irlsim.errors import IrlsimError
+    from irlsim.outputs import check_output_dir
     from irlsim.road import load_road
     from irlsim.utils import atomic_write_text, write_json
 
@@ -84,6 +91,11 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--model names a model twice: {args.model}")
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
+    if args.seed + args.episodes - 1 > MAX_SEED:
+        raise IrlsimError(
+            f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {MAX_SEED}"
+        )
+    check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
     models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
     road = load_road()

@@ -30,9 +30,12 @@ from irlsim.data.schema import (
     TABLE_CYCLES,
     TABLE_POLICIES,
     cycles_name,
+    cycles_schema,
     policies_name,
+    policies_schema,
 )
 from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
 from irlsim.planner.policy_set import LABEL_NAMES
 from irlsim.utils import atomic_path, write_json
 
@@ -131,8 +134,9 @@ def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
     return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
 
 
-def open_parquet(path: Path, table: str) -> pq.ParquetFile:
-    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version.
+def open_parquet(path: Path, table: str, n_control_points: int | None = None) -> pq.ParquetFile:
+    """Open an irlsim Parquet file, checking it is complete, ours, of this schema version and has the
+    columns, types and list widths of this irlsim's ``table`` (with ``n_control_points`` K if given).
 
     Raises ``BadParquetFile`` (an ``IrlsimError``) naming the file."""
     try:
@@ -155,7 +159,45 @@ def open_parquet(path: Path, table: str) -> pq.ParquetFile:
             f"has schema version {version}, this irlsim reads {SCHEMA_VERSION}",
             "re-collect it with 'irlsim collect'",
         )
+    check_columns(pf.schema_arrow, path, table, n_control_points)
     return pf
+
+
+def check_columns(schema: pa.Schema, path: Path, table: str, n_control_points: int | None = None) -> None:
+    """The file's columns, their types and fixed list widths must be those of this irlsim's ``table``
+    schema (``irlsim.data.schema``): a file whose metadata claims the table but whose columns differ (a
+    'features' list of 14, another K) is refused in one line naming the column, not read into a reshape
+    error. ``n_control_points``: the dataset's K (from its manifest); None = the file's own K."""
+    if table == TABLE_POLICIES:
+        k = n_control_points
+        if k is None:
+            field = schema.field("control_points") if "control_points" in schema.names else None
+            size = getattr(field.type, "list_size", 0) if field is not None else 0
+            k = max(int(size) // 3, 1)
+        expected = policies_schema(k)
+    else:
+        expected = cycles_schema()
+    names = list(schema.names)
+    if names != expected.names:
+        missing = [n for n in expected.names if n not in names]
+        extra = [n for n in names if n not in expected.names]
+        what = (
+            f"lacks column {missing[0]}"
+            if missing
+            else f"has an unknown column {extra[0]}"
+            if extra
+            else "has its columns in another order"
+        )
+        raise BadParquetFile(path, f"{what} (not an irlsim {table} table of this version)", _REGENERATE)
+    for f in expected:
+        got = schema.field(f.name).type
+        if got != f.type:
+            raise BadParquetFile(
+                path,
+                f"column {f.name} is {got}, this irlsim's {table} table has {f.type}"
+                + (" (another planner.n_control_points?)" if f.name in ("control_points", "actions") else ""),
+                "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
+            )
 
 
 def read_parquet(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
@@ -205,6 +247,10 @@ class Dataset:
         self.path = path
         self.manifest = manifest
         check_complete(path, manifest)
+        planner = (manifest.get("config") or {}).get("planner") or {}
+        #: K and N the collection was configured with (None: not recorded, taken from the files)
+        self.n_control_points: int | None = planner.get("n_control_points")
+        self.n_policies: int | None = planner.get("n_policies")
 
     @property
     def splits(self) -> list[str]:
@@ -233,6 +279,7 @@ class Dataset:
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
             tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
+            self._check_policy_count(path, tables[-1])
         if not tables:
             from irlsim.data.schema import cycles_schema
 
@@ -244,6 +291,16 @@ class Dataset:
     def read_cycles(self, split: str) -> pd.DataFrame:
         """All cycles rows of a split as a DataFrame, ordered by (episode, cycle)."""
         return self.read_cycles_table(split).to_pandas()
+
+    def _check_policy_count(self, path: Path, table: pa.Table) -> None:
+        n_pol = table.column("n_policies").to_numpy()
+        if self.n_policies is not None and n_pol.size and (n_pol != self.n_policies).any():
+            raise BadParquetFile(
+                path,
+                f"has {int(n_pol[n_pol != self.n_policies][0])} policies per cycle, the dataset's manifest "
+                f"{self.n_policies} (planner.n_policies)",
+                "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
+            )
 
     def _check_cycles(self, split: str, table: pa.Table) -> None:
         n_pol = table.column("n_policies").to_numpy()
@@ -307,6 +364,15 @@ class Dataset:
         n = int(cycles.column("n_policies")[0].as_py()) if c else 0
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
+        # before any array is written: the cache folder takes files and its disk has room for them
+        per_policy = 4 * (N_FEATURES + 3 * k + 2 * k + 1) + len(LABEL_NAMES)
+        check_output_dir(
+            folder,
+            f"dataset {self.path}: its cache",
+            c * n * per_policy,
+            fix="make the dataset folder writable (the cache of memory-mapped arrays lives in it), or copy "
+            "the dataset to a writable place",
+        )
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").unlink(missing_ok=True)  # invalid while rebuilding
         specs: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -327,7 +393,7 @@ class Dataset:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):
                 path = self.policies_path(split, ep)
-                pf = open_parquet(path, TABLE_POLICIES)
+                pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
                 cols = [
                     "episode",
                     "cycle",
@@ -386,7 +452,8 @@ class Dataset:
         if not eps:
             return 0
         path = self.policies_path(split, eps[0])
-        width = open_parquet(path, TABLE_POLICIES).schema_arrow.field("control_points").type.list_size
+        pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
+        width = pf.schema_arrow.field("control_points").type.list_size
         return int(width) // 3
 
 
@@ -439,6 +506,63 @@ class _AtomicNpys:
         self.stack.__exit__(exc_type, exc, tb)
 
 
+def _manifest_error(manifest_path: Path, what: str) -> IrlsimError:
+    return IrlsimError(
+        f"{manifest_path} {what}: re-collect the dataset with 'irlsim collect' (or restore it)"
+    )
+
+
+def _int_list(v: Any) -> bool:
+    return isinstance(v, list) and all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in v)
+
+
+def validate_manifest(manifest: dict[str, Any], manifest_path: Path) -> None:
+    """The manifest against its schema, before anything is read by it (one-line IrlsimError naming the
+    key): schema_version, feature_names, complete (bool), config (a table; planner.n_policies and
+    n_control_points positive integers when present), splits ({split: [episode ids >= 0, unique]}),
+    seeds and counts (tables per split, when present)."""
+    path = manifest_path.parent
+    version = manifest.get("schema_version")
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"dataset {path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
+            "re-collect it with 'irlsim collect'"
+        )
+    names = manifest.get("feature_names")
+    if names != list(FEATURE_NAMES):
+        raise IrlsimError(
+            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
+            "re-collect it with 'irlsim collect'"
+        )
+    if "complete" in manifest and not isinstance(manifest["complete"], bool):
+        raise _manifest_error(manifest_path, f"has 'complete': {manifest['complete']!r}, not true or false")
+    splits = manifest.get("splits")
+    if not isinstance(splits, dict):
+        raise IrlsimError(f"{manifest_path} has no 'splits' mapping: re-collect it with 'irlsim collect'")
+    for name, episodes in splits.items():
+        if not _int_list(episodes):
+            raise _manifest_error(
+                manifest_path, f"has splits.{name} = {str(episodes)[:40]}, not a list of episode ids >= 0"
+            )
+        if len(set(episodes)) != len(episodes):
+            raise _manifest_error(manifest_path, f"lists an episode of splits.{name} twice")
+    config = manifest.get("config", {})
+    if not isinstance(config, dict):
+        raise _manifest_error(manifest_path, "has a 'config' that is not a table")
+    planner = config.get("planner", {})
+    if not isinstance(planner, dict):
+        raise _manifest_error(manifest_path, "has a 'config.planner' that is not a table")
+    for key in ("n_policies", "n_control_points"):
+        v = planner.get(key, 1)
+        if not isinstance(v, int) or isinstance(v, bool) or v < 1:
+            raise _manifest_error(manifest_path, f"has config.planner.{key} = {v!r}, not an integer >= 1")
+    if not isinstance(manifest.get("seeds", {}), (dict, list)):
+        raise _manifest_error(manifest_path, "has 'seeds' that are neither a table nor a list")
+    counts = manifest.get("counts", {})
+    if not isinstance(counts, dict) or not all(isinstance(v, dict) for v in counts.values()):
+        raise _manifest_error(manifest_path, "has 'counts' that are not a table per split")
+
+
 def open_dataset(path: str | Path) -> Dataset:
     """Open and validate a dataset folder (manifest, schema version, feature names)."""
     path = Path(path)
@@ -458,18 +582,5 @@ def open_dataset(path: str | Path) -> Dataset:
         raise IrlsimError(f"{manifest_path} is not valid JSON ({exc}): {_REGENERATE}") from None
     if not isinstance(manifest, dict):
         raise IrlsimError(f"{manifest_path} is not a JSON object: {_REGENERATE}")
-    version = manifest.get("schema_version")
-    if version != SCHEMA_VERSION:
-        raise IrlsimError(
-            f"dataset {path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    names = manifest.get("feature_names")
-    if names != list(FEATURE_NAMES):
-        raise IrlsimError(
-            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    if not isinstance(manifest.get("splits"), dict):
-        raise IrlsimError(f"{manifest_path} has no 'splits' mapping: re-collect it with 'irlsim collect'")
+    validate_manifest(manifest, manifest_path)
     return Dataset(path, manifest)
