@@ -29,6 +29,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
     On any exception the temporary file is removed, so ``path`` is either the old file or the complete
     new one, never a half-written one. A killed process leaves at most a ``.*.tmp`` file that readers ignore.
+    An OSError on the temporary file is re-raised naming ``path`` (what the user knows).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -40,6 +41,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         if tmp.exists():  # mkstemp creates 0600; give the result the usual umask-based mode
             tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
+    except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
+        if e.filename is not None and str(e.filename) == str(tmp):
+            e.filename = str(path)
+        raise
     finally:
         if tmp.exists():
             tmp.unlink()
