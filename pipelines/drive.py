@@ -11,7 +11,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from irlsim.config import MAX_SEED, int_in
+from irlsim.config import MAX_SEED, int_in, load_config
+from irlsim.data.collection import CollectConfig
+from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
+from irlsim.drive.metrics import markdown_table, summarize
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
+from irlsim.road import load_road
+from irlsim.utils import atomic_write_text, write_json
 
 HELP = (
     "drive the ego in SUMO with the expert and learned rewards: closed-loop table (JSON, Markdown), pictures"
@@ -68,15 +75,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+# size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config
-    from irlsim.data.collection import CollectConfig
-    from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
-    from irlsim.drive.metrics import markdown_table, summarize
-    from irlsim.errors import IrlsimError
-    from irlsim.outputs import check_output_dir
-    from irlsim.road import load_road
-    from irlsim.utils import atomic_write_text, write_json
 
     for name in ("episodes", "laps"):
         if getattr(args, name) < 1:

@@ -7,6 +7,10 @@ import argparse
 from pathlib import Path
 
 from irlsim.config import int_in
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
+from irlsim.train.evaluate import evaluate_models
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
@@ -32,10 +36,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.outputs import check_output_dir
-    from irlsim.train.evaluate import evaluate_models
 
     if args.history is not None and args.history < 1:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")

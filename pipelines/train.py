@@ -13,6 +13,18 @@ import argparse
 from pathlib import Path
 from typing import Any, cast
 
+from irlsim.config import load_config, parse_overrides, to_dict
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE, format_parameters
+from irlsim.outputs import check_output_dir
+from irlsim.train import config as tc
+from irlsim.train.checkpoint import dataset_identity
+from irlsim.train.layout import SUMMARY_NAME, find_checkpoint, stage_dir
+from irlsim.train.stage1 import train_stage1
+from irlsim.train.stage2 import train_stage2
+from irlsim.utils import LockBusy, exclusive_lock, write_json
+
 HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTACNN on frozen PACNN)"
 
 
@@ -45,14 +57,11 @@ CHECKPOINT_BYTES = 16 << 20
 
 
 def _stage_models(stage: int) -> tuple[str, ...]:
-    from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE
-
     return STAGE1_MODELS if stage == 1 else tuple(STAGE2_BASE)
 
 
 def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
     """One line per trained model: its trainable parameters (and the frozen base's, for stage 2)."""
-    from irlsim.models.registry import format_parameters
 
     lines = []
     for name, s in summary.items():
@@ -65,16 +74,6 @@ def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides, to_dict
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.outputs import check_output_dir
-    from irlsim.train import config as tc
-    from irlsim.train.checkpoint import dataset_identity
-    from irlsim.train.layout import SUMMARY_NAME, find_checkpoint, stage_dir
-    from irlsim.train.stage1 import train_stage1
-    from irlsim.train.stage2 import train_stage2
-    from irlsim.utils import LockBusy, exclusive_lock, write_json
 
     if args.base is not None and args.stage != 2:
         raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")
