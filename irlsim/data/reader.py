@@ -22,7 +22,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from irlsim import FEATURE_NAMES, N_FEATURES
+from irlsim import N_FEATURES
 from irlsim.data.schema import (
     META_TABLE,
     META_VERSION,
@@ -30,10 +30,9 @@ from irlsim.data.schema import (
     TABLE_CYCLES,
     TABLE_POLICIES,
     cycles_name,
-    cycles_schema,
     policies_name,
-    policies_schema,
 )
+from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.planner.policy_set import LABEL_NAMES
@@ -42,7 +41,6 @@ from irlsim.utils import atomic_path, write_json
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
 CACHE_VERSION = 1
-_REGENERATE = "delete it and re-run irlsim collect to regenerate it"
 
 
 @dataclass(frozen=True)
@@ -117,18 +115,6 @@ class SplitTensors:
 _ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 
 
-class BadParquetFile(IrlsimError):
-    """A dataset file that is missing, truncated, corrupt, foreign or of another schema version.
-
-    ``str()`` is the one-line user message; ``problem`` is the same without the fix, for callers that
-    repair the file themselves (``irlsim collect`` re-collects the episode)."""
-
-    def __init__(self, path: Path, problem: str, fix: str) -> None:
-        super().__init__(f"{path} {problem}: {fix}")
-        self.path = path
-        self.problem = f"{path} {problem}"
-
-
 def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
     reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
     return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
@@ -161,43 +147,6 @@ def open_parquet(path: Path, table: str, n_control_points: int | None = None) ->
         )
     check_columns(pf.schema_arrow, path, table, n_control_points)
     return pf
-
-
-def check_columns(schema: pa.Schema, path: Path, table: str, n_control_points: int | None = None) -> None:
-    """The file's columns, their types and fixed list widths must be those of this irlsim's ``table``
-    schema (``irlsim.data.schema``): a file whose metadata claims the table but whose columns differ (a
-    'features' list of 14, another K) is refused in one line naming the column, not read into a reshape
-    error. ``n_control_points``: the dataset's K (from its manifest); None = the file's own K."""
-    if table == TABLE_POLICIES:
-        k = n_control_points
-        if k is None:
-            field = schema.field("control_points") if "control_points" in schema.names else None
-            size = getattr(field.type, "list_size", 0) if field is not None else 0
-            k = max(int(size) // 3, 1)
-        expected = policies_schema(k)
-    else:
-        expected = cycles_schema()
-    names = list(schema.names)
-    if names != expected.names:
-        missing = [n for n in expected.names if n not in names]
-        extra = [n for n in names if n not in expected.names]
-        what = (
-            f"lacks column {missing[0]}"
-            if missing
-            else f"has an unknown column {extra[0]}"
-            if extra
-            else "has its columns in another order"
-        )
-        raise BadParquetFile(path, f"{what} (not an irlsim {table} table of this version)", _REGENERATE)
-    for f in expected:
-        got = schema.field(f.name).type
-        if got != f.type:
-            raise BadParquetFile(
-                path,
-                f"column {f.name} is {got}, this irlsim's {table} table has {f.type}"
-                + (" (another planner.n_control_points?)" if f.name in ("control_points", "actions") else ""),
-                "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
-            )
 
 
 def read_parquet(pf: pq.ParquetFile, path: Path, **kwargs: Any) -> pa.Table:
@@ -364,15 +313,7 @@ class Dataset:
         n = int(cycles.column("n_policies")[0].as_py()) if c else 0
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
-        # before any array is written: the cache folder takes files and its disk has room for them
-        per_policy = 4 * (N_FEATURES + 3 * k + 2 * k + 1) + len(LABEL_NAMES)
-        check_output_dir(
-            folder,
-            f"dataset {self.path}: its cache",
-            c * n * per_policy,
-            fix="make the dataset folder writable (the cache of memory-mapped arrays lives in it), or copy "
-            "the dataset to a writable place",
-        )
+        self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)))
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").unlink(missing_ok=True)  # invalid while rebuilding
         specs: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -447,6 +388,16 @@ class Dataset:
             },
         )
 
+    def _check_cache_place(self, folder: Path, nbytes: int) -> None:
+        """Before any array is written: the cache folder takes files and its disk has ``nbytes``."""
+        check_output_dir(
+            folder,
+            f"dataset {self.path}: its cache",
+            nbytes,
+            fix="make the dataset folder writable (the cache of memory-mapped arrays lives in it), or copy "
+            "the dataset to a writable place",
+        )
+
     def _n_control_points(self, split: str) -> int:
         eps = self.episodes(split)
         if not eps:
@@ -504,63 +455,6 @@ class _AtomicNpys:
             m.flush()
         self.maps.clear()  # unmapped before the rename
         self.stack.__exit__(exc_type, exc, tb)
-
-
-def _manifest_error(manifest_path: Path, what: str) -> IrlsimError:
-    return IrlsimError(
-        f"{manifest_path} {what}: re-collect the dataset with 'irlsim collect' (or restore it)"
-    )
-
-
-def _int_list(v: Any) -> bool:
-    return isinstance(v, list) and all(isinstance(x, int) and not isinstance(x, bool) and x >= 0 for x in v)
-
-
-def validate_manifest(manifest: dict[str, Any], manifest_path: Path) -> None:
-    """The manifest against its schema, before anything is read by it (one-line IrlsimError naming the
-    key): schema_version, feature_names, complete (bool), config (a table; planner.n_policies and
-    n_control_points positive integers when present), splits ({split: [episode ids >= 0, unique]}),
-    seeds and counts (tables per split, when present)."""
-    path = manifest_path.parent
-    version = manifest.get("schema_version")
-    if version != SCHEMA_VERSION:
-        raise IrlsimError(
-            f"dataset {path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    names = manifest.get("feature_names")
-    if names != list(FEATURE_NAMES):
-        raise IrlsimError(
-            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    if "complete" in manifest and not isinstance(manifest["complete"], bool):
-        raise _manifest_error(manifest_path, f"has 'complete': {manifest['complete']!r}, not true or false")
-    splits = manifest.get("splits")
-    if not isinstance(splits, dict):
-        raise IrlsimError(f"{manifest_path} has no 'splits' mapping: re-collect it with 'irlsim collect'")
-    for name, episodes in splits.items():
-        if not _int_list(episodes):
-            raise _manifest_error(
-                manifest_path, f"has splits.{name} = {str(episodes)[:40]}, not a list of episode ids >= 0"
-            )
-        if len(set(episodes)) != len(episodes):
-            raise _manifest_error(manifest_path, f"lists an episode of splits.{name} twice")
-    config = manifest.get("config", {})
-    if not isinstance(config, dict):
-        raise _manifest_error(manifest_path, "has a 'config' that is not a table")
-    planner = config.get("planner", {})
-    if not isinstance(planner, dict):
-        raise _manifest_error(manifest_path, "has a 'config.planner' that is not a table")
-    for key in ("n_policies", "n_control_points"):
-        v = planner.get(key, 1)
-        if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-            raise _manifest_error(manifest_path, f"has config.planner.{key} = {v!r}, not an integer >= 1")
-    if not isinstance(manifest.get("seeds", {}), (dict, list)):
-        raise _manifest_error(manifest_path, "has 'seeds' that are neither a table nor a list")
-    counts = manifest.get("counts", {})
-    if not isinstance(counts, dict) or not all(isinstance(v, dict) for v in counts.values()):
-        raise _manifest_error(manifest_path, "has 'counts' that are not a table per split")
 
 
 def open_dataset(path: str | Path) -> Dataset:
