@@ -28,7 +28,9 @@ import numpy as np  # noqa: E402
 
 from irlsim.benchmarks import bench_collect as run_collect  # noqa: E402
 from irlsim.benchmarks import bench_infer as run_infer  # noqa: E402
+from irlsim.config import MAX_SEED, int_in  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
+from irlsim.outputs import check_output_dir  # noqa: E402
 from irlsim.planner.config import PlannerConfig  # noqa: E402
 from irlsim.planner.planner import Planner  # noqa: E402
 from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
@@ -61,15 +63,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="Gymnasium env steps/s (irlsim/Oval-v0, 500 policies), single and 2 AsyncVectorEnv workers",
     )
-    parser.add_argument("--env-steps", type=int, default=200, help="timed env steps (default 200)")
-    parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument("--env-steps", type=int_in(1), default=200, help="timed env steps (default 200)")
+    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
-        type=int,
+        type=int_in(1),
         default=150,
         help="planning cycles per timed collection episode (default 150)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
+    parser.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
+    )
 
 
 # ---------------------------------------------------------------------------------------------- planner
@@ -214,8 +218,7 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
     if args.collect_cycles < 1:
         raise IrlsimError(f"--collect-cycles must be >= 1, got {args.collect_cycles}")
-    if args.out.exists() and not args.out.is_dir():
-        raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
+    check_output_dir(args.out, "--out")
     chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)
     for name in chosen:
         res = SECTIONS[name](args)

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require, to_dict
+from irlsim.config import MAX_SEED, require, require_memory, to_dict
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
 from irlsim.data.schema import stats_name
 from irlsim.data.writer import EpisodeWriter
-from irlsim.planner.config import PlannerConfig
+from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.road import load_road
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
@@ -75,6 +75,15 @@ class CollectConfig:
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        # episode seeds are seed * 1e6 + split offset + i and go to SUMO, which takes at most MAX_SEED: the
+        # derivation is kept (it decides the bytes of every existing dataset), the base seed is bounded
+        last = max(SPLIT_OFFSET[s] + getattr(self, f"{s}_episodes") - 1 for s in SPLITS)
+        max_base = (MAX_SEED - last) // SEED_STRIDE
+        require(
+            self.seed <= max_base,
+            f"seed must be in 0..{max_base} (episode seeds are seed * {SEED_STRIDE:,} + split offset + "
+            f"episode and SUMO takes at most {MAX_SEED}), got {self.seed}",
+        )
         require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
         for s in SPLITS:
             n = getattr(self, f"{s}_episodes")
@@ -90,6 +99,11 @@ class CollectConfig:
             "planner.horizon must equal scenario.horizon",
         )
         self.demo.validate()
+        require_memory(
+            f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
+            self.workers * self.planner.n_policies * PLANNER_BYTES_PER_POLICY,
+            "use fewer policies per cycle or fewer --workers",
+        )
 
     def episodes(self, split: str) -> list[tuple[int, int]]:
         """(episode id, seed) of every episode of ``split``."""
@@ -100,6 +114,17 @@ class CollectConfig:
 #: CollectConfig fields that do not change a byte of the data (workers=1 and workers=2 write the same
 #: files): left out of the manifest's config, so a run may be resumed with another value
 DATA_NEUTRAL_FIELDS: tuple[str, ...] = ("workers",)
+
+
+#: [bytes] one policy row on disk, an upper estimate (the tiny dataset: 1.8 MB for 24,000 rows, ~75 B)
+DISK_BYTES_PER_POLICY_ROW = 128
+
+
+def estimate_dataset_bytes(cfg: CollectConfig) -> int:
+    """Disk a collection will write at most (Parquet), for the free-space check before it starts."""
+    cycles = cfg.max_cycles or int(cfg.scenario.max_time / cfg.scenario.cycle)
+    episodes = cfg.train_episodes + cfg.validation_episodes + cfg.test_episodes
+    return episodes * cycles * cfg.planner.n_policies * DISK_BYTES_PER_POLICY_ROW
 
 
 def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
