@@ -1,10 +1,11 @@
-"""Benchmarks of collection and inference (DESIGN.md section 9); the planner's lives in pipelines/bench.py.
+"""Benchmarks of collection and inference (docs/DESIGN.md section 9); the planner's is in pipelines/bench.py.
 
 Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import tempfile
 import time
@@ -12,14 +13,16 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
+from irlsim.road.network import build_net
+from irlsim.utils import spawn_pool
+
 #: the paper's scale: one hour of driving
 PAPER_TRAIN_CYCLES = 17_000
 
 
 def _collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
-    from irlsim.config import load_config
-    from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
-
     out, seed, cycles, n_policies = args
     cfg = load_config(
         CollectConfig,
@@ -35,9 +38,6 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     One episode of ``cycles`` cycles in this process, then two at once in two spawned workers; the
     wall time of the paper config (17,000 train cycles) with 2 workers is extrapolated from the latter.
     """
-    from irlsim.road.network import build_net
-    from irlsim.utils import spawn_pool
-
     build_net()
     with tempfile.TemporaryDirectory() as tmp:
         one = _collect_one((tmp + "/one", seed, cycles, n_policies))
@@ -69,8 +69,7 @@ def _time_inference(
 ) -> dict[str, Any]:
     """PACNN + PTACNN of sizes ``cfg`` at initial weights: parameters and per-cycle inference [ms] of the
     online predictor (one thread) on one random cycle of ``n_policies`` policies."""
-    import dataclasses
-
+    # lazy: torch (about 1.5 s to import); 'irlsim bench --collect' never needs it
     from irlsim.models.registry import build_model, count_parameters
     from irlsim.train.loading import LoadedModel
     from irlsim.train.predictor import RewardPredictor
@@ -104,8 +103,9 @@ def bench_infer(
     """PACNN + PTACNN inference per cycle (one thread), for the default (small) sizes and for the near-paper
     sizes of ``ModelConfig.paper()`` (keys ``paper_*``), and stage-1 training throughput (cycles/s) of
     the default sizes."""
-    import torch
+    import torch  # lazy, as in _time_inference
 
+    from irlsim.irl.objectives import nll
     from irlsim.models.registry import ModelConfig, build_model
 
     torch.manual_seed(seed)
@@ -115,8 +115,6 @@ def bench_infer(
     paper = _time_inference(ModelConfig.paper(), n_policies, repeats, history, rng)
 
     # training throughput: PACNN forward + NLL + backward on mini-batches of cycles, 2 threads
-    from irlsim.irl.objectives import nll
-
     torch.set_num_threads(2)
     train_model = build_model("PACNN", cfg, n_policies, None).train()
     opt = torch.optim.Adam(train_model.parameters(), lr=1e-3)
@@ -151,4 +149,57 @@ def bench_infer(
         "target": "inference <= 10 ms per cycle; one epoch over 17,000 cycles <= 5 min on 2 cores",
         "what": "infer_*: default sizes (configs/train/stage*.toml); paper_*: ModelConfig.paper() (latent "
         "256, LSTM 256, FC 512); per cycle incl. the PTACNN mixture, one thread, initial weights",
+    }
+
+
+# ------------------------------------------------------------------------------------------ Gymnasium env
+
+
+def _make_env(n_policies: int) -> Any:
+    import gymnasium as gym
+
+    import irlsim.envs  # noqa: F401  (registers the ids)
+
+    return gym.make("irlsim/Oval-v0", overrides={"planner.n_policies": n_policies})
+
+
+def bench_env(steps: int = 200, n_policies: int = 500, n_envs: int = 2, seed: int = 0) -> dict[str, Any]:
+    """Environment steps (planning cycles) per second with uniformly random actions and the expert-theta
+    reward: one ``irlsim/Oval-v0`` in this process, then ``n_envs`` in a ``gymnasium.vector.AsyncVectorEnv``
+    (one libsumo per subprocess, spawned). Resets are outside the single env's timing; the vectorised
+    figure counts every step of every env over the wall time of ``steps`` vector steps (autoresets
+    included)."""
+    from functools import partial
+
+    from gymnasium.vector import AsyncVectorEnv
+
+    from irlsim.road.network import build_net
+
+    build_net()
+    env = _make_env(n_policies)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    n = 0
+    t_single = 0.0
+    while n < steps:
+        t0 = time.perf_counter()
+        _, _, term, trunc, _ = env.step(int(rng.integers(0, n_policies)))
+        t_single += time.perf_counter() - t0
+        n += 1
+        if term or trunc:
+            env.reset(seed=seed + n)
+    env.close()
+    venv = AsyncVectorEnv([partial(_make_env, n_policies)] * n_envs, context="spawn")
+    venv.reset(seed=seed)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        venv.step(rng.integers(0, n_policies, size=n_envs))
+    t_vec = time.perf_counter() - t0
+    venv.close()
+    return {
+        "n_policies": n_policies,
+        "steps": steps,
+        "env_steps_per_s_single": round(steps / t_single, 1),
+        "env_steps_per_s_vector": round(n_envs * steps / t_vec, 1),
+        "n_envs": n_envs,
     }

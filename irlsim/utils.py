@@ -3,15 +3,24 @@
 from __future__ import annotations
 
 import json
+import multiprocessing as mp
 import os
 import random
+import signal
+import sys
 import tempfile
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
+
+from irlsim import THREAD_VARS
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_file as check_output_file_
 
 
 def _current_umask() -> int:
@@ -29,6 +38,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
     On any exception the temporary file is removed, so ``path`` is either the old file or the complete
     new one, never a half-written one. A killed process leaves at most a ``.*.tmp`` file that readers ignore.
+    An OSError on the temporary file is re-raised naming ``path`` (what the user knows).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -40,6 +50,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         if tmp.exists():  # mkstemp creates 0600; give the result the usual umask-based mode
             tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
+    except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
+        if e.filename is not None and str(e.filename) == str(tmp):
+            e.filename = str(path)
+        raise
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -118,9 +132,6 @@ def die_with_parent(parent_pid: int) -> None:
     SIGKILL of the parent leaves no orphan writing into a folder that a new run may then lock. Elsewhere
     only SIGINT is ignored. ``parent_pid`` closes the race of a parent that died before the call.
     """
-    import signal
-    import sys
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         import ctypes
@@ -138,9 +149,7 @@ def seed_everything(seed: int) -> np.random.Generator:
     """Seed Python's and NumPy's global RNGs (and torch's, if imported); return a fresh Generator."""
     random.seed(seed)
     np.random.seed(seed % (2**32))  # noqa: NPY002 - seeds third-party code that uses the global state
-    import sys
-
-    if "torch" in sys.modules:
+    if "torch" in sys.modules:  # never imported here: torch costs ~1.5 s and most commands do not use it
         import torch
 
         torch.manual_seed(seed)
@@ -148,16 +157,12 @@ def seed_everything(seed: int) -> np.random.Generator:
 
 
 def check_non_negative(name: str, value: int | float) -> None:
-    from irlsim.errors import IrlsimError
-
     if value < 0:
         raise IrlsimError(f"--{name} must be >= 0, got {value}")
 
 
 def progress(iterable: Any = None, **kwargs: Any) -> Any:
     """A tqdm progress bar that stays quiet when stderr is not a terminal unless forced."""
-    from tqdm.auto import tqdm
-
     kwargs.setdefault("dynamic_ncols", True)
     kwargs.setdefault("mininterval", 1.0)
     return tqdm(iterable, **kwargs)
@@ -165,8 +170,6 @@ def progress(iterable: Any = None, **kwargs: Any) -> Any:
 
 def timed(fn: Callable[[], Any], repeat: int) -> list[float]:
     """Run ``fn`` ``repeat`` times; return the wall times in seconds."""
-    import time
-
     out = []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -180,23 +183,7 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
-    from irlsim.errors import IrlsimError
-
-    if path.is_dir():
-        raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
-    folder = path.absolute().parent
-    try:
-        while not folder.exists():
-            folder = folder.parent
-        if not folder.is_dir():
-            raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise IrlsimError(
-            f"{option} {path} cannot be written ({e.strerror or type(e).__name__} in {folder}): "
-            "choose a writable place"
-        ) from None
+    check_output_file_(path, option, example)
 
 
 def _init_spawned_worker(parent_pid: int) -> None:  # top level: picklable as the Pool initializer
@@ -213,11 +200,6 @@ def spawn_pool(n: int) -> Any:
     this process's values are restored. SIGINT is ignored here while the workers start, as they inherit
     that through exec: a Ctrl-C during their start-up, before their initializer runs, then prints no
     traceback either."""
-    import multiprocessing as mp
-    import signal
-
-    from irlsim import THREAD_VARS
-
     try:
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     except ValueError:  # not the main thread: signals are not ours to change

@@ -1,4 +1,4 @@
-"""``irlsim bench``: the performance figures of DESIGN.md section 9, as JSON and Markdown.
+"""``irlsim bench``: the performance figures of docs/DESIGN.md section 9, as JSON and Markdown.
 
 Each section is a function ``(args) -> dict`` registered in ``SECTIONS`` and selected by its flag
 (``--planner``, ``--collect``, ``--infer``). Without a section
@@ -19,13 +19,27 @@ for _var in THREAD_VARS:
 import argparse  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
+import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
 
-HELP = "time the planner cycle, collection and inference (DESIGN.md section 9); write JSON and Markdown"
+import numpy as np  # noqa: E402
 
-#: DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
+from irlsim.benchmarks import bench_collect as run_collect  # noqa: E402
+from irlsim.benchmarks import bench_infer as run_infer  # noqa: E402
+from irlsim.config import MAX_SEED, int_in  # noqa: E402
+from irlsim.errors import IrlsimError  # noqa: E402
+from irlsim.outputs import check_output_dir  # noqa: E402
+from irlsim.planner.config import PlannerConfig  # noqa: E402
+from irlsim.planner.planner import Planner  # noqa: E402
+from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
+from irlsim.sim.types import EgoState, Observation, VehicleStates  # noqa: E402
+from irlsim.utils import atomic_write_text, write_json  # noqa: E402
+
+HELP = "time the planner cycle, collection and inference (docs/DESIGN.md section 9); write JSON and Markdown"
+
+#: docs/DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
 TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),
@@ -44,24 +58,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="time collection end to end (SUMO + planner + demonstrations + Parquet)",
     )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
-    parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument(
+        "--env",
+        action="store_true",
+        help="Gymnasium env steps/s (irlsim/Oval-v0, 500 policies), single and 2 AsyncVectorEnv workers",
+    )
+    parser.add_argument("--env-steps", type=int_in(1), default=200, help="timed env steps (default 200)")
+    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
-        type=int,
+        type=int_in(1),
         default=150,
         help="planning cycles per timed collection episode (default 150)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
+    parser.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
+    )
 
 
 # ---------------------------------------------------------------------------------------------- planner
 def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
     """Synthetic cycles on the real road: 15 vehicles within +-150 m in random lanes at 25-35 km/h,
     the ego at 5-20 m/s; a third of them before an active stop line, some before an exit in lane 0."""
-    import numpy as np
-
-    from irlsim.road import LANE_WIDTH, load_road
-    from irlsim.sim.types import EgoState, Observation, VehicleStates
 
     road = load_road()
     rng = np.random.default_rng(seed)
@@ -113,13 +131,6 @@ def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
 
 
 def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
-    import time
-
-    import numpy as np
-
-    from irlsim.planner.config import PlannerConfig
-    from irlsim.planner.planner import Planner
-    from irlsim.road import load_road
 
     planner = Planner(load_road(), PlannerConfig())
     observations = _planner_observations(args.seed)
@@ -155,15 +166,19 @@ def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def bench_collect(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks import bench_collect as run_collect
 
     return run_collect(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
 
 
 def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks import bench_infer as run_infer
 
     return run_infer(n_policies=2500, seed=args.seed)
+
+
+def bench_env(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks import bench_env as run_env
+
+    return run_env(steps=max(args.env_steps, 1), n_policies=500, n_envs=2, seed=args.seed)
 
 
 #: section name -> function; ``--<name>`` selects it
@@ -171,6 +186,7 @@ SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
     "collect": bench_collect,
     "infer": bench_infer,
+    "env": bench_env,
 }
 
 
@@ -197,15 +213,12 @@ def _markdown(results: dict[str, dict[str, Any]]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.errors import IrlsimError
-    from irlsim.utils import atomic_write_text, write_json
 
     if args.cycles < 1:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
     if args.collect_cycles < 1:
         raise IrlsimError(f"--collect-cycles must be >= 1, got {args.collect_cycles}")
-    if args.out.exists() and not args.out.is_dir():
-        raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
+    check_output_dir(args.out, "--out")
     chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)
     for name in chosen:
         res = SECTIONS[name](args)

@@ -17,14 +17,40 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from irlsim import FEATURE_NAMES
+from irlsim.config import MAX_SEED, int_in, load_config, parse_overrides
+from irlsim.data.collection import (
+    SPLITS,
+    CollectConfig,
+    EpisodeJob,
+    collect_episode,
+    data_config,
+    estimate_dataset_bytes,
+    first_difference,
+)
+from irlsim.data.layout import (
+    check_episode,
+    episode_done,
+    remove_episode,
+    remove_partial,
+    write_manifest,
+)
+from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
+from irlsim.road.network import build_net
+from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress, spawn_pool
+
 HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, default=None, help="TOML config (configs/collect/*.toml)")
     p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
-    p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
+    p.add_argument(
+        "--workers", type=int_in(1, 256), default=None, help="worker processes (overrides the config)"
+    )
+    p.add_argument("--seed", type=int_in(0, MAX_SEED), default=None, help="base seed (overrides the config)")
     p.add_argument(
         "--set",
         action="append",
@@ -38,16 +64,11 @@ LOCK_NAME = ".lock"
 
 
 def _run_job(job):  # top level: picklable for spawn workers
-    from irlsim.data.collection import collect_episode
 
     return collect_episode(job)
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides
-    from irlsim.data.collection import CollectConfig
-    from irlsim.errors import IrlsimError
-    from irlsim.utils import LockBusy, check_non_negative, exclusive_lock
 
     overrides = parse_overrides(args.set)
     if args.workers is not None:
@@ -59,8 +80,8 @@ def run(args: argparse.Namespace) -> int:
         overrides["seed"] = args.seed
     cfg = load_config(CollectConfig, args.config, overrides)
     out: Path = args.out
-    if out.exists() and not out.is_dir():
-        raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    # before any work: a folder that takes files, with disk for the dataset (irlsim.outputs)
+    check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
             return _collect(cfg, out)
@@ -72,10 +93,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
     """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
-    from irlsim import FEATURE_NAMES
-    from irlsim.data.collection import data_config, first_difference
-    from irlsim.data.schema import SCHEMA_VERSION
-    from irlsim.errors import IrlsimError
 
     out = manifest_path.parent
     fix = f"choose another --out or delete {out}"
@@ -102,16 +119,6 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
 
 def _collect(cfg: Any, out: Path) -> int:
     """The collection itself, run while this process holds ``<out>/.lock``."""
-    from irlsim.data.collection import SPLITS, EpisodeJob, data_config
-    from irlsim.data.writer import (
-        check_episode,
-        episode_done,
-        remove_episode,
-        remove_partial,
-        write_manifest,
-    )
-    from irlsim.road.network import build_net
-    from irlsim.utils import progress, spawn_pool
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)

@@ -5,6 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim.data.info import dataset_info, format_info
+from irlsim.outputs import check_output_file
+from irlsim.utils import write_json
+
 HELP = "inspect a dataset: 'irlsim data info data/<name>'"
 
 
@@ -15,9 +19,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.data.info import dataset_info, format_info
-    from irlsim.utils import write_json
 
+    if args.json:  # before reading the dataset
+        check_output_file(args.json, "--json", "info.json")
     info = dataset_info(args.path)
     print(format_info(info))
     if args.json:

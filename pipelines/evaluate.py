@@ -6,6 +6,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim.config import int_in
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
+from irlsim.train.evaluate import evaluate_models
+
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
 
@@ -21,12 +27,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--split", default="test", help="split to evaluate on (default: test)")
     p.add_argument(
         "--history",
-        type=int,
+        type=int_in(1),
         default=None,
         help="H: history of predicted thetas [cycles] (default: the PTACNN's own H, else 10; "
         "a PTACNN trained with another H is refused)",
     )
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--threads", type=int_in(1, 1024), default=2, help="torch CPU threads")
     p.add_argument(
         "--no-references",
         action="store_true",
@@ -36,15 +42,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.train.evaluate import evaluate_models
 
     if args.history is not None and args.history < 1:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")
     if args.threads < 1:
         raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
     out = args.out or args.runs / "eval"
+    check_output_dir(out, "--out")
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     evaluate_models(

@@ -16,19 +16,36 @@ import time
 from pathlib import Path
 from typing import Any
 
+from irlsim.config import float_in, int_in, load_config, to_dict
+from irlsim.errors import IrlsimError
+from irlsim.road import load_road
+from irlsim.rollout import EpisodeRunner, make_driver
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import MAX_SEED, Simulation
+from irlsim.utils import check_non_negative, check_output_file, write_json
+
 HELP = "run headless SUMO episodes with a simple driver and report per-episode figures"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--episodes", type=int, default=1, help="number of episodes (>= 1)")
+    parser.add_argument("--episodes", type=int_in(1), default=1, help="number of episodes (>= 1)")
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the first episode (>= 0); episode i uses seed + i"
+        "--seed",
+        type=int_in(0, MAX_SEED),
+        default=0,
+        help="seed of the first episode (>= 0); episode i uses seed + i",
     )
-    parser.add_argument("--laps", type=int, default=None, help="laps per episode (default: the config's, 2)")
-    parser.add_argument("--vehicles", type=int, default=None, help="background vehicles, 0..15 (default 15)")
-    parser.add_argument("--max-time", type=float, default=None, help="time-out per episode [s] (default 600)")
     parser.add_argument(
-        "--driver", default="simple", help="driver name (registered in irlsim.sim.drivers.DRIVERS)"
+        "--laps", type=int_in(1), default=None, help="laps per episode (default: the config's, 2)"
+    )
+    parser.add_argument(
+        "--vehicles", type=int_in(0, 15), default=None, help="background vehicles, 0..15 (default 15)"
+    )
+    parser.add_argument(
+        "--max-time", type=float_in(0), default=None, help="time-out per episode [s] (default 600)"
+    )
+    parser.add_argument(
+        "--driver", default="simple", help="driver name (registered in irlsim.rollout.drivers.DRIVERS)"
     )
     parser.add_argument(
         "--config", type=Path, default=None, help="TOML with ScenarioConfig fields (see irlsim/sim/config.py)"
@@ -42,9 +59,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _scenario(args: argparse.Namespace) -> Any:
-    from irlsim.config import load_config
-    from irlsim.sim.config import ScenarioConfig
+def _scenario(args: argparse.Namespace) -> ScenarioConfig:
 
     overrides: dict[str, Any] = {}
     if args.laps is not None:
@@ -57,12 +72,6 @@ def _scenario(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import to_dict
-    from irlsim.errors import IrlsimError
-    from irlsim.road import load_road
-    from irlsim.sim.drivers import make_driver
-    from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import check_non_negative, check_output_file, write_json
 
     # validate everything before any work, so a bad option never leaves a partial result
     if args.episodes < 1:
@@ -88,19 +97,12 @@ def run(args: argparse.Namespace) -> int:
     episodes: list[dict[str, Any]] = []
     t_start = time.perf_counter()
     with Simulation(road, cfg, gui=args.gui) as sim:
+        runner = EpisodeRunner(sim)
         for i in range(args.episodes):
-            seed = args.seed + i
-            obs = sim.reset(seed)
-            plan_s = 0.0
-            while not sim.done:
-                t0 = time.perf_counter()
-                traj = driver.plan(obs)
-                plan_s += time.perf_counter() - t0
-                sim.execute(traj)
-                obs = sim.observe()
-            stats = sim.stats
+            ended = runner.run(driver, args.seed + i)
+            stats = dict(ended.stats)
             stats["sim/plan_ms_mean"] = round(
-                1e3 * plan_s / max(1, len(sim.odometry) // cfg.steps_per_cycle), 3
+                1e3 * ended.decide_s / max(1, len(sim.odometry) // cfg.steps_per_cycle), 3
             )
             episodes.append({"episode": i, **stats, "events": sim.episode.events if sim.episode else []})
             _print_row(i, stats)

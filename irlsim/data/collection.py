@@ -8,14 +8,24 @@ written as a pair of Parquet files (``EpisodeWriter``). The episode's content de
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require, to_dict
-from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW
-from irlsim.planner.config import PlannerConfig
+from irlsim.config import MAX_SEED, require, require_memory, to_dict
+from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
+from irlsim.data.schema import stats_name
+from irlsim.data.situations import situation_of
+from irlsim.data.writer import EpisodeWriter
+from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
+from irlsim.planner.expert import ExpertDriver
+from irlsim.road import load_road
+from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
 from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import Observation
+from irlsim.utils import seed_everything, write_json
 
 SPLITS = ("train", "validation", "test")
 #: episode seeds: seed * SEED_STRIDE + SPLIT_OFFSET[split] + i, so splits never share a seed
@@ -25,7 +35,7 @@ SPLIT_OFFSET = {"train": 0, "validation": 100_000, "test": 200_000}
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Projection of the odometry onto the policy set (DESIGN.md section 5)."""
+    """Projection of the odometry onto the policy set (docs/DESIGN.md section 5)."""
 
     alpha: float = ALPHA
     """discount per 0.1 s step of the distance's time weights alpha^t"""
@@ -66,6 +76,15 @@ class CollectConfig:
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        # episode seeds are seed * 1e6 + split offset + i and go to SUMO, which takes at most MAX_SEED: the
+        # derivation is kept (it decides the bytes of every existing dataset), the base seed is bounded
+        last = max(SPLIT_OFFSET[s] + getattr(self, f"{s}_episodes") - 1 for s in SPLITS)
+        max_base = (MAX_SEED - last) // SEED_STRIDE
+        require(
+            self.seed <= max_base,
+            f"seed must be in 0..{max_base} (episode seeds are seed * {SEED_STRIDE:,} + split offset + "
+            f"episode and SUMO takes at most {MAX_SEED}), got {self.seed}",
+        )
         require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
         for s in SPLITS:
             n = getattr(self, f"{s}_episodes")
@@ -81,6 +100,11 @@ class CollectConfig:
             "planner.horizon must equal scenario.horizon",
         )
         self.demo.validate()
+        require_memory(
+            f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
+            self.workers * self.planner.n_policies * PLANNER_BYTES_PER_POLICY,
+            "use fewer policies per cycle or fewer --workers",
+        )
 
     def episodes(self, split: str) -> list[tuple[int, int]]:
         """(episode id, seed) of every episode of ``split``."""
@@ -91,6 +115,17 @@ class CollectConfig:
 #: CollectConfig fields that do not change a byte of the data (workers=1 and workers=2 write the same
 #: files): left out of the manifest's config, so a run may be resumed with another value
 DATA_NEUTRAL_FIELDS: tuple[str, ...] = ("workers",)
+
+
+#: [bytes] one policy row on disk, an upper estimate (the tiny dataset: 1.8 MB for 24,000 rows, ~75 B)
+DISK_BYTES_PER_POLICY_ROW = 128
+
+
+def estimate_dataset_bytes(cfg: CollectConfig) -> int:
+    """Disk a collection will write at most (Parquet), for the free-space check before it starts."""
+    cycles = cfg.max_cycles or int(cfg.scenario.max_time / cfg.scenario.cycle)
+    episodes = cfg.train_episodes + cfg.validation_episodes + cfg.test_episodes
+    return episodes * cycles * cfg.planner.n_policies * DISK_BYTES_PER_POLICY_ROW
 
 
 def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
@@ -130,6 +165,43 @@ class EpisodeJob:
     config: CollectConfig
 
 
+class CycleRecorder(ObserverBase):
+    """The recording observer of collection: every cycle's policy set and executed index go to the
+    ``EpisodeWriter``, the odometry of what was actually driven to the ``DemoProjector``, whose
+    demonstrations follow once each cycle's horizon has been driven."""
+
+    def __init__(self, writer: EpisodeWriter, projector: DemoProjector):
+        self.writer, self.projector = writer, projector
+
+    def on_reset(self, sim: Simulation, obs: Observation) -> None:
+        e = obs.ego
+        self.projector.push_odometry(e.t, e.s, e.d, e.yaw)
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        ps, obs, traj = cycle.policy_set, cycle.obs, cycle.trajectory
+        assert ps is not None, "collection records drivers that choose from a policy set (the expert)"
+        e = obs.ego
+        self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
+        ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
+        self.writer.add_cycle(
+            cycle.index,
+            ps,
+            ego,
+            executed_index=cycle.chosen,
+            target_checkpoint=obs.target_checkpoint,
+            situation=situation_of(obs, sim.road),
+        )
+        # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
+        # time-out) must not complete a demonstration window with states that were never driven
+        for j in range(1, cycle.driven + 1):
+            st = traj.state(j)
+            self.projector.push_odometry(st.t, st.s, st.d, st.yaw)
+        self.writer.add_demos(self.projector.pop_ready())
+
+    def on_end(self, sim: Simulation, result: EpisodeResult) -> None:
+        self.writer.add_demos(self.projector.finish())
+
+
 def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
 
@@ -137,24 +209,11 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),
     driving, demonstrations, and writing and renaming its files; ``collect/setup_s`` is the set-up part.
     """
-    import time
-
     t_start = time.perf_counter()
-
-    from irlsim.data.demos import DemoProjector
-    from irlsim.data.schema import stats_name
-    from irlsim.data.situations import situation_of
-    from irlsim.data.writer import EpisodeWriter
-    from irlsim.planner.expert import ExpertDriver
-    from irlsim.road import load_road
-    from irlsim.sim.simulation import Simulation
-    from irlsim.utils import seed_everything, write_json
-
     cfg = job.config
     seed_everything(job.seed)
     road = load_road()
     driver = ExpertDriver(road, cfg.planner)
-    steps = cfg.scenario.steps_per_cycle
     projector = DemoProjector(
         lap_length=road.lap_length,
         horizon=cfg.planner.horizon,
@@ -163,42 +222,20 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
         w_yaw=cfg.demo.w_yaw,
         max_demo_distance=cfg.demo.max_distance,
     )
-    n_cycles = 0
     out = Path(job.dataset)
+    setup = 0.0
+
+    class _SetupClock(ObserverBase):
+        def on_reset(self, sim: Simulation, obs: Observation) -> None:
+            nonlocal setup
+            setup = time.perf_counter() - t_start
+
     with Simulation(road, cfg.scenario) as sim:
         with EpisodeWriter(out, job.split, job.episode) as writer:
-            obs = sim.reset(job.seed)
-            setup = time.perf_counter() - t_start
-            e = obs.ego
-            projector.push_odometry(e.t, e.s, e.d, e.yaw)
-            while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
-                traj = driver.plan(obs)
-                ps, idx = driver.last_policy_set, driver.last_index
-                assert ps is not None, "the expert keeps the policy set of its last plan()"
-                projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
-                ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
-                writer.add_cycle(
-                    n_cycles,
-                    ps,
-                    ego,
-                    executed_index=idx,
-                    target_checkpoint=obs.target_checkpoint,
-                    situation=situation_of(obs, road),
-                )
-                driven = len(sim.odometry)
-                sim.execute(traj, steps)
-                # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
-                # time-out) must not complete a demonstration window with states that were never driven
-                driven = len(sim.odometry) - driven
-                for j in range(1, driven + 1):
-                    st = traj.state(j)
-                    projector.push_odometry(st.t, st.s, st.d, st.yaw)
-                writer.add_demos(projector.pop_ready())
-                n_cycles += 1
-                obs = sim.observe()
-                e = obs.ego
-            writer.add_demos(projector.finish())
-            stats = dict(sim.stats)
+            observers = [_SetupClock(), CycleRecorder(writer, projector)]
+            result = EpisodeRunner(sim, observers=observers, max_cycles=cfg.max_cycles).run(driver, job.seed)
+    n_cycles = result.cycles
+    stats = dict(result.stats)
     # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
     wall = time.perf_counter() - t_start
     stats.update(

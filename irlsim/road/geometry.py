@@ -11,6 +11,8 @@ normal interpolated between vertex normals, and the projection inverts exactly t
 exact (float precision).
 """
 
+# size-ok: one class, Road, whose reference line, projection raster and route-frame maps share private
+# arrays; what is not Road here (the small records and resampling helpers) is a tenth of the file
 from __future__ import annotations
 
 import functools
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from irlsim.errors import IrlsimError
+from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
@@ -51,10 +54,6 @@ def wrap_angle(a: np.ndarray | float) -> np.ndarray:
 def yaw_to_sumo_angle(yaw: float) -> float:
     """ENU yaw [rad] -> SUMO angle [deg, 0 = north, clockwise]."""
     return (90.0 - math.degrees(yaw)) % 360.0
-
-
-def sumo_angle_to_yaw(angle: float) -> float:
-    return float(wrap_angle(math.radians(90.0 - angle)))
 
 
 @dataclass(frozen=True)
@@ -496,11 +495,6 @@ class Road:
         s = (tab[:, 13] + best_t) % self.lap_length
         return s, (qx - footx) * (nx / norm) + (qy - footy) * (ny / norm)
 
-    def segment_of(self, s: np.ndarray) -> np.ndarray:
-        """Index of the reference segment containing route position(s) s (wrapped)."""
-        sw = np.asarray(s, dtype=np.float64) % self.lap_length
-        return self._segment_of_wrapped(sw)
-
     def _segment_of_wrapped(self, sw: np.ndarray) -> np.ndarray:
         """``clip(searchsorted(ref_s, sw, 'right') - 1, 0, M - 1)`` for sw in [0, lap_length], by index
         arithmetic: a guess from the mean vertex spacing, then ``_n_fix`` exact corrections each way."""
@@ -523,7 +517,10 @@ class Road:
         if s.ndim == 0 or d.ndim == 0:  # array arithmetic throughout (0-d arrays out, as before)
             s, d = (np.broadcast_to(a, shape).reshape(-1) for a in (s, d))
         sw = s % self.lap_length
-        seg = self._segment_of_wrapped(sw % self.lap_length)
+        # a tiny negative s wraps to exactly lap_length in floating point: that is s = 0 (found by the
+        # property test of the round trip; t = lap_length on segment 0 put the point 2 km away)
+        sw = np.where(sw >= self.lap_length, 0.0, sw)
+        seg = self._segment_of_wrapped(sw)
         t = sw - self.ref_s[seg]
         # the unit left normal interpolated linearly between the vertex normals (per component)
         f = t / self._seg_len[seg]
@@ -540,7 +537,8 @@ class Road:
         s = np.asarray(s, dtype=np.float64)
         shape = s.shape
         sw = s.reshape(-1) % self.lap_length  # array arithmetic throughout (0-d array out, as before)
-        seg = self._segment_of_wrapped(sw % self.lap_length)
+        sw = np.where(sw >= self.lap_length, 0.0, sw)  # a tiny negative s wraps to lap_length (see to_xy)
+        seg = self._segment_of_wrapped(sw)
         frac = (sw - self.ref_s[seg]) / self._seg_len[seg]
         # blend around the segment's mid point so the heading is continuous: towards the previous
         # segment's heading before it, towards the next one's after it
@@ -588,11 +586,6 @@ class Road:
                 lane, x, y, s, self.ref_s.copy(), float(seg.sum()), self.lap_length
             )
         return self._centrelines[lane]
-
-    def lane_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Loop lane index of world point(s); -1 off the loop (on a ramp, off the road)."""
-        _, d = self.to_frenet(x, y)
-        return self.lane_of_d(d)
 
     # ------------------------------------------------------------------ route distance (Dijkstra)
     def _edge_cost_uncached(self, from_edge: str, to_edge: str) -> float:
@@ -712,8 +705,6 @@ def _load_road_cached(path: str, mtime: float) -> Road:
 
 def load_road(net_file: str | Path | None = None, build: bool = True) -> Road:
     """The oval's :class:`Road`; builds the network first when it is missing or stale (if ``build``)."""
-    from irlsim.road.network import build_net, net_path
-
     if net_file is None:
         net_file = build_net() if build else net_path()
     p = Path(net_file)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from irlsim.config import require
+from irlsim.config import MAX_SEED, require
 from irlsim.models.registry import MODEL_NAMES, STAGE1_MODELS, STAGE2_BASE, ModelConfig
 
 SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
@@ -54,6 +54,9 @@ class TrainConfig:
     """network sizes"""
 
     def validate(self) -> None:
+        require(len(self.models) >= 1, "models is empty: name at least one model to train")
+        require(len(set(self.models)) == len(self.models), f"models {list(self.models)} names a model twice")
+        require(0 <= self.seed <= MAX_SEED, f"seed must be in 0..{MAX_SEED}, got {self.seed}")
         require(self.epochs >= 0, "epochs must be >= 0")
         require(self.batch_size >= 1, "batch_size must be >= 1")
         require(self.lr > 0, "lr must be > 0")

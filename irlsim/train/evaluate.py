@@ -1,6 +1,6 @@
 """Evaluation: Table I of the paper (model, trainable parameters, EVD, ED, OPD, DEMO) and plots.
 
-Protocol (DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
+Protocol (docs/DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
 t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
 temporal mixture over the H-cycle history ending at t. PTACNN's H is fixed by its weights (one softmax
 weight per history entry), so every row uses that H; asking for another is refused. Metrics are
@@ -338,7 +338,7 @@ def evaluate_models(
             f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
     data = get_split(dataset, split)
-    loaded = {name: load_model(path) for name, path in found.items()}
+    loaded = {name: load_model(path, dataset) for name, path in found.items()}
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)

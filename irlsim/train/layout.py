@@ -28,10 +28,12 @@ def find_checkpoint(runs: str | Path, name: str) -> Path | None:
     ``<runs>/<name>/checkpoint.pt`` (``runs`` is itself a stage folder, or a flat folder written by the
     library's ``train_stage1`` / ``train_stage2`` or by irlsim before the stage folders). A runs folder
     with stage folders is read only through them, so a stale checkpoint of the flat layout beside them is
-    never mixed into a table."""
+    never mixed into a table. A ``checkpoint.pt`` that exists but is not a file is returned (so the reader
+    refuses it in one line instead of the model being left out silently)."""
     runs = Path(runs)
     if any(stage_dir(runs, s).is_dir() for s in STAGE_FOLDERS):
         path = stage_dir(runs, model_stage(name)) / name / CHECKPOINT_NAME
     else:
         path = runs / name / CHECKPOINT_NAME
-    return path if path.is_file() else None
+    # a folder named checkpoint.pt is returned too: reading it is a one-line error, not a silent skip
+    return path if path.exists() else None

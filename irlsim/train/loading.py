@@ -11,7 +11,13 @@ from torch import nn
 from irlsim.errors import IrlsimError
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model
-from irlsim.train.checkpoint import inference_state, model_config_from, read_checkpoint
+from irlsim.train.checkpoint import (
+    dataset_identity,
+    expected_identity,
+    inference_state,
+    model_config_from,
+    read_checkpoint,
+)
 
 
 def rebuild_stage1(entry: dict[str, Any]) -> nn.Module:
@@ -48,9 +54,15 @@ class LoadedModel:
         return int(self.checkpoint["base"]["parameters"]), int(self.checkpoint["parameters"])
 
 
-def load_model(checkpoint_path: str | Path) -> LoadedModel:
-    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference (eval mode, CPU)."""
-    ckpt = read_checkpoint(checkpoint_path)
+def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
+    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference (eval mode, CPU).
+
+    Refused (one line) when it is not the model (and stage) of the folder it was found in
+    (:func:`expected_identity`), has non-finite weights, or, with ``dataset`` (the dataset object it will
+    be used with), was trained on another dataset."""
+    folder_model, folder_stage = expected_identity(checkpoint_path)
+    ident = dataset_identity(dataset) if dataset is not None else None
+    ckpt = read_checkpoint(checkpoint_path, model=folder_model, stage=folder_stage, dataset=ident)
     name = ckpt["model"]
     try:
         if name in STAGE2_BASE:

@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from irlsim.config import to_dict
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import count_parameters
 from irlsim.train.checkpoint import save_checkpoint
@@ -60,6 +61,46 @@ def check_finite(loss: torch.Tensor, model: str, epoch: int, lr: float, stage: s
         )
 
 
+#: config fields a resume refuses to change (one line naming the field): they decide what the finished
+#: epochs mean (the seed fixes the initial weights and every epoch's shuffle, max_cycles the train rows and
+#: the feature normalisation, select_by / history what the stored best epoch was selected by, model the
+#: network). Every other field (epochs, lr, weight_decay, grad_clip, batch_size, the attention loss
+#: weights, validate_every, threads, eval_batch, tensorboard, models) may change: the remaining epochs use
+#: the new value and the checkpoint's 'resumes' records {epoch, changed: {field: [old, new]}}.
+REFUSED_ON_RESUME = ("seed", "max_cycles", "select_by", "history", "model")
+
+
+def check_resume(
+    path: Path, ckpt: dict[str, Any], config: dict[str, Any], dataset: str | None
+) -> dict[str, list[Any]]:
+    """Compare an existing checkpoint with what is asked: another dataset or a field of
+    ``REFUSED_ON_RESUME`` -> IrlsimError (one line naming the difference); returns the other changed
+    fields as {field: [old, new]}."""
+    have = ckpt.get("dataset")
+    if dataset is not None and have != dataset:
+        raise IrlsimError(
+            f"{path} was trained on another dataset ({str(have)[:19]}..., --data is {dataset[:19]}...): "
+            "train into another --out, delete the model's folder, or pass the dataset it was trained on"
+        )
+    old = ckpt.get("config") or {}
+    changed = {k: [old.get(k), v] for k, v in config.items() if old.get(k) != v}
+    for key in REFUSED_ON_RESUME:
+        if key in changed:
+            was, now = changed[key]
+            what = "model sizes" if key == "model" else key
+            raise IrlsimError(
+                f"{path} was trained with {what} {_short(was)}, asked {_short(now)}: resuming cannot change "
+                f"{what}; train into another --out, delete the model's folder, or set {key} back"
+            )
+    return changed
+
+
+def _short(v: Any) -> str:
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k}={x}" for k, x in v.items()) + "}"
+    return repr(v)
+
+
 class TrainingRun:
     """One model's training into ``run_dir``: ``build()`` makes the network after seeding torch with
     ``cfg.seed``; ``ckpt`` (a checkpoint already checked to match what is asked) resumes its weights,
@@ -73,19 +114,42 @@ class TrainingRun:
         run_dir: Path,
         ckpt: dict[str, Any] | None,
         build: Callable[[], nn.Module],
+        dataset: str | None = None,
     ) -> None:
         self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
+        self.dataset = dataset
+        self.resumes: list[dict[str, Any]] = list(ckpt.get("resumes") or []) if ckpt else []
         self.ckpt_path = run_dir / CHECKPOINT_NAME
         torch.manual_seed(cfg.seed)
         self.model = build()
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.start_epoch = 0
         if ckpt:
+            changed = check_resume(self.ckpt_path, ckpt, to_dict(cfg), dataset)
             self.model.load_state_dict(ckpt["state_dict"])
             self.optimizer.load_state_dict(ckpt["optimizer"])
+            for group in self.optimizer.param_groups:  # the asked values, not the stored ones
+                group["lr"], group["weight_decay"] = cfg.lr, cfg.weight_decay
             self.start_epoch = int(ckpt["epoch"])
+            if changed and self.start_epoch < cfg.epochs:
+                self.resumes.append({"epoch": self.start_epoch, "changed": changed})
+                print(
+                    f"{name}: resuming after epoch {self.start_epoch} with "
+                    + ", ".join(f"{k} {_short(a)} -> {_short(b)}" for k, (a, b) in changed.items()),
+                    flush=True,
+                )
         self.log = MetricsLog(run_dir, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
         self.best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
+
+    def payload(self, stage_payload: Callable[[int], dict[str, Any]], epochs_done: int) -> dict[str, Any]:
+        """The checkpoint: the stage's entries, then the identity and resume record every checkpoint
+        carries. Metric rows are stored without their wall times (time/*), which differ between identical
+        runs: metrics.csv keeps them."""
+        out = stage_payload(epochs_done)
+        out["metrics"] = [{k: v for k, v in r.items() if not k.startswith("time/")} for r in out["metrics"]]
+        out["dataset"] = self.dataset
+        out["resumes"] = self.resumes
+        return out
 
     def order(self, rows: np.ndarray, epoch: int) -> np.ndarray:
         """The epoch's shuffled ``rows``; depends only on (seed, epoch), so a resumed run sees the same
@@ -122,12 +186,13 @@ class TrainingRun:
             row["time/epoch_s"] = time.perf_counter() - t0
             self.log.add(row)
             self.best.update(row, self.model)
-            save_checkpoint(self.ckpt_path, payload(epoch + 1))
+            save_checkpoint(self.ckpt_path, self.payload(payload, epoch + 1))
         self.log.close()
         if not self.ckpt_path.exists():  # epochs == 0: still leave an (untrained) checkpoint behind
-            save_checkpoint(self.ckpt_path, payload(0))
+            save_checkpoint(self.ckpt_path, self.payload(payload, 0))
         return {
             "checkpoint": str(self.ckpt_path),
+            **({"resumes": self.resumes} if self.resumes else {}),
             "epochs": max(cfg.epochs, self.start_epoch),
             "parameters": count_parameters(self.model),
             **(summary_extra or {}),

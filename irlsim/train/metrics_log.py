@@ -23,7 +23,14 @@ class MetricsLog:
 
     def __init__(self, out_dir: Path, rows: list[dict[str, Any]] | None, tensorboard: bool) -> None:
         self.path = out_dir / METRICS_NAME
-        self.rows = list(rows or [])
+        self.rows = [dict(r) for r in rows or []]
+        if (
+            self.rows
+        ):  # checkpoints keep no wall times (they would differ between identical runs): reuse the log's
+            times = {int(r["epoch"]): r for r in read_metrics(self.path) if r.get("epoch") == r.get("epoch")}
+            for r in self.rows:
+                old = times.get(int(r["epoch"]), {})
+                r.update({k: v for k, v in old.items() if k.startswith("time/")})
         self.writer = None
         if tensorboard:
             try:

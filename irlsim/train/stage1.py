@@ -32,7 +32,7 @@ from irlsim.models.networks import PACNN
 from irlsim.models.normalization import FeatureStats, compute_feature_stats
 from irlsim.models.registry import SEMI_SUPERVISED, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, gather_batch, get_split, predict_split
-from irlsim.train.checkpoint import read_checkpoint
+from irlsim.train.checkpoint import dataset_identity, read_checkpoint
 from irlsim.train.config import Stage1Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loop import TrainingRun
@@ -49,15 +49,11 @@ def validate_stage1(model: torch.nn.Module, split: Any, cfg: Stage1Config) -> di
 def _resume(path: Path, name: str, cfg: Stage1Config, n_policies: int) -> dict[str, Any] | None:
     if not path.exists():
         return None
-    ckpt = read_checkpoint(path)
-    if (
-        ckpt["model"] != name
-        or ckpt["model_config"] != to_dict(cfg.model)
-        or ckpt["n_policies"] != n_policies
-    ):
+    ckpt = read_checkpoint(path, model=name, stage=1)
+    if ckpt["n_policies"] != n_policies:
         raise IrlsimError(
-            f"checkpoint {path} was trained with other model sizes or another dataset: "
-            "delete it (or choose another output folder) to train from scratch"
+            f"checkpoint {path} was trained on N={ckpt['n_policies']} policies per cycle, the dataset has "
+            f"{n_policies}: delete it (or choose another output folder) to train from scratch"
         )
     return ckpt
 
@@ -71,6 +67,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
         return _train_one_stage1(name, dataset, cfg, out_dir)
 
 
+# size-ok: to be replaced by the one training loop of issue 15 point 3 (wt/reliability)
 def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) -> dict[str, Any]:
     meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
     run_dir = out_dir / name
@@ -85,7 +82,10 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
 
     ckpt = _resume(run_dir / CHECKPOINT_NAME, name, cfg, n_policies)
     stats = FeatureStats.from_dict(ckpt["feature_stats"]) if ckpt else compute_feature_stats(train, n_cycles)
-    run = TrainingRun(name, 1, cfg, run_dir, ckpt, lambda: build_model(name, cfg.model, n_policies, stats))
+    ident = dataset_identity(dataset)
+    run = TrainingRun(
+        name, 1, cfg, run_dir, ckpt, lambda: build_model(name, cfg.model, n_policies, stats), ident
+    )
     model = run.model
     semi = name in SEMI_SUPERVISED
 

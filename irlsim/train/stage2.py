@@ -28,7 +28,7 @@ from irlsim.models.networks import PTACNN
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, get_split, predict_split, to_tensor
-from irlsim.train.checkpoint import inference_state, read_checkpoint
+from irlsim.train.checkpoint import dataset_identity, expected_identity, inference_state, read_checkpoint
 from irlsim.train.config import Stage2Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loading import rebuild_stage1
@@ -88,6 +88,7 @@ def train_one_stage2(
         return _train_one_stage2(name, dataset, cfg, out_dir, out_dir if base_dir is None else base_dir)
 
 
+# size-ok: to be replaced by the one training loop of issue 15 point 3 (wt/reliability)
 def _train_one_stage2(
     name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path
 ) -> dict[str, Any]:
@@ -104,7 +105,9 @@ def _train_one_stage2(
             f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 with {base_name} in "
             "its models first (or point --base at the folder holding it)"
         )
-    base_ckpt = read_checkpoint(base_path)
+    ident = dataset_identity(dataset)
+    base_model, base_stage = expected_identity(base_path)
+    base_ckpt = read_checkpoint(base_path, model=base_model or base_name, stage=base_stage, dataset=ident)
     base = rebuild_stage1(base_ckpt)
     for p in base.parameters():
         p.requires_grad_(False)
@@ -132,10 +135,9 @@ def _train_one_stage2(
         )
 
     ckpt_path = out_dir / name / CHECKPOINT_NAME
-    ckpt = read_checkpoint(ckpt_path) if ckpt_path.exists() else None
+    ckpt = read_checkpoint(ckpt_path, model=name, stage=2) if ckpt_path.exists() else None
     if ckpt and (
-        ckpt["model"] != name
-        or ckpt["model_config"] != to_dict(model_cfg)
+        ckpt["model_config"] != to_dict(model_cfg)
         or ckpt["base"]["state_dict"].keys() != base_entry["state_dict"].keys()
         or any(not torch.equal(ckpt["base"]["state_dict"][k], v) for k, v in base_entry["state_dict"].items())
     ):
@@ -144,7 +146,9 @@ def _train_one_stage2(
             "delete it to retrain"
         )
     fstats = FeatureStats.from_dict(base_ckpt["feature_stats"])
-    run = TrainingRun(name, 2, cfg, out_dir / name, ckpt, lambda: build_model(name, model_cfg, 1, fstats))
+    run = TrainingRun(
+        name, 2, cfg, out_dir / name, ckpt, lambda: build_model(name, model_cfg, 1, fstats), ident
+    )
     model = run.model
 
     def train_epoch(epoch: int) -> dict[str, float]:
