@@ -1,4 +1,4 @@
-"""The temporal attention as a strip over time (issue 13): :func:`irlsim.viz.drive.draw_temporal`'s bars of
+"""The temporal attention as a strip over time (issue 13): :func:`irlsim.viz.frames.draw_temporal`'s bars of
 one cycle, stacked for consecutive cycles of a sequential split, with the situation labels on top.
 
 Rows of the strip are the history lags (now at the top, oldest at the bottom), columns the cycles, the
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from irlsim.data.situations import SITUATION_NAMES
-from irlsim.viz.drive import FONT, new_figure, save_figure
+from irlsim.viz.figure import new_figure, save_figure
+from irlsim.viz.frames import FONT
 
 #: colours of the situation codes 0..5 in the top band
 SITUATION_COLOURS = ("#dddddd", "#b00000", "#ff8c00", "#1f77b4", "#2ca02c", "#9467bd")
@@ -90,3 +91,27 @@ def save_temporal_strip(
     line.legend(loc="lower right", fontsize=FONT["legend"], frameon=False)
     line.tick_params(labelsize=FONT["tick"])
     return save_figure(fig, path, dpi)
+
+
+def save_situation_strips(
+    out_dir: str | Path,
+    name: str,
+    weights: np.ndarray,
+    situation: np.ndarray,
+    t: np.ndarray,
+    episode: np.ndarray,
+) -> dict[str, str]:
+    """``temporal_<model>_<situation>.png`` strips of a temporal model over the split's first stop-line
+    approach and first lane change; returns {'strip_<situation>': file name} of those drawn."""
+    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
+
+    out = {}
+    for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
+        win = onset_window(situation, episode, code)
+        if win is None:
+            continue
+        path = Path(out_dir) / f"temporal_{name.replace('+', 'p')}_{label}.png"
+        title = f"{name}: temporal attention, {label.replace('_', ' ')}"
+        save_temporal_strip(path, weights[win], situation[win], t[win], title=title)
+        out[f"strip_{label}"] = path.name
+    return out
