@@ -72,7 +72,7 @@ def _time_inference(
     import dataclasses
 
     from irlsim.models.registry import build_model, count_parameters
-    from irlsim.train.common import LoadedModel
+    from irlsim.train.loading import LoadedModel
     from irlsim.train.predictor import RewardPredictor
 
     cfg = dataclasses.replace(cfg, history=history)

@@ -69,7 +69,7 @@ def load_drive_model(
     spec: str | Path, runs: str | Path | None = None, n_policies: int | None = None, threads: int = 1
 ) -> DriveModel:
     """Resolve ``spec``: 'expert', 'expert-theta', a model name (found in ``runs`` by
-    :func:`irlsim.train.common.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
+    :func:`irlsim.train.layout.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
     ``<runs>/<name>/``) or a checkpoint path.
 
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
@@ -83,7 +83,7 @@ def load_drive_model(
     if spec == EXPERT_THETA:
         return DriveModel(EXPERT_THETA, predictor=FixedTheta())
     if spec in MODEL_NAMES:
-        from irlsim.train.common import find_checkpoint, model_stage, stage_dir
+        from irlsim.train.layout import find_checkpoint, model_stage, stage_dir
 
         if runs is None:
             raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")

@@ -11,7 +11,7 @@ from irlsim import FEATURE_NAMES
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
-from irlsim.train.common import find_checkpoint, stage_dir
+from irlsim.train.layout import find_checkpoint, stage_dir
 from irlsim.train.synthetic import make_synthetic_dataset
 
 H = 4  # Stage2Config.smoke()'s history
