@@ -308,7 +308,11 @@ def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str
 
     started = False
     if not ray.is_initialized():
-        kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
+        kwargs: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "logging_level": "WARNING",
+        }
         if address is None:
             kwargs["num_cpus"] = workers
         else:
