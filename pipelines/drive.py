@@ -73,6 +73,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     from pipelines.collect import add_executor_arguments
 
     add_executor_arguments(p)
+    from irlsim.devices import add_arguments as device_arguments
+
+    device_arguments(p, "reward inference")
 
 
 @dataclass(frozen=True)
@@ -89,6 +92,8 @@ class DriveJob:
     pictures: Any  # PictureSpec | None (absolute folder)
     max_cycles: int
     threads: int
+    device: str = "cpu"
+    precision: str = "fp32"
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -97,10 +102,19 @@ _ROAD: list[Any] = []
 
 
 def _model_key(spec: str, runs: str | None, n_policies: int, threads: int) -> tuple[Any, ...]:
-    return (spec, runs, n_policies, threads)
+    from irlsim.devices import current
+
+    return (spec, runs, n_policies, threads, current())
 
 
 def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for worker processes and Ray
+    from irlsim import devices
+
+    with devices.use(job.device, job.precision):
+        return _drive(job)
+
+
+def _drive(job: DriveJob) -> dict[str, Any]:
     from irlsim.drive.closed_loop import drive_episode, load_drive_model
     from irlsim.road import load_road
 
@@ -123,6 +137,14 @@ def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for wor
 
 
 def run(args: argparse.Namespace) -> int:
+    from irlsim import devices
+
+    device = devices.resolve_device(args.device)  # a missing device is one line, before any work
+    with devices.use(device, args.precision):
+        return _run(args, str(device))
+
+
+def _run(args: argparse.Namespace, device: str) -> int:
     from irlsim.config import load_config
     from irlsim.data.collection import CollectConfig
     from irlsim.drive.closed_loop import PictureSpec, load_drive_model
@@ -174,6 +196,8 @@ def run(args: argparse.Namespace) -> int:
                 pics,
                 args.max_cycles,
                 args.threads,
+                device,
+                args.precision,
             )
             jobs.append(Job(f"{label}/{i}", job))
 
@@ -234,6 +258,8 @@ def run(args: argparse.Namespace) -> int:
                 "config_file": str(args.config) if args.config else None,
                 "n_policies": cfg.planner.n_policies,
                 "max_cycles": args.max_cycles,
+                "device": device,
+                "precision": args.precision,
             },
             "summary": summaries,
             "episodes": episodes,

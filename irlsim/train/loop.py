@@ -16,6 +16,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import count_parameters
 from irlsim.train.checkpoint import save_checkpoint
@@ -77,7 +78,7 @@ class TrainingRun:
         self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
         self.ckpt_path = run_dir / CHECKPOINT_NAME
         torch.manual_seed(cfg.seed)
-        self.model = build()
+        self.model = build().to(current_device())
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.start_epoch = 0
         if ckpt:
