@@ -24,6 +24,7 @@ write their own outputs (atomically), so a run started with one executor resumes
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import traceback
@@ -311,7 +312,7 @@ def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str
         kwargs: dict[str, Any] = {
             "include_dashboard": False,
             "log_to_driver": False,
-            "logging_level": "WARNING",
+            "logging_level": logging.WARNING,
         }
         if address is None:
             kwargs["num_cpus"] = workers
