@@ -56,10 +56,13 @@ drive: setup
 bench: setup
 	$(IRLSIM) bench --out bench
 
+# ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup
 	$(BIN)/ruff check irlsim pipelines tests
 	$(BIN)/ruff format --check irlsim pipelines tests
 	$(BIN)/mypy irlsim pipelines
+	$(BIN)/lint-imports
+	$(BIN)/python tools/check_sizes.py irlsim pipelines
 
 clean:
 	rm -rf $(VENV) data runs bench build *.egg-info sumo_net/oval.net.xml

@@ -5,6 +5,7 @@ Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the fig
 
 from __future__ import annotations
 
+import dataclasses
 import statistics
 import tempfile
 import time
@@ -12,14 +13,16 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
+from irlsim.executor import Job, run_jobs
+from irlsim.road.network import build_net
+
 #: the paper's scale: one hour of driving
 PAPER_TRAIN_CYCLES = 17_000
 
 
 def _collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
-    from irlsim.config import load_config
-    from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
-
     out, seed, cycles, n_policies = args
     cfg = load_config(
         CollectConfig,
@@ -35,9 +38,6 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     One episode of ``cycles`` cycles in this process, then two at once in two spawned workers; the
     wall time of the paper config (17,000 train cycles) with 2 workers is extrapolated from the latter.
     """
-    from irlsim.executor import Job, run_jobs
-    from irlsim.road.network import build_net
-
     build_net()
     with tempfile.TemporaryDirectory() as tmp:
         one = _collect_one((tmp + "/one", seed, cycles, n_policies))
@@ -70,8 +70,7 @@ def _time_inference(
 ) -> dict[str, Any]:
     """PACNN + PTACNN of sizes ``cfg`` at initial weights: parameters and per-cycle inference [ms] of the
     online predictor (one thread) on one random cycle of ``n_policies`` policies."""
-    import dataclasses
-
+    # lazy: torch (about 1.5 s to import); 'irlsim bench --collect' never needs it
     from irlsim.models.registry import build_model, count_parameters
     from irlsim.train.loading import LoadedModel
     from irlsim.train.predictor import RewardPredictor
@@ -105,8 +104,9 @@ def bench_infer(
     """PACNN + PTACNN inference per cycle (one thread), for the default (small) sizes and for the near-paper
     sizes of ``ModelConfig.paper()`` (keys ``paper_*``), and stage-1 training throughput (cycles/s) of
     the default sizes."""
-    import torch
+    import torch  # lazy, as in _time_inference
 
+    from irlsim.irl.objectives import nll
     from irlsim.models.registry import ModelConfig, build_model
 
     torch.manual_seed(seed)
@@ -116,8 +116,6 @@ def bench_infer(
     paper = _time_inference(ModelConfig.paper(), n_policies, repeats, history, rng)
 
     # training throughput: PACNN forward + NLL + backward on mini-batches of cycles, 2 threads
-    from irlsim.irl.objectives import nll
-
     torch.set_num_threads(2)
     train_model = build_model("PACNN", cfg, n_policies, None).train()
     opt = torch.optim.Adam(train_model.parameters(), lr=1e-3)

@@ -5,13 +5,19 @@ from __future__ import annotations
 import json
 import os
 import random
+import signal
+import sys
 import tempfile
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from tqdm.auto import tqdm
+
+from irlsim.errors import IrlsimError
 
 
 def _current_umask() -> int:
@@ -118,9 +124,6 @@ def die_with_parent(parent_pid: int) -> None:
     SIGKILL of the parent leaves no orphan writing into a folder that a new run may then lock. Elsewhere
     only SIGINT is ignored. ``parent_pid`` closes the race of a parent that died before the call.
     """
-    import signal
-    import sys
-
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux"):
         import ctypes
@@ -138,9 +141,7 @@ def seed_everything(seed: int) -> np.random.Generator:
     """Seed Python's and NumPy's global RNGs (and torch's, if imported); return a fresh Generator."""
     random.seed(seed)
     np.random.seed(seed % (2**32))  # noqa: NPY002 - seeds third-party code that uses the global state
-    import sys
-
-    if "torch" in sys.modules:
+    if "torch" in sys.modules:  # never imported here: torch costs ~1.5 s and most commands do not use it
         import torch
 
         torch.manual_seed(seed)
@@ -148,16 +149,12 @@ def seed_everything(seed: int) -> np.random.Generator:
 
 
 def check_non_negative(name: str, value: int | float) -> None:
-    from irlsim.errors import IrlsimError
-
     if value < 0:
         raise IrlsimError(f"--{name} must be >= 0, got {value}")
 
 
 def progress(iterable: Any = None, **kwargs: Any) -> Any:
     """A tqdm progress bar that stays quiet when stderr is not a terminal unless forced."""
-    from tqdm.auto import tqdm
-
     kwargs.setdefault("dynamic_ncols", True)
     kwargs.setdefault("mininterval", 1.0)
     return tqdm(iterable, **kwargs)
@@ -165,8 +162,6 @@ def progress(iterable: Any = None, **kwargs: Any) -> Any:
 
 def timed(fn: Callable[[], Any], repeat: int) -> list[float]:
     """Run ``fn`` ``repeat`` times; return the wall times in seconds."""
-    import time
-
     out = []
     for _ in range(repeat):
         t0 = time.perf_counter()
@@ -180,8 +175,6 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
-    from irlsim.errors import IrlsimError
-
     if path.is_dir():
         raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
     folder = path.absolute().parent

@@ -19,9 +19,21 @@ for _var in THREAD_VARS:
 import argparse  # noqa: E402
 import json  # noqa: E402
 import platform  # noqa: E402
+import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from irlsim.benchmarks import bench_collect as run_collect  # noqa: E402
+from irlsim.benchmarks import bench_infer as run_infer  # noqa: E402
+from irlsim.errors import IrlsimError  # noqa: E402
+from irlsim.planner.config import PlannerConfig  # noqa: E402
+from irlsim.planner.planner import Planner  # noqa: E402
+from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
+from irlsim.sim.types import EgoState, Observation, VehicleStates  # noqa: E402
+from irlsim.utils import atomic_write_text, write_json  # noqa: E402
 
 HELP = "time the planner cycle, collection and inference (DESIGN.md section 9); write JSON and Markdown"
 
@@ -65,10 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
     """Synthetic cycles on the real road: 15 vehicles within +-150 m in random lanes at 25-35 km/h,
     the ego at 5-20 m/s; a third of them before an active stop line, some before an exit in lane 0."""
-    import numpy as np
-
-    from irlsim.road import LANE_WIDTH, load_road
-    from irlsim.sim.types import EgoState, Observation, VehicleStates
 
     road = load_road()
     rng = np.random.default_rng(seed)
@@ -120,13 +128,6 @@ def _planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
 
 
 def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
-    import time
-
-    import numpy as np
-
-    from irlsim.planner.config import PlannerConfig
-    from irlsim.planner.planner import Planner
-    from irlsim.road import load_road
 
     planner = Planner(load_road(), PlannerConfig())
     observations = _planner_observations(args.seed)
@@ -162,13 +163,11 @@ def bench_planner(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def bench_collect(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks import bench_collect as run_collect
 
     return run_collect(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
 
 
 def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks import bench_infer as run_infer
 
     return run_infer(n_policies=2500, seed=args.seed)
 
@@ -211,8 +210,6 @@ def _markdown(results: dict[str, dict[str, Any]]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.errors import IrlsimError
-    from irlsim.utils import atomic_write_text, write_json
 
     if args.cycles < 1:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")

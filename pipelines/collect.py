@@ -20,6 +20,29 @@ import time
 from pathlib import Path
 from typing import Any
 
+from irlsim import FEATURE_NAMES
+from irlsim.config import load_config, parse_overrides
+from irlsim.data.collection import (
+    SPLITS,
+    CollectConfig,
+    EpisodeJob,
+    collect_episode,
+    data_config,
+    first_difference,
+)
+from irlsim.data.layout import (
+    check_episode,
+    episode_done,
+    remove_episode,
+    remove_partial,
+    write_manifest,
+)
+from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.errors import IrlsimError
+from irlsim.executor import Job, check_executor, describe_failures, run_jobs
+from irlsim.road.network import build_net
+from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress
+
 HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
 
 
@@ -59,17 +82,11 @@ LOCK_NAME = ".lock"
 
 
 def _run_job(job):  # top level: picklable for spawn workers and Ray tasks
-    from irlsim.data.collection import collect_episode
 
     return collect_episode(job)
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides
-    from irlsim.data.collection import CollectConfig
-    from irlsim.errors import IrlsimError
-    from irlsim.executor import check_executor
-    from irlsim.utils import LockBusy, check_non_negative, exclusive_lock
 
     overrides = parse_overrides(args.set)
     if args.workers is not None:
@@ -95,10 +112,6 @@ def run(args: argparse.Namespace) -> int:
 
 def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
     """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
-    from irlsim import FEATURE_NAMES
-    from irlsim.data.collection import data_config, first_difference
-    from irlsim.data.schema import SCHEMA_VERSION
-    from irlsim.errors import IrlsimError
 
     out = manifest_path.parent
     fix = f"choose another --out or delete {out}"
@@ -125,17 +138,6 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
 
 def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
     """The collection itself, run while this process holds ``<out>/.lock``."""
-    from irlsim.data.collection import SPLITS, EpisodeJob, data_config
-    from irlsim.data.writer import (
-        check_episode,
-        episode_done,
-        remove_episode,
-        remove_partial,
-        write_manifest,
-    )
-    from irlsim.executor import Job, describe_failures, run_jobs
-    from irlsim.road.network import build_net
-    from irlsim.utils import progress
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)

@@ -5,6 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim.data.info import dataset_info, format_info
+from irlsim.utils import write_json
+
 HELP = "inspect a dataset: 'irlsim data info data/<name>'"
 
 
@@ -15,8 +18,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.data.info import dataset_info, format_info
-    from irlsim.utils import write_json
 
     info = dataset_info(args.path)
     print(format_info(info))

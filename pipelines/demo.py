@@ -12,6 +12,9 @@ import argparse
 import time
 from pathlib import Path
 
+from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE
+from pipelines.commands import main
+
 HELP = "run the whole chain on the default config: net, collect, train (2 stages), evaluate, drive"
 
 CONFIGS = Path(__file__).resolve().parents[1] / "configs"
@@ -106,7 +109,6 @@ def _train(preset: str) -> str:
 def outputs(args: argparse.Namespace) -> list[tuple[str, list[str]]]:
     """What the demo leaves behind, as printed at its end: (label, paths), a path's ``{a,b}`` standing
     for one path per name (shell brace notation). Every path exists after a successful run."""
-    from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE
 
     d, r = args.data, args.runs
     s1, s2 = ",".join(STAGE1_MODELS), ",".join(STAGE2_BASE)
@@ -135,7 +137,6 @@ def expand(pattern: str) -> list[Path]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.cli import main
 
     t0 = time.perf_counter()
     for cmd in steps(args):

@@ -17,6 +17,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from irlsim import devices
+from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig
+from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
+from irlsim.drive.metrics import markdown_table, summarize
+from irlsim.errors import IrlsimError
+from irlsim.executor import Job, check_executor, describe_failures, run_jobs
+from irlsim.road import load_road
+from irlsim.utils import atomic_write_text, write_json
+from pipelines.collect import add_executor_arguments
+
 HELP = (
     "drive the ego in SUMO with the expert and learned rewards: closed-loop table (JSON, Markdown), pictures"
 )
@@ -73,12 +84,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="episodes driven in parallel processes, one libsumo each (default: 1, in this process); "
         "drive.json is the same for any count",
     )
-    from pipelines.collect import add_executor_arguments
-
     add_executor_arguments(p)
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "reward inference")
+    devices.add_arguments(p, "reward inference")
 
 
 @dataclass(frozen=True)
@@ -105,22 +112,15 @@ _ROAD: list[Any] = []
 
 
 def _model_key(spec: str, runs: str | None, n_policies: int, threads: int) -> tuple[Any, ...]:
-    from irlsim.devices import current
-
-    return (spec, runs, n_policies, threads, current())
+    return (spec, runs, n_policies, threads, devices.current())
 
 
 def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for worker processes and Ray
-    from irlsim import devices
-
     with devices.use(job.device, job.precision):
         return _drive(job)
 
 
 def _drive(job: DriveJob) -> dict[str, Any]:
-    from irlsim.drive.closed_loop import drive_episode, load_drive_model
-    from irlsim.road import load_road
-
     key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
     if key not in _MODELS:
         _MODELS[key] = load_drive_model(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
@@ -139,22 +139,14 @@ def _drive(job: DriveJob) -> dict[str, Any]:
     )
 
 
+# size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
 def run(args: argparse.Namespace) -> int:
-    from irlsim import devices
-
     device = devices.resolve_device(args.device)  # a missing device is one line, before any work
     with devices.use(device, args.precision):
         return _run(args, str(device))
 
 
 def _run(args: argparse.Namespace, device: str) -> int:
-    from irlsim.config import load_config
-    from irlsim.data.collection import CollectConfig
-    from irlsim.drive.closed_loop import PictureSpec, load_drive_model
-    from irlsim.drive.metrics import markdown_table, summarize
-    from irlsim.errors import IrlsimError
-    from irlsim.executor import Job, check_executor, describe_failures, run_jobs
-    from irlsim.utils import atomic_write_text, write_json
 
     for name in ("episodes", "laps"):
         if getattr(args, name) < 1:

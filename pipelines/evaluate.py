@@ -6,6 +6,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim import devices
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.train.evaluate import evaluate_models
+
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
 
@@ -27,16 +32,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "a PTACNN trained with another H is refused)",
     )
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "evaluation")
+    devices.add_arguments(p, "evaluation")
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim import devices
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.train.evaluate import evaluate_models
 
     if args.history is not None and args.history < 1:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from irlsim.road import load_road
+from irlsim.road.network import build_net
+
 HELP = "build the SUMO network of the oval course (sumo_net/oval.net.xml) and describe it"
 
 
@@ -12,8 +15,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.road import load_road
-    from irlsim.road.network import build_net
 
     path = build_net(force=args.force)
     road = load_road(path)

@@ -5,6 +5,18 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
+from irlsim import FEATURE_NAMES
+from irlsim.config import load_config
+from irlsim.errors import IrlsimError
+from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
+from irlsim.road import load_road
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import MAX_SEED, Simulation
+from irlsim.utils import atomic_path, check_output_file
+from irlsim.viz.cycle import draw_cycle
+
 HELP = "draw one planning cycle's policies coloured by value under a theta (expert driving in SUMO)"
 
 
@@ -21,21 +33,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    import matplotlib
+    import matplotlib  # lazy: pyplot costs about a second at start-up; only this command needs it
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import numpy as np
-
-    from irlsim import FEATURE_NAMES
-    from irlsim.config import load_config
-    from irlsim.errors import IrlsimError
-    from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
-    from irlsim.road import load_road
-    from irlsim.sim.config import ScenarioConfig
-    from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import atomic_path, check_output_file
-    from irlsim.viz.cycle import draw_cycle
 
     # validate everything before driving, so a bad option fails at once and writes nothing
     if args.seed < 0 or args.time < 0:

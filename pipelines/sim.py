@@ -16,6 +16,14 @@ import time
 from pathlib import Path
 from typing import Any
 
+from irlsim.config import load_config, to_dict
+from irlsim.errors import IrlsimError
+from irlsim.road import load_road
+from irlsim.rollout import EpisodeRunner, make_driver
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import MAX_SEED, Simulation
+from irlsim.utils import check_non_negative, check_output_file, write_json
+
 HELP = "run headless SUMO episodes with a simple driver and report per-episode figures"
 
 
@@ -28,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--vehicles", type=int, default=None, help="background vehicles, 0..15 (default 15)")
     parser.add_argument("--max-time", type=float, default=None, help="time-out per episode [s] (default 600)")
     parser.add_argument(
-        "--driver", default="simple", help="driver name (registered in irlsim.sim.drivers.DRIVERS)"
+        "--driver", default="simple", help="driver name (registered in irlsim.rollout.drivers.DRIVERS)"
     )
     parser.add_argument(
         "--config", type=Path, default=None, help="TOML with ScenarioConfig fields (see irlsim/sim/config.py)"
@@ -43,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _scenario(args: argparse.Namespace) -> Any:
-    from irlsim.config import load_config
-    from irlsim.sim.config import ScenarioConfig
 
     overrides: dict[str, Any] = {}
     if args.laps is not None:
@@ -57,12 +63,6 @@ def _scenario(args: argparse.Namespace) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim.config import to_dict
-    from irlsim.errors import IrlsimError
-    from irlsim.road import load_road
-    from irlsim.sim.drivers import make_driver
-    from irlsim.sim.simulation import MAX_SEED, Simulation
-    from irlsim.utils import check_non_negative, check_output_file, write_json
 
     # validate everything before any work, so a bad option never leaves a partial result
     if args.episodes < 1:
@@ -88,19 +88,12 @@ def run(args: argparse.Namespace) -> int:
     episodes: list[dict[str, Any]] = []
     t_start = time.perf_counter()
     with Simulation(road, cfg, gui=args.gui) as sim:
+        runner = EpisodeRunner(sim)
         for i in range(args.episodes):
-            seed = args.seed + i
-            obs = sim.reset(seed)
-            plan_s = 0.0
-            while not sim.done:
-                t0 = time.perf_counter()
-                traj = driver.plan(obs)
-                plan_s += time.perf_counter() - t0
-                sim.execute(traj)
-                obs = sim.observe()
-            stats = sim.stats
+            ended = runner.run(driver, args.seed + i)
+            stats = dict(ended.stats)
             stats["sim/plan_ms_mean"] = round(
-                1e3 * plan_s / max(1, len(sim.odometry) // cfg.steps_per_cycle), 3
+                1e3 * ended.decide_s / max(1, len(sim.odometry) // cfg.steps_per_cycle), 3
             )
             episodes.append({"episode": i, **stats, "events": sim.episode.events if sim.episode else []})
             _print_row(i, stats)

@@ -13,6 +13,17 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from irlsim import devices
+from irlsim.config import load_config, parse_overrides, to_dict
+from irlsim.data.reader import open_dataset
+from irlsim.errors import IrlsimError
+from irlsim.models.registry import format_parameters
+from irlsim.train import config as tc
+from irlsim.train.layout import stage_dir
+from irlsim.train.stage1 import train_stage1
+from irlsim.train.stage2 import train_stage2
+from irlsim.utils import write_json
+
 HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTACNN on frozen PACNN)"
 
 
@@ -35,14 +46,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="stage 2 only: folder with the frozen stage-1 PACNN/ and PACNN+S/ (default: OUT/stage1)",
     )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "training")
+    devices.add_arguments(p, "training")
 
 
 def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
     """One line per trained model: its trainable parameters (and the frozen base's, for stage 2)."""
-    from irlsim.models.registry import format_parameters
 
     lines = []
     for name, s in summary.items():
@@ -55,22 +63,12 @@ def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from irlsim import devices
-
     device = devices.resolve_device(args.device)  # a missing device is one line, before any work
     with devices.use(device, args.precision):
         return _run(args)
 
 
 def _run(args: argparse.Namespace) -> int:
-    from irlsim.config import load_config, parse_overrides, to_dict
-    from irlsim.data.reader import open_dataset
-    from irlsim.errors import IrlsimError
-    from irlsim.train import config as tc
-    from irlsim.train.layout import stage_dir
-    from irlsim.train.stage1 import train_stage1
-    from irlsim.train.stage2 import train_stage2
-    from irlsim.utils import write_json
 
     if args.base is not None and args.stage != 2:
         raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")

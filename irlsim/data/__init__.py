@@ -7,9 +7,10 @@ Public API: ``policy_distance``, ``DemoProjector`` (demos); ``EpisodeWriter``, `
 
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, Projection, policy_distance
 from irlsim.data.info import dataset_info, format_info
+from irlsim.data.layout import episode_done, remove_partial, write_manifest
 from irlsim.data.reader import Dataset, SplitTensors, open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
-from irlsim.data.writer import EpisodeWriter, episode_done, remove_partial, write_manifest
+from irlsim.data.writer import EpisodeWriter
 
 __all__ = [
     "ALPHA",

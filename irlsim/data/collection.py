@@ -8,14 +8,23 @@ written as a pair of Parquet files (``EpisodeWriter``). The episode's content de
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from irlsim.config import require, to_dict
-from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW
+from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
+from irlsim.data.schema import stats_name
+from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.config import PlannerConfig
+from irlsim.planner.expert import ExpertDriver
+from irlsim.road import load_road
+from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
 from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import Observation
+from irlsim.utils import seed_everything, write_json
 
 SPLITS = ("train", "validation", "test")
 #: episode seeds: seed * SEED_STRIDE + SPLIT_OFFSET[split] + i, so splits never share a seed
@@ -130,6 +139,38 @@ class EpisodeJob:
     config: CollectConfig
 
 
+class CycleRecorder(ObserverBase):
+    """The recording observer of collection: every cycle's policy set and executed index go to the
+    ``EpisodeWriter``, the odometry of what was actually driven to the ``DemoProjector``, whose
+    demonstrations follow once each cycle's horizon has been driven."""
+
+    def __init__(self, writer: EpisodeWriter, projector: DemoProjector):
+        self.writer, self.projector = writer, projector
+
+    def on_reset(self, sim: Simulation, obs: Observation) -> None:
+        e = obs.ego
+        self.projector.push_odometry(e.t, e.s, e.d, e.yaw)
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        ps, obs, traj = cycle.policy_set, cycle.obs, cycle.trajectory
+        assert ps is not None, "collection records drivers that choose from a policy set (the expert)"
+        e = obs.ego
+        self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
+        ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
+        self.writer.add_cycle(
+            cycle.index, ps, ego, executed_index=cycle.chosen, target_checkpoint=obs.target_checkpoint
+        )
+        # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
+        # time-out) must not complete a demonstration window with states that were never driven
+        for j in range(1, cycle.driven + 1):
+            st = traj.state(j)
+            self.projector.push_odometry(st.t, st.s, st.d, st.yaw)
+        self.writer.add_demos(self.projector.pop_ready())
+
+    def on_end(self, sim: Simulation, result: EpisodeResult) -> None:
+        self.writer.add_demos(self.projector.finish())
+
+
 def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
 
@@ -137,23 +178,11 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),
     driving, demonstrations, and writing and renaming its files; ``collect/setup_s`` is the set-up part.
     """
-    import time
-
     t_start = time.perf_counter()
-
-    from irlsim.data.demos import DemoProjector
-    from irlsim.data.schema import stats_name
-    from irlsim.data.writer import EpisodeWriter
-    from irlsim.planner.expert import ExpertDriver
-    from irlsim.road import load_road
-    from irlsim.sim.simulation import Simulation
-    from irlsim.utils import seed_everything, write_json
-
     cfg = job.config
     seed_everything(job.seed)
     road = load_road()
     driver = ExpertDriver(road, cfg.planner)
-    steps = cfg.scenario.steps_per_cycle
     projector = DemoProjector(
         lap_length=road.lap_length,
         horizon=cfg.planner.horizon,
@@ -162,37 +191,20 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
         w_yaw=cfg.demo.w_yaw,
         max_demo_distance=cfg.demo.max_distance,
     )
-    n_cycles = 0
     out = Path(job.dataset)
+    setup = 0.0
+
+    class _SetupClock(ObserverBase):
+        def on_reset(self, sim: Simulation, obs: Observation) -> None:
+            nonlocal setup
+            setup = time.perf_counter() - t_start
+
     with Simulation(road, cfg.scenario) as sim:
         with EpisodeWriter(out, job.split, job.episode) as writer:
-            obs = sim.reset(job.seed)
-            setup = time.perf_counter() - t_start
-            e = obs.ego
-            projector.push_odometry(e.t, e.s, e.d, e.yaw)
-            while not sim.done and (cfg.max_cycles == 0 or n_cycles < cfg.max_cycles):
-                traj = driver.plan(obs)
-                ps, idx = driver.last_policy_set, driver.last_index
-                assert ps is not None, "the expert keeps the policy set of its last plan()"
-                projector.push_cycle(n_cycles, ps.t, ps.s, ps.d, ps.yaw)
-                ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
-                writer.add_cycle(
-                    n_cycles, ps, ego, executed_index=idx, target_checkpoint=obs.target_checkpoint
-                )
-                driven = len(sim.odometry)
-                sim.execute(traj, steps)
-                # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
-                # time-out) must not complete a demonstration window with states that were never driven
-                driven = len(sim.odometry) - driven
-                for j in range(1, driven + 1):
-                    st = traj.state(j)
-                    projector.push_odometry(st.t, st.s, st.d, st.yaw)
-                writer.add_demos(projector.pop_ready())
-                n_cycles += 1
-                obs = sim.observe()
-                e = obs.ego
-            writer.add_demos(projector.finish())
-            stats = dict(sim.stats)
+            observers = [_SetupClock(), CycleRecorder(writer, projector)]
+            result = EpisodeRunner(sim, observers=observers, max_cycles=cfg.max_cycles).run(driver, job.seed)
+    n_cycles = result.cycles
+    stats = dict(result.stats)
     # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
     wall = time.perf_counter() - t_start
     stats.update(

@@ -17,14 +17,23 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
 from irlsim.data.collection import CollectConfig
+from irlsim.drive.metrics import episode_metrics
 from irlsim.errors import IrlsimError
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
-from irlsim.sim.types import Observation
+from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
+from irlsim.planner.planner import Planner
+from irlsim.planner.policy_set import PolicySet
+from irlsim.road import Road
+from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import Observation, Trajectory
+from irlsim.utils import progress, seed_everything
+from irlsim.viz.frames import save_animation, save_frame_pictures
+from irlsim.viz.scene import CycleFrame, make_frame
 
 EXPERT = "expert"
 #: the expert's hand-tuned theta alone: argmax V every cycle, without the expert's model-based selection
@@ -32,14 +41,27 @@ EXPERT = "expert"
 EXPERT_THETA = "expert-theta"
 
 
+class ThetaPredictor(Protocol):
+    """What drives a learned model: theta [15] (and pictures' info) from one cycle's policy set;
+    :class:`irlsim.train.predictor.RewardPredictor` and :class:`FixedTheta` are ones."""
+
+    name: str
+
+    def predict(
+        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, Any]]: ...
+
+    def reset(self) -> None: ...
+
+
 class FixedTheta:
     """A reward 'predictor' that always returns the expert's theta (``expert-theta``)."""
 
     name = EXPERT_THETA
 
-    def predict(self, features: Any, control_points: Any, actions: Any) -> tuple[np.ndarray, dict[str, Any]]:
-        from irlsim.planner.expert import THETA_EXPERT
-
+    def predict(
+        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
+    ) -> tuple[np.ndarray, dict[str, Any]]:
         return THETA_EXPERT.copy(), {}
 
     def reset(self) -> None:
@@ -52,7 +74,7 @@ class DriveModel:
 
     name: str
     checkpoint: Path | None = None
-    predictor: Any = None  # irlsim.train.predictor.RewardPredictor
+    predictor: ThetaPredictor | None = None
 
     @property
     def is_expert(self) -> bool:
@@ -60,7 +82,7 @@ class DriveModel:
 
 
 def model_names() -> tuple[str, ...]:
-    from irlsim.models.registry import MODEL_NAMES
+    from irlsim.models.registry import MODEL_NAMES  # lazy: torch (~1.5 s), not needed to drive the expert
 
     return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
 
@@ -75,7 +97,10 @@ def load_drive_model(
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
     (the networks are built for the training set's N, and the features would not match anyway).
     """
+    # lazy: these import torch (~1.5 s); the expert and expert-theta drive without it
     from irlsim.models.registry import MODEL_NAMES
+    from irlsim.train.layout import find_checkpoint, model_stage, stage_dir
+    from irlsim.train.predictor import RewardPredictor
 
     spec = str(spec)
     if spec == EXPERT:
@@ -83,8 +108,6 @@ def load_drive_model(
     if spec == EXPERT_THETA:
         return DriveModel(EXPERT_THETA, predictor=FixedTheta())
     if spec in MODEL_NAMES:
-        from irlsim.train.layout import find_checkpoint, model_stage, stage_dir
-
         if runs is None:
             raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")
         found = find_checkpoint(runs, spec)
@@ -103,8 +126,6 @@ def load_drive_model(
             )
         if not path.is_file():
             raise IrlsimError(f"checkpoint {path} not found: run 'irlsim train' first (or fix the path)")
-    from irlsim.train.predictor import RewardPredictor
-
     predictor = RewardPredictor(path, threads=threads)
     ck = predictor.loaded.checkpoint
     trained_n = int((ck.get("base") or ck).get("n_policies", 0))
@@ -150,11 +171,11 @@ class PictureSpec:
 
 
 class FrameRecorder:
-    """Collects :class:`~irlsim.viz.drive.CycleFrame` records during an episode (see :class:`PictureSpec`)."""
+    """Collects :class:`~irlsim.viz.scene.CycleFrame` records during an episode (see :class:`PictureSpec`)."""
 
     def __init__(self, spec: PictureSpec, road: Road, model: str, ego_size: tuple[float, float]):
         self.spec, self.road, self.model, self.ego_size = spec, road, model, ego_size
-        self.window: deque[Any] = deque(maxlen=max(spec.frames, 1))
+        self.window: deque[CycleFrame] = deque(maxlen=max(spec.frames, 1))
         self.trigger: int | None = None
         self.after = 0
 
@@ -172,7 +193,13 @@ class FrameRecorder:
         return cycle % self.spec.stride == 0
 
     def add(
-        self, cycle: int, obs: Observation, ps: Any, chosen: int, theta: np.ndarray, info: dict[str, Any]
+        self,
+        cycle: int,
+        obs: Observation,
+        ps: PolicySet,
+        chosen: int,
+        theta: np.ndarray,
+        info: dict[str, Any],
     ) -> None:
         self.window.append(
             make_frame(
@@ -194,8 +221,6 @@ class FrameRecorder:
 
     def write(self, reference: np.ndarray | None) -> list[str]:
         """Stills and ``episode.gif`` into ``spec.out_dir``; returns the paths written."""
-        from irlsim.viz.drive import save_animation, save_frame_pictures
-
         frames = list(self.window)
         if not frames:
             return []
@@ -209,107 +234,32 @@ class FrameRecorder:
         return [str(p) for p in paths]
 
 
-def road_lines(
-    road: Road, s0: float, behind: float = 40.0, ahead: float = 160.0
-) -> tuple[tuple[str, np.ndarray], ...]:
-    """Lane edges, dividers, stop lines and exit ramps within [s0 - behind, s0 + ahead] as world polylines."""
-    s = np.arange(s0 - behind, s0 + ahead, 2.0)
-    lines: list[tuple[str, np.ndarray]] = []
-    for d in (-HALF_ROAD, -LANE_WIDTH / 2, LANE_WIDTH / 2, HALF_ROAD):
-        x, y = road.to_xy(s, np.full_like(s, d))
-        lines.append(("edge" if abs(d) == HALF_ROAD else "divider", np.stack([x, y], axis=1)))
-    lap = road.lap_length
-    for sl in road.stop_lines:
-        rel_s = (sl.s - s0 + behind) % lap - behind
-        if -behind <= rel_s <= ahead:
-            x, y = road.to_xy(np.full(2, s0 + rel_s), np.array([-HALF_ROAD, HALF_ROAD]))
-            lines.append(("stop", np.stack([x, y], axis=1)))
-    for ex in road.exits:
-        rel = (ex.ramp_s - s0 + behind) % lap - behind
-        ok = (rel >= -behind) & (rel <= ahead)
-        if ok.sum() >= 2:
-            for off in (-LANE_WIDTH / 2, LANE_WIDTH / 2):
-                x, y = road.to_xy(s0 + rel[ok], ex.ramp_d[ok] + off)
-                lines.append(("ramp", np.stack([x, y], axis=1)))
-    return tuple(lines)
-
-
-def make_frame(
-    road: Road,
-    model: str,
-    cycle: int,
-    obs: Observation,
-    ps: Any,
-    chosen: int,
-    theta: np.ndarray,
-    info: dict[str, Any],
-    ego_size: tuple[float, float],
-    top_k: int = 10,
-    max_policies: int = 300,
-) -> Any:
-    """A CycleFrame of one cycle: a subset of ``ps``'s policies (chosen, top-k attention, an even spread
-    over the progress order), value ranks over all N policies, the vehicles and the road around the ego."""
-    from irlsim.viz.drive import CycleFrame, drawn_subset, value_ranks
-
-    att = info.get("attention")
-    top = np.zeros(0, dtype=np.int64)
-    if att is not None and top_k > 0:
-        top = np.argsort(-np.asarray(att), kind="stable")[:top_k]
-    idx = drawn_subset(ps.n_policies, max_policies, np.append(top, chosen))
-    rank = value_ranks(ps.value(theta))
-    ego = obs.ego
-    vehicles = obs.vehicles.boxes()
-    tw = info.get("temporal_weights")
-    return CycleFrame(
-        model=model,
-        cycle=cycle,
-        t=float(ego.t),
-        x=ps.x[idx].astype(np.float32),
-        y=ps.y[idx].astype(np.float32),
-        value_rank=rank[idx],
-        top_attention=np.isin(idx, top),
-        chosen=int(np.searchsorted(idx, chosen)),
-        theta=np.asarray(theta, dtype=np.float64),
-        ego=(
-            float(ego.x),
-            float(ego.y),
-            float(ego.yaw),
-            float(ego.v),
-            float(ego_size[0]),
-            float(ego_size[1]),
-        ),
-        vehicles=vehicles.astype(np.float64),
-        attention=None if att is None else np.asarray(att, dtype=np.float32)[idx],
-        temporal_weights=None if tw is None else np.asarray(tw, dtype=np.float64),
-        lines=road_lines(road, float(ego.s)),
-        info={"lane": int(ego.lane), "target_checkpoint": int(obs.target_checkpoint)},
-        view_yaw=float(road.heading(np.array(ego.s))),
-    )
-
-
 # ------------------------------------------------------------------------------------------ the episode
 
 
 class _Decider:
     """The driver of one model plus per-cycle timing: ``plan(obs)`` returns the trajectory; afterwards
-    ``policy_set``, ``index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the cycle."""
+    ``last_policy_set``, ``last_index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the
+    cycle (a :class:`~irlsim.rollout.PolicyDriver`)."""
 
     def __init__(self, model: DriveModel, road: Road, cfg: CollectConfig, safety: bool):
-        from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
-        from irlsim.planner.planner import Planner
-
         self.model = model
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
+        self.plan_ms = 0.0
+        self.theta: np.ndarray = THETA_EXPERT
+        self.last_policy_set: PolicySet | None = None
+        self.last_index = -1
+        self.driver: ExpertDriver | ThetaDriver
         if model.is_expert:
-            self.driver: Any = ExpertDriver(road, cfg.planner)
+            self.driver = ExpertDriver(road, cfg.planner)
             self.planner = self.driver.planner
-            self.theta_expert = THETA_EXPERT
         else:
             self.planner = Planner(road, cfg.planner)
             self.driver = ThetaDriver(self.planner, self._theta, safe=safety)
 
-    def _theta(self, ps: Any, obs: Observation) -> np.ndarray:
+    def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
+        assert self.model.predictor is not None
         t0 = time.perf_counter()
         theta, info = self.model.predictor.predict(ps.features, ps.control_points, ps.actions)
         self.inference_ms = 1e3 * (time.perf_counter() - t0)
@@ -317,21 +267,63 @@ class _Decider:
         return theta
 
     def reset(self) -> None:
-        if not self.model.is_expert:
+        if self.model.predictor is not None:
             self.model.predictor.reset()
 
-    def plan(self, obs: Observation) -> Any:
+    def plan(self, obs: Observation) -> Trajectory:
         t0 = time.perf_counter()
         traj = self.driver.plan(obs)
         total_ms = 1e3 * (time.perf_counter() - t0)
         self.plan_ms = float(self.planner.last_ms)
-        if self.model.is_expert:  # its 'inference' is the model-based selection after planning
+        if isinstance(self.driver, ExpertDriver):  # its 'inference' is the model-based selection
             self.inference_ms = max(total_ms - self.plan_ms, 0.0)
-            self.theta, self.info = self.theta_expert, {}
+            self.theta, self.info = THETA_EXPERT, {}
         else:
+            assert self.driver.last_theta is not None
             self.theta = self.driver.last_theta
-        self.policy_set, self.index = self.driver.last_policy_set, self.driver.last_index
+        self.last_policy_set, self.last_index = self.driver.last_policy_set, self.driver.last_index
         return traj
+
+
+class _Timing(ObserverBase):
+    """Observer: every cycle's planning and inference time [ms]; resets the model's online history."""
+
+    def __init__(self, decider: _Decider):
+        self.decider = decider
+        self.inference_ms: list[float] = []
+        self.plan_ms: list[float] = []
+
+    def on_reset(self, sim: Simulation, obs: Observation) -> None:
+        self.decider.reset()
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        self.inference_ms.append(self.decider.inference_ms)
+        self.plan_ms.append(self.decider.plan_ms)
+
+
+class _Pictures(ObserverBase):
+    """Observer: hands the cycles a :class:`FrameRecorder` wants to it."""
+
+    def __init__(self, recorder: FrameRecorder, decider: _Decider):
+        self.recorder, self.decider = recorder, decider
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        if self.recorder.wants(cycle.index, cycle.obs):
+            assert cycle.policy_set is not None
+            d = self.decider
+            self.recorder.add(cycle.index, cycle.obs, cycle.policy_set, cycle.chosen, d.theta, d.info)
+
+
+class _Progress(ObserverBase):
+    """Observer: a progress bar over the cycles with speed and laps."""
+
+    def __init__(self, bar: Any):
+        self.bar = bar
+
+    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
+        self.bar.update(1)
+        if (cycle.index + 1) % 25 == 0 and sim.ego is not None:
+            self.bar.set_postfix(v=f"{3.6 * sim.ego.v:.0f} km/h", laps=cycle.facts["laps"], refresh=False)
 
 
 def drive_episode(
@@ -359,10 +351,6 @@ def drive_episode(
     ``sim/...`` keys), plus ``drive/pictures`` (paths written) and ``_inference_ms`` (every cycle's
     inference time [ms], for pooled percentiles; not meant for JSON).
     """
-    from irlsim.drive.metrics import episode_metrics
-    from irlsim.sim.simulation import Simulation
-    from irlsim.utils import progress, seed_everything
-
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
     if not isinstance(model, DriveModel):
@@ -375,9 +363,6 @@ def drive_episode(
         if pictures is not None and pictures.frames > 0
         else None
     )
-    inference_ms: list[float] = []
-    plan_ms: list[float] = []
-    cycles = 0
     t_start = time.perf_counter()
     bound = int(math.ceil(scenario.max_time / scenario.cycle))
     bar = progress(
@@ -387,45 +372,29 @@ def drive_episode(
         leave=False,
         disable=not show_progress,
     )
+    timing = _Timing(decider)
+    observers: list[Observer] = [timing]
+    if recorder is not None:
+        observers.append(_Pictures(recorder, decider))
+    observers.append(_Progress(bar))
     with Simulation(road, scenario) as sim:
-        obs = sim.reset(seed)
-        decider.reset()
-        while not sim.done and (max_cycles <= 0 or cycles < max_cycles):
-            traj = decider.plan(obs)
-            inference_ms.append(decider.inference_ms)
-            plan_ms.append(decider.plan_ms)
-            if recorder is not None and recorder.wants(cycles, obs):
-                recorder.add(cycles, obs, decider.policy_set, decider.index, decider.theta, decider.info)
-            sim.execute(traj)
-            obs = sim.observe()
-            cycles += 1
-            bar.update(1)
-            if cycles % 25 == 0:
-                bar.set_postfix(v=f"{3.6 * obs.ego.v:.0f} km/h", laps=obs.info.get("laps", 0), refresh=False)
-        stats = dict(sim.stats)
+        result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
     bar.close()
-    end = stats.get("end_reason") or ("max_cycles" if max_cycles and cycles >= max_cycles else None)
     rec = episode_metrics(
-        stats,
+        dict(result.stats),
         odometry,
-        inference_ms,
-        plan_ms,
+        timing.inference_ms,
+        timing.plan_ms,
         model=model.name,
         episode=episode,
         seed=seed,
         safety=safety,
-        cycles=cycles,
+        cycles=result.cycles,
         wall_s=time.perf_counter() - t_start,
-        end_reason=end,
+        end_reason=result.end_reason,
     )
     # the radar's unit ring is the expert's weight of each feature
-    rec["drive/pictures"] = recorder.write(_expert_theta()) if recorder is not None else []
-    rec["_inference_ms"] = inference_ms
+    rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
+    rec["_inference_ms"] = timing.inference_ms
     return rec
-
-
-def _expert_theta() -> np.ndarray:
-    from irlsim.planner.expert import THETA_EXPERT
-
-    return THETA_EXPERT

@@ -40,6 +40,7 @@ from irlsim.planner.features import predicted_stop_distance
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road
+from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import Observation, Trajectory
 
 #: the expert's hand-tuned weights, one per feature (FEATURE_NAMES order); V = -theta^T f
@@ -310,7 +311,7 @@ class ThetaDriver:
         return self.planner.trajectory(idx)
 
 
-def planner_config_for(scenario_cfg: Any) -> PlannerConfig:
+def planner_config_for(scenario_cfg: ScenarioConfig) -> PlannerConfig:
     """A PlannerConfig whose clocks, target speed and ego size match a ScenarioConfig."""
     return PlannerConfig(
         horizon=float(scenario_cfg.horizon),
@@ -322,6 +323,6 @@ def planner_config_for(scenario_cfg: Any) -> PlannerConfig:
     )
 
 
-def make_expert_driver(road: Road, scenario_cfg: Any) -> ExpertDriver:
-    """Factory for the sim's driver registry: ``DRIVERS['expert'] = make_expert_driver``."""
+def make_expert_driver(road: Road, scenario_cfg: ScenarioConfig) -> ExpertDriver:
+    """Factory for the driver registry (:mod:`irlsim.rollout.drivers`)."""
     return ExpertDriver(road, planner_config_for(scenario_cfg))

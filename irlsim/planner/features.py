@@ -279,7 +279,7 @@ def vehicle_terms(
         near = np.zeros(0, bool)
     t = (np.arange(T) * cfg.dt).astype(F32)
     if near.any():
-        sv_near, vv_near = _predicted_motion(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T] each
+        sv_near, vv_near = predicted_motion(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T] each
         kept = _cull(near, sv_near, vv_near, lon, vehicles, cfg)
         sv, vm = sv_near[kept[near]], vv_near[kept[near]]
         near = kept
@@ -407,7 +407,7 @@ def predicted_stop_distance(
     return np.where(stops, np.maximum(ahead - 0.3 - queue, 0.1), np.inf)
 
 
-def _predicted_motion(
+def predicted_motion(
     near: np.ndarray,
     ds0: np.ndarray,
     vehicles: VehicleStates,

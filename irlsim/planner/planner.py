@@ -118,6 +118,7 @@ class Planner:
         self.last_ms = 0.0
 
     # ------------------------------------------------------------------ main entry
+    # size-ok: one vectorised pass over the cycle (sample, features, labels), read top to bottom
     def plan(self, obs: Observation) -> PolicySet:
         """One planning cycle from ``obs``: exactly ``cfg.n_policies`` policies sorted by progress."""
         t0 = time.perf_counter()

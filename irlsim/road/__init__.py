@@ -10,7 +10,6 @@ from irlsim.road.geometry import (
     Road,
     StopLine,
     load_road,
-    sumo_angle_to_yaw,
     wrap_angle,
     yaw_to_sumo_angle,
 )
@@ -25,7 +24,6 @@ __all__ = [
     "Road",
     "StopLine",
     "load_road",
-    "sumo_angle_to_yaw",
     "wrap_angle",
     "yaw_to_sumo_angle",
 ]

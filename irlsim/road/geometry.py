@@ -11,6 +11,8 @@ normal interpolated between vertex normals, and the projection inverts exactly t
 exact (float precision).
 """
 
+# size-ok: one class, Road, whose reference line, projection raster and route-frame maps share private
+# arrays; what is not Road here (the small records and resampling helpers) is a tenth of the file
 from __future__ import annotations
 
 import functools
@@ -21,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from irlsim.errors import IrlsimError
+from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
@@ -51,10 +54,6 @@ def wrap_angle(a: np.ndarray | float) -> np.ndarray:
 def yaw_to_sumo_angle(yaw: float) -> float:
     """ENU yaw [rad] -> SUMO angle [deg, 0 = north, clockwise]."""
     return (90.0 - math.degrees(yaw)) % 360.0
-
-
-def sumo_angle_to_yaw(angle: float) -> float:
-    return float(wrap_angle(math.radians(90.0 - angle)))
 
 
 @dataclass(frozen=True)
@@ -496,11 +495,6 @@ class Road:
         s = (tab[:, 13] + best_t) % self.lap_length
         return s, (qx - footx) * (nx / norm) + (qy - footy) * (ny / norm)
 
-    def segment_of(self, s: np.ndarray) -> np.ndarray:
-        """Index of the reference segment containing route position(s) s (wrapped)."""
-        sw = np.asarray(s, dtype=np.float64) % self.lap_length
-        return self._segment_of_wrapped(sw)
-
     def _segment_of_wrapped(self, sw: np.ndarray) -> np.ndarray:
         """``clip(searchsorted(ref_s, sw, 'right') - 1, 0, M - 1)`` for sw in [0, lap_length], by index
         arithmetic: a guess from the mean vertex spacing, then ``_n_fix`` exact corrections each way."""
@@ -588,11 +582,6 @@ class Road:
                 lane, x, y, s, self.ref_s.copy(), float(seg.sum()), self.lap_length
             )
         return self._centrelines[lane]
-
-    def lane_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """Loop lane index of world point(s); -1 off the loop (on a ramp, off the road)."""
-        _, d = self.to_frenet(x, y)
-        return self.lane_of_d(d)
 
     # ------------------------------------------------------------------ route distance (Dijkstra)
     def _edge_cost_uncached(self, from_edge: str, to_edge: str) -> float:
@@ -712,8 +701,6 @@ def _load_road_cached(path: str, mtime: float) -> Road:
 
 def load_road(net_file: str | Path | None = None, build: bool = True) -> Road:
     """The oval's :class:`Road`; builds the network first when it is missing or stale (if ``build``)."""
-    from irlsim.road.network import build_net, net_path
-
     if net_file is None:
         net_file = build_net() if build else net_path()
     p = Path(net_file)

@@ -1,4 +1,5 @@
-"""Drivers: ``plan(obs) -> Trajectory``. The built-in :class:`SimpleDriver` and the registry ``DRIVERS``.
+"""Drivers: ``plan(obs) -> Trajectory``. The built-in :class:`SimpleDriver` (the registry of drivers by name,
+``DRIVERS``, lives a layer up in :mod:`irlsim.rollout.drivers`, next to the planner's expert).
 
 A driver plans in the route frame (s along the loop, d lateral) and converts to world coordinates with
 the road. Its trajectory starts at the ego's current state (index 0), at ``dt = step`` over the horizon;
@@ -7,8 +8,7 @@ the simulation executes the first ``cycle / step`` states of it.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -185,25 +185,3 @@ class SimpleDriver:
         d_dot = np.where(v > 0.05, d_dot, 0.0)
         d = ego.d + np.concatenate([[0.0], np.cumsum(0.5 * (d_dot[1:] + d_dot[:-1]) * self.cfg.step)])
         return frenet_trajectory(self.road, ego, self.cfg.step, v, d, a=a, d_dot=d_dot, d_ddot=d_ddot)
-
-
-#: driver name -> factory(road, cfg); the planner registers 'expert' here
-def _expert(road: Road, cfg: ScenarioConfig) -> Any:
-    from irlsim.planner.expert import make_expert_driver  # lazy: the planner imports this module
-
-    return make_expert_driver(road, cfg)
-
-
-DRIVERS: dict[str, Callable[[Road, ScenarioConfig], Any]] = {
-    "simple": lambda road, cfg: SimpleDriver(road, cfg),
-    "expert": _expert,
-}
-
-
-def make_driver(name: str, road: Road, cfg: ScenarioConfig) -> Driver:
-    """Instantiate a registered driver; unknown names give a one-line error listing the known ones."""
-    from irlsim.errors import IrlsimError
-
-    if name not in DRIVERS:
-        raise IrlsimError(f"unknown driver '{name}': choose one of {', '.join(sorted(DRIVERS))}")
-    return DRIVERS[name](road, cfg)

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.road import HALF_ROAD, Road
 from irlsim.sim.types import EgoState
 
 #: why an episode ended, by priority when several happen in the same step
@@ -35,9 +36,7 @@ class CourseMarks:
     half_road: float  # [m] |d| of the loop's road edges
 
     @staticmethod
-    def from_road(road: Any) -> CourseMarks:
-        from irlsim.road import HALF_ROAD
-
+    def from_road(road: Road) -> CourseMarks:
         return CourseMarks(
             lap_length=float(road.lap_length),
             checkpoint_s=tuple(float(c.s) for c in road.checkpoints),

@@ -1,9 +1,9 @@
 """One planning cycle of a :class:`PolicySet` as a picture (``irlsim plot-cycle``): the policies on the road
 coloured by value, the executed one, the vehicles and what the planner predicts they do.
 
-The drawing itself is :func:`irlsim.viz.drive.draw_policies`, the same as the drive stage's cycle pictures;
+The drawing itself is :func:`irlsim.viz.frames.draw_policies`, the same as the drive stage's cycle pictures;
 this module only turns a PolicySet, values and vehicle states into its arrays. The vehicles' predictions
-are the planner's own (:func:`irlsim.planner.features._predicted_motion`: constant speed, or braking to
+are the planner's own (:func:`irlsim.planner.features.predicted_motion`: constant speed, or braking to
 stand at the next stop line), so the picture shows what the proximity feature and the collision label see.
 """
 
@@ -13,23 +13,24 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.planner.features import F32, predicted_motion
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road
 from irlsim.sim.types import VehicleStates
+from irlsim.viz.frames import draw_policies
+from irlsim.viz.scene import drawn_subset, road_lines, value_ranks
 
 
 def predicted_vehicles(road: Road, s_ego: float, vehicles: VehicleStates, t: np.ndarray) -> np.ndarray:
     """[M, K, 3] world (x, y, yaw) of each vehicle's front bumper at times ``t`` [K] (s), as the planner
     predicts it from the ego at unwrapped route position ``s_ego`` [m] (constant d)."""
-    from irlsim.planner.features import F32, _predicted_motion
-
     m = vehicles.count
     if m == 0:
         return np.zeros((0, len(t), 3))
     lap = road.lap_length
     ds0 = (vehicles.s - (s_ego % lap) + lap / 2) % lap - lap / 2  # as the planner relates them to the ego
     stops = tuple(float(sl.s) for sl in road.stop_lines)
-    centre, _ = _predicted_motion(np.ones(m, bool), ds0, vehicles, lap, np.asarray(t, F32), stops)
+    centre, _ = predicted_motion(np.ones(m, bool), ds0, vehicles, lap, np.asarray(t, F32), stops)
     s = s_ego + centre.astype(np.float64) + vehicles.length[:, None] / 2  # centre -> front bumper
     x, y = road.to_xy(s, np.broadcast_to(vehicles.d[:, None], s.shape))
     return np.stack([x, y, road.heading(s)], axis=-1)
@@ -51,9 +52,6 @@ def draw_cycle(
     low; a colour bar), ``chosen`` (black), ``highlight`` indices (blue, e.g. the highest-attention
     policies), ``vehicles`` with the planner's predictions over ``horizon`` [s], the road around the ego.
     At most ``max_drawn`` policies plus the chosen and highlighted ones are drawn."""
-    from irlsim.drive.closed_loop import road_lines
-    from irlsim.viz.drive import draw_policies, drawn_subset, value_ranks
-
     n = ps.n_policies
     value = np.asarray(value, dtype=np.float64)
     assert value.shape == (n,), f"value must be [{n}], got {value.shape}"

@@ -103,7 +103,7 @@ def save_radar(
     dpi: int = 100,
 ) -> Path:
     """Write a radar chart PNG (5 x 5 in at ``dpi``) atomically; returns the path."""
-    from irlsim.viz.drive import new_figure, save_figure
+    from irlsim.viz.figure import new_figure, save_figure
 
     fig = new_figure((5.0, 5.0))
     ax = fig.add_subplot(111, projection="polar")

@@ -9,7 +9,8 @@ import pytest
 
 from irlsim import N_FEATURES
 from irlsim.data.demos import DemoProjector
-from irlsim.data.writer import EpisodeWriter, write_manifest
+from irlsim.data.layout import write_manifest
+from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.policy_set import PolicySet
 
 DT = 0.1  # [s]

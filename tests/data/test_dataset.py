@@ -16,9 +16,10 @@ from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data import writer as writer_mod
 from irlsim.data.demos import DemoProjector
 from irlsim.data.info import dataset_info, format_info
+from irlsim.data.layout import episode_done, remove_partial, write_manifest
 from irlsim.data.reader import Dataset, open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
-from irlsim.data.writer import EpisodeWriter, episode_done, remove_partial, write_manifest
+from irlsim.data.writer import EpisodeWriter
 from irlsim.errors import IrlsimError
 from tests.data.conftest import DT, LAP, K, T, make_dataset, make_policy_set, write_episode
 

@@ -14,8 +14,8 @@ import pytest
 
 from irlsim.cli import main
 from irlsim.data import reader as reader_mod
+from irlsim.data.layout import check_episode, remove_partial, write_manifest
 from irlsim.data.reader import Dataset, open_dataset
-from irlsim.data.writer import check_episode, remove_partial, write_manifest
 from irlsim.errors import IrlsimError
 from tests.data.conftest import K, make_dataset, write_episode
 

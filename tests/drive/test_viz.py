@@ -8,21 +8,20 @@ import pytest
 from PIL import Image
 
 from irlsim import N_FEATURES
-from irlsim.viz.drive import (
+from irlsim.viz.figure import new_figure
+from irlsim.viz.frames import (
     FONT,
     PREDICTION_COLOR,
     TOP_COLOR,
-    CycleFrame,
     cycle_figure_size,
-    cycle_window,
     draw_cycle,
-    new_figure,
     panels_figure_size,
     save_animation,
     save_cycle,
     save_frame_pictures,
 )
 from irlsim.viz.radar import radar_radius
+from irlsim.viz.scene import CycleFrame, cycle_window
 
 
 def synthetic_frame(

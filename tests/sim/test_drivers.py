@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from irlsim.rollout import DRIVERS, make_driver
 from irlsim.sim.config import ScenarioConfig
-from irlsim.sim.drivers import DRIVERS, SimpleDriver, make_driver
+from irlsim.sim.drivers import SimpleDriver
 from irlsim.sim.types import EgoState, Observation, VehicleStates
 
 CFG = ScenarioConfig()

@@ -20,16 +20,16 @@ shape would leave most of its height empty, so the figures' heights follow the w
 
 from __future__ import annotations
 
-import math
 import os
 from collections.abc import Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES
+from irlsim.viz.figure import axes_in, new_figure, save_figure
+from irlsim.viz.radar import draw_radar, save_radar
+from irlsim.viz.scene import CycleFrame, Window, cycle_window, fit_window, view_scene
 
 #: line kinds of :attr:`CycleFrame.lines` and how they are drawn
 LINE_STYLE = {
@@ -55,231 +55,6 @@ _MARGIN = {"left": 0.8, "right": 1.05, "top": 0.45, "bottom": 0.95}
 _LEGEND_DROP = 0.55
 
 
-def value_ranks(value: np.ndarray) -> np.ndarray:
-    """[N] float32 rank of each value among all N, 0 = lowest, 1 = highest (ties in index order)."""
-    n = len(value)
-    rank = np.empty(n, dtype=np.float32)
-    rank[np.argsort(np.asarray(value), kind="stable")] = np.arange(n, dtype=np.float32) / max(n - 1, 1)
-    return rank
-
-
-def drawn_subset(n: int, max_drawn: int, always: np.ndarray) -> np.ndarray:
-    """Sorted indices of the policies to draw: ``always`` (chosen, highlighted) plus an even spread over
-    the N policies (they are sorted by progress), at most ``max_drawn`` of the spread."""
-    spread = np.linspace(0, n - 1, min(max_drawn, n)).round().astype(np.int64)
-    return np.unique(np.concatenate([np.asarray(always, dtype=np.int64), spread]))
-
-
-@dataclass(frozen=True)
-class CycleFrame:
-    """What the pictures of one planning cycle need. P drawn policies (a subset of the cycle's N), T states.
-
-    x, y:            [P, T] float32  world positions of the drawn policies [m]
-    value_rank:      [P] float32     value rank among all N policies of the cycle, 0 = lowest, 1 = highest
-    top_attention:   [P] bool        among the cycle's top-k policies by policy attention
-    chosen:          index (into P) of the executed policy
-    theta:           [15] float64    the reward weights that scored the cycle
-    attention:       [P] float32 or None  policy attention of the drawn policies (PACNN family)
-    temporal_weights: [H] float64 or None  temporal attention over the history, oldest first (PTACNN)
-    ego:             (x [m], y [m], yaw [rad], v [m/s], length [m], width [m]); x, y = front bumper
-    vehicles:        [M, 5] float64  (x, y, yaw, length, width) of the other vehicles, front bumpers
-    lines:           road lines around the ego: (kind in LINE_STYLE, [Q, 2] xy)
-    view_yaw:        [rad] direction drawn to the right: the road's heading at the ego (None: ego's yaw)
-    predictions:     [M, K, 3] float64 or None  the planner's prediction of each vehicle (rows of
-                     ``vehicles``): front-bumper x [m], y [m], yaw [rad] at K times over the horizon
-    """
-
-    model: str
-    cycle: int
-    t: float
-    x: np.ndarray
-    y: np.ndarray
-    value_rank: np.ndarray
-    top_attention: np.ndarray
-    chosen: int
-    theta: np.ndarray
-    ego: tuple[float, float, float, float, float, float]
-    vehicles: np.ndarray
-    attention: np.ndarray | None = None
-    temporal_weights: np.ndarray | None = None
-    lines: tuple[tuple[str, np.ndarray], ...] = ()
-    info: dict[str, Any] = field(default_factory=dict)
-    view_yaw: float | None = None
-    predictions: np.ndarray | None = None
-
-    def __post_init__(self) -> None:
-        p, t = self.x.shape
-        assert self.y.shape == (p, t), f"y: {self.y.shape} != {(p, t)}"
-        assert self.value_rank.shape == (p,) and self.top_attention.shape == (p,)
-        assert 0 <= self.chosen < p, f"chosen {self.chosen} not in [0, {p})"
-        assert self.theta.shape == (len(FEATURE_NAMES),), self.theta.shape
-        assert self.vehicles.ndim == 2 and self.vehicles.shape[1] == 5, self.vehicles.shape
-        if self.attention is not None:
-            assert self.attention.shape == (p,), self.attention.shape
-        if self.predictions is not None:
-            shape = self.predictions.shape
-            assert len(shape) == 3 and (shape[0], shape[2]) == (len(self.vehicles), 3), shape
-
-    @property
-    def title(self) -> str:
-        return f"{self.model}   cycle {self.cycle}   t = {self.t:.1f} s   v = {3.6 * self.ego[3]:.0f} km/h"
-
-
-# ------------------------------------------------------------------------------------------ figure plumbing
-
-
-def new_figure(size: tuple[float, float]) -> Any:
-    """A matplotlib Figure on an Agg canvas (no pyplot, no display)."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=size)
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def save_figure(fig: Any, path: str | Path, dpi: int = 100) -> Path:
-    """Save ``fig`` as PNG atomically (temporary file beside ``path``, then rename)."""
-    from irlsim.utils import atomic_path
-
-    path = Path(path)
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png")
-        os.chmod(tmp, 0o644)  # mkstemp makes it private; pictures are for everyone
-    return path
-
-
-def _axes_in(fig: Any, left: float, bottom: float, width: float, height: float, **kw: Any) -> Any:
-    """Axes placed in inches from the figure's lower left corner (exact, unlike tight_layout with an
-    equal-aspect axes)."""
-    fw, fh = fig.get_size_inches()
-    return fig.add_axes((left / fw, bottom / fh, width / fw, height / fh), **kw)
-
-
-# ------------------------------------------------------------------------------------------ the scene
-
-
-@dataclass(frozen=True)
-class Window:
-    """Axis limits of a cycle picture in the view frame [m]: x along the road from the ego, y to the left."""
-
-    x0: float
-    x1: float
-    y0: float
-    y1: float
-
-    @property
-    def aspect(self) -> float:
-        """height / width"""
-        return (self.y1 - self.y0) / (self.x1 - self.x0)
-
-    def union(self, other: Window) -> Window:
-        return Window(
-            min(self.x0, other.x0), max(self.x1, other.x1), min(self.y0, other.y0), max(self.y1, other.y1)
-        )
-
-
-def _box(x: float, y: float, yaw: float, length: float, width: float) -> np.ndarray:
-    """Corners [5, 2] (closed) of a box whose *front-bumper centre* is (x, y)."""
-    c, s = math.cos(yaw), math.sin(yaw)
-    cx, cy = x - 0.5 * length * c, y - 0.5 * length * s
-    hl, hw = 0.5 * length, 0.5 * width
-    local = np.array([[hl, hw], [hl, -hw], [-hl, -hw], [-hl, hw], [hl, hw]])
-    rot = np.array([[c, -s], [s, c]])
-    return local @ rot.T + np.array([cx, cy])
-
-
-@dataclass
-class _Scene:
-    """A cycle's geometry in the view frame (ego front bumper at the origin, road heading to the right)."""
-
-    px: np.ndarray  # [P, T] policies
-    py: np.ndarray
-    lines: list[tuple[str, np.ndarray]]  # [Q, 2] each
-    boxes: np.ndarray  # [M, 5, 2] vehicle outlines
-    ego_box: np.ndarray  # [5, 2]
-    pred: np.ndarray | None  # [M, K, 2] predicted front bumpers
-    pred_boxes: np.ndarray | None  # [M, 5, 2] predicted outlines at the horizon
-
-
-def _scene(
-    x: np.ndarray,
-    y: np.ndarray,
-    ego: Sequence[float],
-    vehicles: np.ndarray,
-    lines: Sequence[tuple[str, np.ndarray]],
-    view_yaw: float | None,
-    predictions: np.ndarray | None,
-) -> _Scene:
-    ex, ey, eyaw, _, el, ew = (float(v) for v in ego)
-    vyaw0 = eyaw if view_yaw is None else float(view_yaw)
-    c, s = math.cos(vyaw0), math.sin(vyaw0)
-
-    def local(xx: np.ndarray, yy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        dx, dy = np.asarray(xx, dtype=np.float64) - ex, np.asarray(yy, dtype=np.float64) - ey
-        return c * dx + s * dy, -s * dx + c * dy
-
-    px, py = local(x, y)
-    out_lines = [(kind, np.stack(local(xy[:, 0], xy[:, 1]), axis=1)) for kind, xy in lines]
-    veh = np.asarray(vehicles, dtype=np.float64).reshape(-1, 5)
-    vx, vy = local(veh[:, 0], veh[:, 1])
-    boxes = np.array(
-        [
-            _box(float(a), float(b), yaw - vyaw0, ln, wd)
-            for a, b, (_, _, yaw, ln, wd) in zip(vx, vy, veh, strict=True)
-        ]
-    ).reshape(-1, 5, 2)
-    pred = pred_boxes = None
-    if predictions is not None and len(predictions):
-        qx, qy = local(predictions[:, :, 0], predictions[:, :, 1])
-        pred = np.stack([qx, qy], axis=-1)
-        pred_boxes = np.array(
-            [
-                _box(float(qx[k, -1]), float(qy[k, -1]), float(predictions[k, -1, 2]) - vyaw0, ln, wd)
-                for k, (_, _, _, ln, wd) in enumerate(veh)
-            ]
-        ).reshape(-1, 5, 2)
-    return _Scene(px, py, out_lines, boxes, _box(0.0, 0.0, eyaw - vyaw0, el, ew), pred, pred_boxes)
-
-
-def _fit(sc: _Scene, view: float, margin: float = 1.2) -> Window:
-    """The window of one scene: x from a little behind the ego (a follower shows) to the farthest drawn
-    policy (at least ``view`` ahead); y over the road's edges, the policies, the vehicles and the
-    predictions inside that x range, plus ``margin``."""
-    x0 = min(float(sc.px.min()), -(float(np.ptp(sc.ego_box[:, 0])) + 8.0)) - 1.0
-    x1 = max(float(sc.px.max()), view) + 4.0
-    ys = [sc.py.ravel(), sc.ego_box[:, 1]]
-    for kind, xy in sc.lines:
-        if kind == "edge":
-            ys.append(xy[(xy[:, 0] >= x0) & (xy[:, 0] <= x1), 1])
-    for pts in [sc.boxes] + ([sc.pred, sc.pred_boxes] if sc.pred is not None else []):
-        flat = np.asarray(pts).reshape(-1, 2)
-        ys.append(flat[(flat[:, 0] >= x0) & (flat[:, 0] <= x1), 1])
-    yy = np.concatenate(ys)
-    return Window(x0, x1, float(yy.min()) - margin, float(yy.max()) + margin)
-
-
-def scene_window(
-    x: np.ndarray,
-    y: np.ndarray,
-    ego: Sequence[float],
-    vehicles: np.ndarray,
-    lines: Sequence[tuple[str, np.ndarray]] = (),
-    view_yaw: float | None = None,
-    predictions: np.ndarray | None = None,
-    view: float = 40.0,
-) -> Window:
-    """The window :func:`draw_policies` fits to these arrays (arguments as there)."""
-    return _fit(_scene(x, y, ego, vehicles, lines, view_yaw, predictions), view)
-
-
-def cycle_window(frame: CycleFrame, view: float = 40.0) -> Window:
-    """The window of a frame's cycle picture: :func:`scene_window` of its arrays."""
-    return scene_window(
-        frame.x, frame.y, frame.ego, frame.vehicles, frame.lines, frame.view_yaw, frame.predictions, view
-    )
-
-
 def cycle_figure_size(window: Window, width: float = 10.0) -> tuple[float, float]:
     """(width, height) [in] of a figure holding only the cycle axes: the axes keep the window's aspect."""
     w = width - _MARGIN["left"] - _MARGIN["right"]
@@ -293,9 +68,10 @@ def cycle_axes(fig: Any, window: Window, top: float = 0.0) -> Any:
     fw, fh = fig.get_size_inches()
     w = fw - _MARGIN["left"] - _MARGIN["right"]
     h = w * window.aspect
-    return _axes_in(fig, _MARGIN["left"], fh - top - _MARGIN["top"] - h, w, h)
+    return axes_in(fig, _MARGIN["left"], fh - top - _MARGIN["top"] - h, w, h)
 
 
+# size-ok: one matplotlib scene; its drawing order (road, policies, vehicles, ego) is the z-order
 def draw_policies(
     ax: Any,
     x: np.ndarray,
@@ -332,8 +108,8 @@ def draw_policies(
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
 
-    sc = _scene(x, y, ego, vehicles, lines, view_yaw, predictions)
-    win = window or _fit(sc, view)
+    sc = view_scene(x, y, ego, vehicles, lines, view_yaw, predictions)
+    win = window or fit_window(sc, view)
     for kind, xy in sc.lines:
         st = LINE_STYLE.get(kind, LINE_STYLE["edge"])
         ax.plot(xy[:, 0], xy[:, 1], color=st["color"], lw=st["lw"], ls=st["ls"], zorder=1)
@@ -489,7 +265,6 @@ def save_frame_pictures(
     out_dir: str | Path, frame: CycleFrame, reference: np.ndarray | None = None, dpi: int = 100
 ) -> list[Path]:
     """The three stills of one cycle: cycle_XXXX.png, radar_XXXX.png, temporal_XXXX.png (XXXX = cycle)."""
-    from irlsim.viz.radar import save_radar
 
     out = Path(out_dir)
     tag = f"{frame.cycle:04d}"
@@ -522,15 +297,14 @@ def draw_panels(
 ) -> None:
     """The animation's layout on ``fig`` (sized by :func:`panels_figure_size`): the cycle from above (top,
     full width, in ``window`` or its own), radar of theta (bottom left), temporal attention (bottom right)."""
-    from irlsim.viz.radar import draw_radar
 
     fig.clear()
     win = window or cycle_window(frame)
     draw_cycle(cycle_axes(fig, win), frame, window=win)
     row = _PANEL_ROW
-    radar = _axes_in(fig, 1.35, 0.55, row - 1.45, row - 1.45, projection="polar")
+    radar = axes_in(fig, 1.35, 0.55, row - 1.45, row - 1.45, projection="polar")
     draw_radar(radar, frame.theta, reference=reference, title="theta")
-    draw_temporal(_axes_in(fig, 6.0, 0.75, 3.7, row - 1.55), frame.temporal_weights, frame.model)
+    draw_temporal(axes_in(fig, 6.0, 0.75, 3.7, row - 1.55), frame.temporal_weights, frame.model)
 
 
 def save_animation(
