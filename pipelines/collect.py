@@ -136,16 +136,11 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
         )
 
 
-def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
-    """The collection itself, run while this process holds ``<out>/.lock``."""
-
-    manifest_path = out / "manifest.json"
-    config = data_config(cfg)
-    if manifest_path.is_file():
-        _check_resumable(manifest_path, config)
-    build_net()  # once, before the workers start (they only read it)
-
-    jobs, seeds = [], {}
+def _pending_jobs(cfg: Any, out: Path) -> tuple[list[Any], dict[str, list[int]]]:
+    """The episodes still to collect (executor jobs) and every split's seeds; a finished episode whose
+    files fail the check is deleted and collected again."""
+    jobs: list[Any] = []
+    seeds: dict[str, list[int]] = {}
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
@@ -166,6 +161,43 @@ def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None =
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
             jobs.append(Job(f"{split}/{episode}", EpisodeJob(str(out.resolve()), split, episode, seed, cfg)))
+    return jobs, seeds
+
+
+def _report_failures(
+    cfg: Any,
+    out: Path,
+    config: dict[str, Any],
+    seeds: dict[str, list[int]],
+    failed: dict[str, str],
+    total: int,
+) -> int:
+    """Episodes that failed twice: the manifest lists the finished ones and the failed ones and stays
+    incomplete (readers refuse it); one line names them; the same command collects just those, as it
+    resumes any other incomplete collection. Returns the exit status 1."""
+    done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
+    write_manifest(
+        out, {"config": config, "seeds": seeds, "splits": done, "complete": False, "failed": failed}
+    )
+    print(
+        f"irlsim: error: collect: {len(failed)} of {total} episodes failed twice: "
+        f"{describe_failures(failed)}; the other episodes are in {out}: re-run the same "
+        "command to collect the failed ones",
+        file=sys.stderr,
+    )
+    return 1
+
+
+def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``."""
+
+    manifest_path = out / "manifest.json"
+    config = data_config(cfg)
+    if manifest_path.is_file():
+        _check_resumable(manifest_path, config)
+    build_net()  # once, before the workers start (they only read it)
+
+    jobs, seeds = _pending_jobs(cfg, out)
     total = sum(len(v) for v in seeds.values())
     where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
@@ -205,26 +237,7 @@ def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None =
     for split in SPLITS:  # what a killed worker left behind (no job runs now)
         remove_partial(out, split)
     if result.failed:
-        # the failed episodes are not listed and the dataset stays incomplete (readers refuse it); the
-        # same command collects just those, as it resumes any other incomplete collection
-        done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
-        write_manifest(
-            out,
-            {
-                "config": config,
-                "seeds": seeds,
-                "splits": done,
-                "complete": False,
-                "failed": result.failed,
-            },
-        )
-        print(
-            f"irlsim: error: collect: {len(result.failed)} of {total} episodes failed twice: "
-            f"{describe_failures(result.failed)}; the other episodes are in {out}: re-run the same "
-            "command to collect the failed ones",
-            file=sys.stderr,
-        )
-        return 1
+        return _report_failures(cfg, out, config, seeds, result.failed, total)
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
     manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
     wall = time.perf_counter() - t0

@@ -146,28 +146,16 @@ def run(args: argparse.Namespace) -> int:
         return _run(args, str(device))
 
 
-def _run(args: argparse.Namespace, device: str) -> int:
-
-    for name in ("episodes", "laps"):
-        if getattr(args, name) < 1:
-            raise IrlsimError(f"--{name} must be >= 1, got {getattr(args, name)}")
-    for name in ("seed", "frames", "max_cycles"):
-        if getattr(args, name) < 0:
-            raise IrlsimError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
-    specs = [m.strip() for m in args.model.split(",") if m.strip()]
-    if not specs:
-        raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
-    if len(set(specs)) != len(specs):
-        raise IrlsimError(f"--model names a model twice: {args.model}")
-    check_executor(args.executor, args.workers, args.address)
-    cfg = load_config(CollectConfig, args.config)
-    out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
-    # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
-    models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
-    runs = str(args.runs.resolve()) if args.runs else None
-    for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
-        _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
-
+def _episode_jobs(
+    args: argparse.Namespace,
+    models: list[Any],
+    specs: list[str],
+    cfg: Any,
+    out: Path,
+    runs: str | None,
+    device: str,
+) -> tuple[list[Any], list[str]]:
+    """One executor job per (model, episode), and each model's label in the job keys (``label/i``)."""
     jobs: list[Any] = []
     labels: list[str] = []
     for model, spec in zip(models, specs, strict=True):
@@ -196,40 +184,19 @@ def _run(args: argparse.Namespace, device: str) -> int:
             )
             jobs.append(Job(f"{label}/{i}", job))
 
-    def on_result(job: Any, rec: dict[str, Any]) -> None:
-        name, i = job.key.rsplit("/", 1)
-        print(f"{name} episode {i} (seed {args.seed + int(i)}): {_line(rec)}", flush=True)
+    return jobs, labels
 
-    def on_retry(job: Any, reason: str) -> None:
-        print(f"drive: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr, flush=True)
 
-    result = run_jobs(
-        _drive_job,
-        jobs,
-        executor=args.executor,
-        workers=args.workers,
-        address=args.address,
-        on_result=on_result,
-        on_retry=on_retry,
-    )
-    if result.failed:
-        print(
-            f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
-            f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
-            file=sys.stderr,
-        )
-        return 1
-    # in model and episode order, whatever order they finished in: the same JSON for any --workers
-    episodes, summaries = [], []
-    for label in labels:
-        recs, times = [], []
-        for i in range(args.episodes):
-            rec = dict(result.results[f"{label}/{i}"])
-            times += rec.pop("_inference_ms")
-            recs.append(rec)
-        episodes += recs
-        summaries.append(summarize(recs, times))
-
+def _write_outputs(
+    args: argparse.Namespace,
+    specs: list[str],
+    cfg: Any,
+    out: Path,
+    summaries: list[dict[str, Any]],
+    episodes: list[dict[str, Any]],
+    device: str,
+) -> None:
+    """drive.json and drive.md (atomically), and the table on stdout."""
     table = markdown_table(summaries)
     safety = "with" if args.safety else "without"
     md = (
@@ -271,6 +238,67 @@ def _run(args: argparse.Namespace, device: str) -> int:
             else ""
         )
     )
+
+
+def _run(args: argparse.Namespace, device: str) -> int:
+
+    for name in ("episodes", "laps"):
+        if getattr(args, name) < 1:
+            raise IrlsimError(f"--{name} must be >= 1, got {getattr(args, name)}")
+    for name in ("seed", "frames", "max_cycles"):
+        if getattr(args, name) < 0:
+            raise IrlsimError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
+    specs = [m.strip() for m in args.model.split(",") if m.strip()]
+    if not specs:
+        raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
+    if len(set(specs)) != len(specs):
+        raise IrlsimError(f"--model names a model twice: {args.model}")
+    check_executor(args.executor, args.workers, args.address)
+    cfg = load_config(CollectConfig, args.config)
+    out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
+    # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
+    models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
+    runs = str(args.runs.resolve()) if args.runs else None
+    for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
+        _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
+
+    jobs, labels = _episode_jobs(args, models, specs, cfg, out, runs, device)
+
+    def on_result(job: Any, rec: dict[str, Any]) -> None:
+        name, i = job.key.rsplit("/", 1)
+        print(f"{name} episode {i} (seed {args.seed + int(i)}): {_line(rec)}", flush=True)
+
+    def on_retry(job: Any, reason: str) -> None:
+        print(f"drive: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr, flush=True)
+
+    result = run_jobs(
+        _drive_job,
+        jobs,
+        executor=args.executor,
+        workers=args.workers,
+        address=args.address,
+        on_result=on_result,
+        on_retry=on_retry,
+    )
+    if result.failed:
+        print(
+            f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
+            f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
+            file=sys.stderr,
+        )
+        return 1
+    # in model and episode order, whatever order they finished in: the same JSON for any --workers
+    episodes, summaries = [], []
+    for label in labels:
+        recs, times = [], []
+        for i in range(args.episodes):
+            rec = dict(result.results[f"{label}/{i}"])
+            times += rec.pop("_inference_ms")
+            recs.append(rec)
+        episodes += recs
+        summaries.append(summarize(recs, times))
+
+    _write_outputs(args, specs, cfg, out, summaries, episodes, device)
     return 0
 
 
