@@ -44,6 +44,7 @@ TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),
     "infer": ("infer_median_ms", "<=", 10.0, "ms"),
+    "scale": ("ray_over_local", ">=", 0.9, "x the local pool"),
 }
 
 
@@ -65,6 +66,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--env-steps", type=int_in(1), default=200, help="timed env steps (default 200)")
     parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
+    parser.add_argument(
+        "--scale",
+        action="store_true",
+        help="collection with the local pool vs Ray (2 workers), 1 -> 2 workers on a simulated two-node "
+        "Ray cluster, stage-1 training cycles/s per device and precision (needs the ray extra)",
+    )
     parser.add_argument(
         "--collect-cycles",
         type=int_in(1),
@@ -181,12 +188,19 @@ def bench_env(args: argparse.Namespace) -> dict[str, Any]:
     return run_env(steps=max(args.env_steps, 1), n_policies=500, n_envs=2, seed=args.seed)
 
 
+def bench_scale(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks_scale import bench_scale as run_scale
+
+    return run_scale(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
+
+
 #: section name -> function; ``--<name>`` selects it
 SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
     "collect": bench_collect,
     "infer": bench_infer,
     "env": bench_env,
+    "scale": bench_scale,
 }
 
 

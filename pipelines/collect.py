@@ -1,6 +1,10 @@
 """``irlsim collect``: drive the expert in SUMO and write a Parquet dataset of policy sets and demonstrations.
 
-Episodes run in ``--workers`` processes (one libsumo each). Every file is written under a temporary name
+Episodes run through ``irlsim.executor`` in ``--workers`` processes (one libsumo each): spawned local
+workers, or Ray tasks with ``--executor ray`` (``--address`` joins a cluster whose nodes all write
+``--out``). An episode that raises or whose worker dies is tried once more; one that fails again is
+listed under ``"failed"`` in the manifest, the others finish, and the command exits 1 naming it.
+Every file is written under a temporary name
 and renamed; an episode is finished once its cycles file exists. Killing the command at any moment leaves
 only complete files, and running it again resumes by skipping finished episodes; each of those is checked
 first (``check_episode``: footers, schemas, ids), and a truncated or foreign pair is deleted and collected
@@ -13,7 +17,6 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -37,9 +40,10 @@ from irlsim.data.layout import (
 )
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
+from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.road.network import build_net
-from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress, spawn_pool
+from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress
 
 HELP = "drive the expert and record policy sets + demonstrations to a Parquet dataset"
 
@@ -51,6 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--workers", type=int_in(1, 256), default=None, help="worker processes (overrides the config)"
     )
     p.add_argument("--seed", type=int_in(0, MAX_SEED), default=None, help="base seed (overrides the config)")
+    add_executor_arguments(p)
     p.add_argument(
         "--set",
         action="append",
@@ -59,11 +64,28 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    """``--executor`` and ``--address`` (collect and drive)."""
+    p.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="where episodes run: 'local' spawned worker processes (default) or 'ray' tasks (needs the "
+        "ray extra: pip install -e '.[ray]'); the outputs are the same bytes either way",
+    )
+    p.add_argument(
+        "--address",
+        default=None,
+        help="with --executor ray: 'auto' or host:port joins a running Ray cluster (default: start a "
+        "local Ray of --workers CPUs); every node must be able to write --out (a shared folder)",
+    )
+
+
 #: held by the running collect for its whole run, so two never write into one dataset folder
 LOCK_NAME = ".lock"
 
 
-def _run_job(job):  # top level: picklable for spawn workers
+def _run_job(job):  # top level: picklable for spawn workers and Ray tasks
 
     return collect_episode(job)
 
@@ -79,12 +101,13 @@ def run(args: argparse.Namespace) -> int:
         check_non_negative("seed", args.seed)
         overrides["seed"] = args.seed
     cfg = load_config(CollectConfig, args.config, overrides)
+    check_executor(args.executor, cfg.workers, args.address)
     out: Path = args.out
     # before any work: a folder that takes files, with disk for the dataset (irlsim.outputs)
     check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
-            return _collect(cfg, out)
+            return _collect(cfg, out, args.executor, args.address)
     except LockBusy as busy:
         raise IrlsimError(
             f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
@@ -117,16 +140,11 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
         )
 
 
-def _collect(cfg: Any, out: Path) -> int:
-    """The collection itself, run while this process holds ``<out>/.lock``."""
-
-    manifest_path = out / "manifest.json"
-    config = data_config(cfg)
-    if manifest_path.is_file():
-        _check_resumable(manifest_path, config)
-    build_net()  # once, before the workers start (they only read it)
-
-    jobs, seeds = [], {}
+def _pending_jobs(cfg: Any, out: Path) -> tuple[list[Any], dict[str, list[int]]]:
+    """The episodes still to collect (executor jobs) and every split's seeds; a finished episode whose
+    files fail the check is deleted and collected again."""
+    jobs: list[Any] = []
+    seeds: dict[str, list[int]] = {}
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
@@ -145,9 +163,48 @@ def _collect(cfg: Any, out: Path) -> int:
                     continue
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
-            jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
+            # an absolute path: a Ray worker runs in a folder of its own
+            jobs.append(Job(f"{split}/{episode}", EpisodeJob(str(out.resolve()), split, episode, seed, cfg)))
+    return jobs, seeds
+
+
+def _report_failures(
+    cfg: Any,
+    out: Path,
+    config: dict[str, Any],
+    seeds: dict[str, list[int]],
+    failed: dict[str, str],
+    total: int,
+) -> int:
+    """Episodes that failed twice: the manifest lists the finished ones and the failed ones and stays
+    incomplete (readers refuse it); one line names them; the same command collects just those, as it
+    resumes any other incomplete collection. Returns the exit status 1."""
+    done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
+    write_manifest(
+        out, {"config": config, "seeds": seeds, "splits": done, "complete": False, "failed": failed}
+    )
+    print(
+        f"irlsim: error: collect: {len(failed)} of {total} episodes failed twice: "
+        f"{describe_failures(failed)}; the other episodes are in {out}: re-run the same "
+        "command to collect the failed ones",
+        file=sys.stderr,
+    )
+    return 1
+
+
+def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``."""
+
+    manifest_path = out / "manifest.json"
+    config = data_config(cfg)
+    if manifest_path.is_file():
+        _check_resumable(manifest_path, config)
+    build_net()  # once, before the workers start (they only read it)
+
+    jobs, seeds = _pending_jobs(cfg, out)
     total = sum(len(v) for v in seeds.values())
-    print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
+    where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
+    print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for
         # a small one; it lists the config, so a re-run with another config is refused
@@ -159,23 +216,32 @@ def _collect(cfg: Any, out: Path) -> int:
     t0 = time.perf_counter()
     cycles = 0
     bar = progress(total=len(jobs), desc="episodes", unit="ep")
-    results: Iterator[Any]
-    if cfg.workers == 1 or len(jobs) <= 1:
-        results = map(_run_job, jobs)
-        pool = None
-    else:
-        pool = spawn_pool(min(cfg.workers, len(jobs)))
-        results = pool.imap_unordered(_run_job, jobs)
+
+    def on_result(job: Any, stats: dict[str, Any]) -> None:
+        nonlocal cycles
+        cycles += stats["collect/cycles"]
+        bar.update(1)
+        bar.set_postfix(cycles=cycles, rate=f"{cycles / (time.perf_counter() - t0):.1f}/s")
+
+    def on_retry(job: Any, reason: str) -> None:
+        bar.write(f"collect: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr)
+
     try:
-        for stats in results:
-            cycles += stats["collect/cycles"]
-            bar.update(1)
-            bar.set_postfix(cycles=cycles, rate=f"{cycles / (time.perf_counter() - t0):.1f}/s")
+        result = run_jobs(
+            _run_job,
+            jobs,
+            executor=executor,
+            workers=cfg.workers,
+            address=address,
+            on_result=on_result,
+            on_retry=on_retry,
+        )
     finally:
         bar.close()
-        if pool is not None:
-            pool.terminate()
-            pool.join()
+    for split in SPLITS:  # what a killed worker left behind (no job runs now)
+        remove_partial(out, split)
+    if result.failed:
+        return _report_failures(cfg, out, config, seeds, result.failed, total)
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
     manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
     wall = time.perf_counter() - t0

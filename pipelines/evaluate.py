@@ -7,6 +7,7 @@ import argparse
 import functools
 from pathlib import Path
 
+from irlsim import devices
 from irlsim.config import int_in
 from irlsim.data.reader import open_dataset
 from irlsim.errors import IrlsimError
@@ -41,6 +42,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="leave out the reference rows expert-theta, executed and oracle (the oracle's per-cycle fit "
         "is the slow part); 'random policy' stays",
     )
+    devices.add_arguments(p, "evaluation")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -49,20 +51,22 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")
     if args.threads < 1:
         raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
+    device = devices.resolve_device(args.device)
     out = args.out or args.runs / "eval"
     check_output_dir(out, "--out")
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
-    evaluate_models(
-        open_dataset(args.data),
-        args.runs,
-        out,
-        H=args.history,
-        split=args.split,
-        threads=args.threads,
-        references=not args.no_references,
-        strips=functools.partial(save_situation_strips, out),
-    )
+    with devices.use(device, args.precision):
+        evaluate_models(
+            open_dataset(args.data),
+            args.runs,
+            out,
+            H=args.history,
+            split=args.split,
+            threads=args.threads,
+            references=not args.no_references,
+            strips=functools.partial(save_situation_strips, out),
+        )
     print((out / "results.md").read_text())
     print(
         f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png"

@@ -22,6 +22,7 @@ import numpy as np
 import torch
 
 from irlsim.config import to_dict
+from irlsim.devices import forward, to_numpy
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import cycle_metrics, evaluate_thetas, history_indices, summarize
 from irlsim.models.networks import PTACNN
@@ -49,9 +50,9 @@ def predict_temporal(
     out_t, out_w = [], []
     for start in range(0, len(hist), chunk):
         h = hist[start : start + chunk]
-        out = model(to_tensor(contexts[h]), to_tensor(thetas[h]))
-        out_t.append(out["theta"].numpy())
-        out_w.append(out["weights"].numpy())
+        out = forward(model, to_tensor(contexts[h]), to_tensor(thetas[h]))
+        out_t.append(to_numpy(out["theta"]))
+        out_w.append(to_numpy(out["weights"]))
     if not out_t:
         return np.zeros((0, 15), np.float32), np.zeros((0, hist.shape[1]), np.float32)
     return np.concatenate(out_t), np.concatenate(out_w)
@@ -156,7 +157,7 @@ def _train_one_stage2(
         sums = {"train/nll": 0.0, "train/evd": 0.0}
         for start in range(0, len(order), cfg.batch_size):
             mb_t = np.sort(order[start : start + cfg.batch_size])
-            out = model(to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
+            out = forward(model, to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
             # every (sample, target cycle) pair at once: rows t+1 .. t+target_ahead that exist
             tgt = targets[mb_t]  # [B, A]
             b_idx, a_idx = np.nonzero(tgt >= 0)
