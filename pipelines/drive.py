@@ -24,8 +24,8 @@ from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_mode
 from irlsim.drive.metrics import markdown_table, summarize
 from irlsim.drive.scorecard import scorecard_table
 from irlsim.errors import IrlsimError
-from irlsim.outputs import check_output_dir
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
+from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
 from pipelines.collect import add_executor_arguments
