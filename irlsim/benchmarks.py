@@ -71,7 +71,7 @@ def _time_inference(
     online predictor (one thread) on one random cycle of ``n_policies`` policies."""
     # lazy: torch (about 1.5 s to import); 'irlsim bench --collect' never needs it
     from irlsim.models.registry import build_model, count_parameters
-    from irlsim.train.common import LoadedModel
+    from irlsim.train.loading import LoadedModel
     from irlsim.train.predictor import RewardPredictor
 
     cfg = dataclasses.replace(cfg, history=history)

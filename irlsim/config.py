@@ -7,7 +7,10 @@ an :class:`~irlsim.errors.IrlsimError`, so a typo never silently falls back to a
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
+import math
+import os
 import tomllib
 import types
 import typing
@@ -58,6 +61,8 @@ def _convert(tp: Any, value: Any, where: str) -> Any:
     if tp is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise IrlsimError(f"config: '{where}' must be a number, got {value!r}")
+        if not math.isfinite(value):  # no irlsim config field has a meaning for nan or inf
+            raise IrlsimError(f"config: '{where}' must be a finite number, got {value!r}")
         return float(value)
     if tp is int:
         if isinstance(value, bool) or not isinstance(value, int):
@@ -114,7 +119,13 @@ def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any]
         if not p.is_file():
             raise IrlsimError(f"config file {p} not found: pass an existing TOML file (see configs/)")
         try:
-            data = tomllib.loads(p.read_text())
+            data = tomllib.loads(p.read_bytes().decode("utf-8"))
+        except OSError as e:
+            raise IrlsimError(f"config file {p} cannot be read ({e.strerror}): check the path") from None
+        except UnicodeDecodeError as e:
+            raise IrlsimError(
+                f"config file {p} is not UTF-8 text (byte {e.start}): save it as UTF-8 TOML (see configs/)"
+            ) from None
         except tomllib.TOMLDecodeError as e:
             raise IrlsimError(f"config file {p} is not valid TOML ({e}): fix the syntax") from None
     for key, value in (overrides or {}).items():
@@ -156,3 +167,69 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
             value = raw
         out[key.strip()] = value
     return out
+
+
+#: the largest seed irlsim passes on (SUMO's --seed and torch take a signed 32-bit int)
+MAX_SEED = 2**31 - 1
+
+
+def int_in(lo: int, hi: int | None = None) -> Any:
+    """An argparse ``type=``: an integer in ``lo..hi`` (no upper bound when ``hi`` is None), else the
+    parser's one-line error (exit 2) before any work."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < lo or (hi is not None and value > hi):
+            bound = f"{lo}..{hi}" if hi is not None else f">= {lo}"
+            raise argparse.ArgumentTypeError(f"must be an integer {bound}, got {value}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def float_in(lo: float, hi: float | None = None) -> Any:
+    """An argparse ``type=``: a finite number in ``[lo, hi]``, else the parser's one-line error."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        if not math.isfinite(value) or value < lo or (hi is not None and value > hi):
+            bound = f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}"
+            raise argparse.ArgumentTypeError(f"must be a finite number {bound}, got {text}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def available_memory() -> int:
+    """Bytes of memory this process may still allocate: MemAvailable of /proc/meminfo (Linux), else the
+    physical memory."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (OSError, ValueError, AttributeError):  # pragma: no cover - not POSIX
+        return 2**62
+
+
+def require_memory(what: str, needed: int, fix: str) -> None:
+    """Refuse (one line, before allocation) a size whose estimated memory ``needed`` [bytes] exceeds what
+    is available."""
+    have = available_memory()
+    if needed > have:
+        raise IrlsimError(
+            f"config: {what} needs about {needed / 2**30:.1f} GiB of memory, {have / 2**30:.1f} GiB are "
+            f"available: {fix}"
+        )

@@ -18,7 +18,7 @@ from irlsim.data.reader import open_dataset
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import format_parameters
 from irlsim.train import config as tc
-from irlsim.train.common import stage_dir
+from irlsim.train.layout import stage_dir
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2
 from irlsim.utils import write_json

@@ -13,11 +13,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require, to_dict
+from irlsim.config import MAX_SEED, require, require_memory, to_dict
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
 from irlsim.data.schema import stats_name
 from irlsim.data.writer import EpisodeWriter
-from irlsim.planner.config import PlannerConfig
+from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.road import load_road
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
@@ -75,6 +75,15 @@ class CollectConfig:
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        # episode seeds are seed * 1e6 + split offset + i and go to SUMO, which takes at most MAX_SEED: the
+        # derivation is kept (it decides the bytes of every existing dataset), the base seed is bounded
+        last = max(SPLIT_OFFSET[s] + getattr(self, f"{s}_episodes") - 1 for s in SPLITS)
+        max_base = (MAX_SEED - last) // SEED_STRIDE
+        require(
+            self.seed <= max_base,
+            f"seed must be in 0..{max_base} (episode seeds are seed * {SEED_STRIDE:,} + split offset + "
+            f"episode and SUMO takes at most {MAX_SEED}), got {self.seed}",
+        )
         require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
         for s in SPLITS:
             n = getattr(self, f"{s}_episodes")
@@ -90,6 +99,11 @@ class CollectConfig:
             "planner.horizon must equal scenario.horizon",
         )
         self.demo.validate()
+        require_memory(
+            f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
+            self.workers * self.planner.n_policies * PLANNER_BYTES_PER_POLICY,
+            "use fewer policies per cycle or fewer --workers",
+        )
 
     def episodes(self, split: str) -> list[tuple[int, int]]:
         """(episode id, seed) of every episode of ``split``."""

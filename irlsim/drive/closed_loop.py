@@ -91,7 +91,7 @@ def load_drive_model(
     spec: str | Path, runs: str | Path | None = None, n_policies: int | None = None, threads: int = 1
 ) -> DriveModel:
     """Resolve ``spec``: 'expert', 'expert-theta', a model name (found in ``runs`` by
-    :func:`irlsim.train.common.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
+    :func:`irlsim.train.layout.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
     ``<runs>/<name>/``) or a checkpoint path.
 
     ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
@@ -99,7 +99,7 @@ def load_drive_model(
     """
     # lazy: these import torch (~1.5 s); the expert and expert-theta drive without it
     from irlsim.models.registry import MODEL_NAMES
-    from irlsim.train.common import find_checkpoint, model_stage, stage_dir
+    from irlsim.train.layout import find_checkpoint, model_stage, stage_dir
     from irlsim.train.predictor import RewardPredictor
 
     spec = str(spec)

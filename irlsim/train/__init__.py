@@ -5,9 +5,10 @@ Stage 2 (:func:`train_stage2`): PTACNN, PTACNN+S on the frozen PACNN / PACNN+S.
 :func:`evaluate_models` writes the results table and plots; :class:`RewardPredictor` drives closed loop.
 """
 
-from irlsim.train.common import LoadedModel, load_model, read_checkpoint
+from irlsim.train.checkpoint import read_checkpoint
 from irlsim.train.config import Stage1Config, Stage2Config
 from irlsim.train.evaluate import evaluate_models
+from irlsim.train.loading import LoadedModel, load_model
 from irlsim.train.predictor import RewardPredictor
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2

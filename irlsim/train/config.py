@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from irlsim.config import require
+from irlsim.config import MAX_SEED, require
 from irlsim.models.registry import MODEL_NAMES, STAGE1_MODELS, STAGE2_BASE, ModelConfig
 
 SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
@@ -17,33 +17,27 @@ SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
 
 
 @dataclass(frozen=True)
-class Stage1Config:
-    """Stage 1: LIRL and the per-cycle deep models, trained on the (shuffled) train split."""
+class TrainConfig:
+    """The fields both stages share (the stage configs below add their own)."""
 
-    models: tuple[str, ...] = STAGE1_MODELS
-    """which stage-1 models to train (each into <runs>/stage1/<model>/)"""
+    models: tuple[str, ...] = ()
+    """which models to train (each into <runs>/stage<N>/<model>/)"""
     epochs: int = 20
-    """passes over the train cycles that have a demonstration"""
+    """passes over the train split"""
     batch_size: int = 32
-    """planning cycles per mini-batch"""
+    """planning cycles (stage 1) or histories (stage 2) per mini-batch"""
     lr: float = 1e-3
     """Adam learning rate"""
     weight_decay: float = 0.0
     """Adam (L2) weight decay"""
     grad_clip: float = 10.0
     """max gradient norm per step (0 = no clipping)"""
-    attention_loss_weight: float = 1.0
-    """weight of the semi-supervised attention loss of PACNN+S (L1 distance, in [0, 2])"""
-    attention_tau: float = 0.5
-    """[m] temperature of the attention target softmax(-distance / tau) of PACNN+S"""
     validate_every: int = 5
     """[epochs] validation (ED, OPD on the sequential validation split) every this many epochs"""
     select_by: str = "val/opd"
     """model selection: inference (evaluate, drive, the frozen base of stage 2) uses the weights of the
     validated epoch with the lowest value of this metric ('val/opd', 'val/ed', 'val/nll'), or 'last' for
     the final epoch; resuming always continues from the final epoch"""
-    history: int = 10
-    """[cycles] H: validation uses the mean of the last H predicted thetas within an episode"""
     seed: int = 0
     """seed of the weight initialisation and the shuffling"""
     threads: int = 2
@@ -60,22 +54,42 @@ class Stage1Config:
     """network sizes"""
 
     def validate(self) -> None:
-        for m in self.models:
-            require(m in STAGE1_MODELS, f"models: '{m}' is not a stage-1 model ({', '.join(STAGE1_MODELS)})")
+        require(len(self.models) >= 1, "models is empty: name at least one model to train")
+        require(len(set(self.models)) == len(self.models), f"models {list(self.models)} names a model twice")
+        require(0 <= self.seed <= MAX_SEED, f"seed must be in 0..{MAX_SEED}, got {self.seed}")
         require(self.epochs >= 0, "epochs must be >= 0")
         require(self.batch_size >= 1, "batch_size must be >= 1")
         require(self.lr > 0, "lr must be > 0")
         require(self.weight_decay >= 0, "weight_decay must be >= 0")
         require(self.grad_clip >= 0, "grad_clip must be >= 0")
-        require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")
-        require(self.attention_tau > 0, "attention_tau must be > 0 [m]")
         require(self.validate_every >= 1, "validate_every must be >= 1")
         require(self.select_by in SELECT_METRICS, f"select_by must be one of {', '.join(SELECT_METRICS)}")
-        require(self.history >= 1, "history must be >= 1")
         require(self.threads >= 1, "threads must be >= 1")
         require(self.max_cycles >= 0, "max_cycles must be >= 0")
         require(self.eval_batch >= 1, "eval_batch must be >= 1")
         self.model.validate()
+
+
+@dataclass(frozen=True)
+class Stage1Config(TrainConfig):
+    """Stage 1: LIRL and the per-cycle deep models, trained on the (shuffled) train split."""
+
+    models: tuple[str, ...] = STAGE1_MODELS
+    """which stage-1 models to train (each into <runs>/stage1/<model>/)"""
+    attention_loss_weight: float = 1.0
+    """weight of the semi-supervised attention loss of PACNN+S (L1 distance, in [0, 2])"""
+    attention_tau: float = 0.5
+    """[m] temperature of the attention target softmax(-distance / tau) of PACNN+S"""
+    history: int = 10
+    """[cycles] H: validation uses the mean of the last H predicted thetas within an episode"""
+
+    def validate(self) -> None:
+        for m in self.models:
+            require(m in STAGE1_MODELS, f"models: '{m}' is not a stage-1 model ({', '.join(STAGE1_MODELS)})")
+        require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")
+        require(self.attention_tau > 0, "attention_tau must be > 0 [m]")
+        require(self.history >= 1, "history must be >= 1")
+        super().validate()
 
     @classmethod
     def smoke(cls) -> Stage1Config:
@@ -99,38 +113,14 @@ class Stage1Config:
 
 
 @dataclass(frozen=True)
-class Stage2Config:
+class Stage2Config(TrainConfig):
     """Stage 2: PTACNN(+S) on the frozen PACNN(+S) of stage 1, trained with the NLL of cycle t+1."""
 
     models: tuple[str, ...] = tuple(STAGE2_BASE)
     """which stage-2 models to train, each into <runs>/stage2/<model>/ (PTACNN needs <base>/PACNN, PTACNN+S
     needs <base>/PACNN+S; <base> = <runs>/stage1 unless 'irlsim train --base' names another folder)"""
-    epochs: int = 20
-    """passes over the train split's (history, next cycle) pairs"""
     batch_size: int = 64
     """histories per mini-batch"""
-    lr: float = 1e-3
-    """Adam learning rate"""
-    weight_decay: float = 0.0
-    """Adam (L2) weight decay"""
-    grad_clip: float = 10.0
-    """max gradient norm per step (0 = no clipping)"""
-    validate_every: int = 5
-    """[epochs] validation on the sequential validation split every this many epochs"""
-    select_by: str = "val/opd"
-    """model selection: inference (evaluate, drive, the frozen base of stage 2) uses the weights of the
-    validated epoch with the lowest value of this metric ('val/opd', 'val/ed', 'val/nll'), or 'last' for
-    the final epoch; resuming always continues from the final epoch"""
-    seed: int = 0
-    """seed of the weight initialisation and the shuffling"""
-    threads: int = 2
-    """torch CPU threads; like stage 1's, another count gives slightly different weights"""
-    max_cycles: int = 0
-    """use only the first this many cycles of the train split (0 = all)"""
-    eval_batch: int = 64
-    """cycles per forward pass of the frozen PACNN (memory bound)"""
-    tensorboard: bool = True
-    """also log to TensorBoard if installed"""
     model: ModelConfig = field(default_factory=ModelConfig)
     """sizes of the temporal network (lstm_hidden, lstm_layers, tan_fc_hidden, history = H [cycles]);
     the context size comes from the frozen PACNN checkpoint"""
@@ -138,17 +128,7 @@ class Stage2Config:
     def validate(self) -> None:
         for m in self.models:
             require(m in STAGE2_BASE, f"models: '{m}' is not a stage-2 model ({', '.join(STAGE2_BASE)})")
-        require(self.epochs >= 0, "epochs must be >= 0")
-        require(self.batch_size >= 1, "batch_size must be >= 1")
-        require(self.lr > 0, "lr must be > 0")
-        require(self.weight_decay >= 0, "weight_decay must be >= 0")
-        require(self.grad_clip >= 0, "grad_clip must be >= 0")
-        require(self.validate_every >= 1, "validate_every must be >= 1")
-        require(self.select_by in SELECT_METRICS, f"select_by must be one of {', '.join(SELECT_METRICS)}")
-        require(self.threads >= 1, "threads must be >= 1")
-        require(self.max_cycles >= 0, "max_cycles must be >= 0")
-        require(self.eval_batch >= 1, "eval_batch must be >= 1")
-        self.model.validate()
+        super().validate()
 
     @property
     def history(self) -> int:

@@ -23,21 +23,12 @@ from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
-from irlsim.train.common import (
-    METRICS_NAME,
-    STAGE_FOLDERS,
-    LoadedModel,
-    as_dataset,
-    check_split_shape,
-    find_checkpoint,
-    get_split,
-    load_model,
-    model_config_from,
-    num_threads,
-    predict_split,
-    provenance,
-    read_metrics,
-)
+from irlsim.train.batching import as_dataset, check_split_shape, get_split, predict_split
+from irlsim.train.checkpoint import model_config_from
+from irlsim.train.layout import METRICS_NAME, STAGE_FOLDERS, find_checkpoint
+from irlsim.train.loading import LoadedModel, load_model
+from irlsim.train.metrics_log import read_metrics
+from irlsim.train.repro import num_threads, provenance
 from irlsim.train.stage2 import predict_temporal
 from irlsim.utils import atomic_path, atomic_write_text, write_json
 
@@ -157,7 +148,7 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
         "",
     ]
     trained = sorted({_provenance_text(r["provenance"]) for r in rows if r.get("provenance")})
-    if trained:  # the weights' bytes depend on these (irlsim.train.common.provenance)
+    if trained:  # the weights' bytes depend on these (irlsim.train.repro.provenance)
         lines += [f"Trained with {'; '.join(trained)}.", ""]
     return "\n".join(lines)
 
@@ -240,7 +231,7 @@ def evaluate_models(
 ) -> list[dict[str, Any]]:
     """Evaluate every trained model in ``runs_dir`` on ``split``.
 
-    Checkpoints are found by :func:`irlsim.train.common.find_checkpoint` (``<runs>/stage1/<model>/``,
+    Checkpoints are found by :func:`irlsim.train.layout.find_checkpoint` (``<runs>/stage1/<model>/``,
     ``<runs>/stage2/<model>/``, or ``<runs>/<model>/``). ``H``: the history [cycles]; None = the temporal
     models' own H (else 10); a temporal model trained with another H is refused. Writes
     ``out_dir/results.md``, ``results.json`` (with the H used and this process's provenance),
@@ -257,7 +248,7 @@ def evaluate_models(
             f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
     data = get_split(dataset, split)
-    loaded = {name: load_model(path) for name, path in found.items()}
+    loaded = {name: load_model(path, dataset) for name, path in found.items()}
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)

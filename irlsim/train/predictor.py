@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from irlsim.train.common import LoadedModel, load_model
+from irlsim.train.loading import LoadedModel, load_model
 
 
 class RewardPredictor:

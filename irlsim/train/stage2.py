@@ -13,7 +13,6 @@ the stage-1 models' history mean uses.
 from __future__ import annotations
 
 import dataclasses
-import time
 from pathlib import Path
 from typing import Any, cast
 
@@ -26,25 +25,13 @@ from irlsim.irl.objectives import cycle_metrics, evaluate_thetas, history_indice
 from irlsim.models.networks import PTACNN
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
-from irlsim.train.common import (
-    CHECKPOINT_NAME,
-    BestTracker,
-    MetricsLog,
-    as_dataset,
-    check_finite,
-    dataset_meta,
-    deterministic,
-    get_split,
-    inference_state,
-    predict_split,
-    provenance,
-    read_checkpoint,
-    rebuild_stage1,
-    save_checkpoint,
-    to_tensor,
-)
+from irlsim.train.batching import as_dataset, dataset_meta, get_split, predict_split, to_tensor
+from irlsim.train.checkpoint import dataset_identity, expected_identity, inference_state, read_checkpoint
 from irlsim.train.config import Stage2Config
-from irlsim.utils import progress
+from irlsim.train.layout import CHECKPOINT_NAME
+from irlsim.train.loading import rebuild_stage1
+from irlsim.train.loop import TrainingRun
+from irlsim.train.repro import deterministic, provenance
 
 
 @torch.no_grad()
@@ -101,7 +88,9 @@ def _train_one_stage2(
             f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 with {base_name} in "
             "its models first (or point --base at the folder holding it)"
         )
-    base_ckpt = read_checkpoint(base_path)
+    ident = dataset_identity(dataset)
+    base_model, base_stage = expected_identity(base_path)
+    base_ckpt = read_checkpoint(base_path, model=base_model or base_name, stage=base_stage, dataset=ident)
     base = rebuild_stage1(base_ckpt)
     for p in base.parameters():
         p.requires_grad_(False)
@@ -128,10 +117,9 @@ def _train_one_stage2(
         )
 
     ckpt_path = out_dir / name / CHECKPOINT_NAME
-    ckpt = read_checkpoint(ckpt_path) if ckpt_path.exists() else None
+    ckpt = read_checkpoint(ckpt_path, model=name, stage=2) if ckpt_path.exists() else None
     if ckpt and (
-        ckpt["model"] != name
-        or ckpt["model_config"] != to_dict(model_cfg)
+        ckpt["model_config"] != to_dict(model_cfg)
         or ckpt["base"]["state_dict"].keys() != base_entry["state_dict"].keys()
         or any(not torch.equal(ckpt["base"]["state_dict"][k], v) for k, v in base_entry["state_dict"].items())
     ):
@@ -139,39 +127,14 @@ def _train_one_stage2(
             f"checkpoint {ckpt_path} was trained on another {base_name} or with other sizes: "
             "delete it to retrain"
         )
-    torch.manual_seed(cfg.seed)
-    model = build_model(name, model_cfg, 1, FeatureStats.from_dict(base_ckpt["feature_stats"]))
-    optimizer = torch.optim.Adam(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
-    start_epoch = 0
-    if ckpt:
-        model.load_state_dict(ckpt["state_dict"])
-        optimizer.load_state_dict(ckpt["optimizer"])
-        start_epoch = int(ckpt["epoch"])
-    log = MetricsLog(out_dir / name, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
-    best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
+    fstats = FeatureStats.from_dict(base_ckpt["feature_stats"])
+    run = TrainingRun(
+        name, 2, cfg, out_dir / name, ckpt, lambda: build_model(name, model_cfg, 1, fstats), ident
+    )
+    model = run.model
 
-    def checkpoint(epochs_done: int) -> dict[str, Any]:
-        return {
-            "model": name,
-            "stage": 2,
-            "config": to_dict(cfg),
-            "model_config": to_dict(model_cfg),
-            "state_dict": model.state_dict(),
-            "optimizer": optimizer.state_dict(),
-            "epoch": epochs_done,
-            "feature_stats": base_ckpt["feature_stats"],
-            "parameters": count_parameters(model),
-            "base": base_entry,
-            "metrics": log.rows,
-            "best": best.best,
-            "provenance": provenance(),
-            **meta,
-        }
-
-    for epoch in progress(range(start_epoch, cfg.epochs), desc=f"stage 2 {name}", unit="epoch"):
-        t0 = time.perf_counter()
-        model.train()
-        order = np.random.default_rng([cfg.seed, epoch]).permutation(pairs)
+    def train_epoch(epoch: int) -> dict[str, float]:
+        order = run.order(pairs, epoch)
         sums = {"train/nll": 0.0, "train/evd": 0.0}
         for start in range(0, len(order), cfg.batch_size):
             mb_t = np.sort(order[start : start + cfg.batch_size])
@@ -183,35 +146,34 @@ def _train_one_stage2(
                 to_tensor(train.distances[mb_next]),
                 to_tensor(train.demo_index[mb_next], torch.int64),
             )
-            loss = m["nll"].mean()
-            check_finite(loss, name, epoch, cfg.lr, "stage2")
-            optimizer.zero_grad()
-            loss.backward()
-            if cfg.grad_clip > 0:
-                torch.nn.utils.clip_grad_norm_(model.parameters(), cfg.grad_clip)
-            optimizer.step()
+            run.step(m["nll"].mean(), epoch)
             sums["train/nll"] += m["nll"].detach().sum().item()
             sums["train/evd"] += m["evd"].detach().sum().item()
-        row: dict[str, Any] = {"epoch": epoch + 1, **{k: v / len(order) for k, v in sums.items()}}
-        if (epoch + 1) % cfg.validate_every == 0 or epoch + 1 == cfg.epochs:
-            thetas, _ = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
-            row.update({f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()})
-        row["time/epoch_s"] = time.perf_counter() - t0
-        log.add(row)
-        best.update(row, model)
-        save_checkpoint(ckpt_path, checkpoint(epoch + 1))
-    log.close()
-    if not ckpt_path.exists():
-        save_checkpoint(ckpt_path, checkpoint(0))
-    return {
-        "checkpoint": str(ckpt_path),
-        "epochs": max(cfg.epochs, start_epoch),
-        "parameters": count_parameters(model),
-        "base_parameters": int(base_ckpt["parameters"]),
-        "selected_epoch": best.epoch,
-        "final": log.rows[-1] if log.rows else {},
-        "provenance": provenance(),
-    }
+        return {k: v / len(order) for k, v in sums.items()}
+
+    def validate() -> dict[str, float]:
+        thetas, _ = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
+        return {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()}
+
+    def checkpoint(epochs_done: int) -> dict[str, Any]:
+        return {
+            "model": name,
+            "stage": 2,
+            "config": to_dict(cfg),
+            "model_config": to_dict(model_cfg),
+            "state_dict": model.state_dict(),
+            "optimizer": run.optimizer.state_dict(),
+            "epoch": epochs_done,
+            "feature_stats": base_ckpt["feature_stats"],
+            "parameters": count_parameters(model),
+            "base": base_entry,
+            "metrics": run.log.rows,
+            "best": run.best.best,
+            "provenance": provenance(),
+            **meta,
+        }
+
+    return run.fit(train_epoch, validate, checkpoint, {"base_parameters": int(base_ckpt["parameters"])})
 
 
 def train_stage2(

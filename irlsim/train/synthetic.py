@@ -119,4 +119,16 @@ def make_synthetic_dataset(
             "test": make_split(n_eval, n_policies, theta, seed + 2, k),
         },
         theta_true=theta,
+        manifest={
+            "schema_version": SCHEMA_VERSION,
+            "feature_names": list(FEATURE_NAMES),
+            # what identifies this dataset in a checkpoint (irlsim.train.checkpoint.dataset_identity)
+            "synthetic": {
+                "n_train": n_train,
+                "n_eval": n_eval,
+                "n_policies": n_policies,
+                "k": k,
+                "seed": seed,
+            },
+        },
     )

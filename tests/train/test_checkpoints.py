@@ -11,7 +11,7 @@ from irlsim import FEATURE_NAMES
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
-from irlsim.train.common import find_checkpoint, stage_dir
+from irlsim.train.layout import find_checkpoint, stage_dir
 from irlsim.train.synthetic import make_synthetic_dataset
 
 H = 4  # Stage2Config.smoke()'s history
@@ -91,8 +91,12 @@ def test_evaluate_refuses_another_history_for_ptacnn(dataset, runs, tmp_path):
     assert rows[2]["model"] == "PTACNN"
 
 
-def test_evaluate_refuses_another_number_of_policies(runs, tmp_path):
+def test_evaluate_refuses_another_number_of_policies(runs, dataset, tmp_path):
     other = make_synthetic_dataset(n_train=8, n_eval=16, n_policies=24, seed=1)
+    with pytest.raises(IrlsimError) as e:  # another dataset: refused by its identity ...
+        evaluate_models(other, runs, tmp_path / "eval")
+    assert "was trained on another dataset" in _one_line(e)
+    other.manifest = dict(dataset.manifest)  # ... and by the shapes, were the identity the same
     with pytest.raises(IrlsimError) as e:
         evaluate_models(other, runs, tmp_path / "eval")
     assert "LIRL was trained on N=32 policies per cycle, the test split has 24" in _one_line(e)

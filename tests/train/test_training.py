@@ -22,7 +22,7 @@ from irlsim.train import (
     train_stage1,
     train_stage2,
 )
-from irlsim.train.common import predict_split
+from irlsim.train.batching import predict_split
 from irlsim.train.synthetic import make_synthetic_dataset
 
 

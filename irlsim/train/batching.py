@@ -1,0 +1,118 @@
+"""Split access and batching: splits as arrays, mini-batches as tensors, whole-split prediction."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from irlsim import FEATURE_NAMES
+from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.errors import IrlsimError
+
+
+def as_dataset(dataset: Any) -> Any:
+    """A dataset object (anything with ``split_tensors(name)``), or a path opened with the data reader."""
+    if isinstance(dataset, (str, Path)):
+        from irlsim.data.reader import open_dataset  # lazy: the data layer is optional for the math
+
+        return open_dataset(dataset)
+    return dataset
+
+
+def get_split(dataset: Any, name: str) -> Any:
+    """The SplitTensors of split ``name`` (train / validation / test)."""
+    split = dataset.split_tensors(name)
+    c, n = split.features.shape[:2]
+    assert split.distances.shape == (c, n) and split.demo_index.shape == (c,), f"split {name} is inconsistent"
+    return split
+
+
+def dataset_meta(dataset: Any) -> dict[str, Any]:
+    """Schema version and feature names stored in checkpoints (from ``dataset.manifest``; an in-memory
+    dataset without one is taken to be current)."""
+    manifest = getattr(dataset, "manifest", None) or {}
+    names = list(manifest.get("feature_names", FEATURE_NAMES))
+    version = manifest.get("schema_version", SCHEMA_VERSION)
+    if names != list(FEATURE_NAMES):
+        raise IrlsimError(
+            f"dataset features {names} differ from this irlsim's {list(FEATURE_NAMES)}: "
+            "re-run 'irlsim collect'"
+        )
+    if version != SCHEMA_VERSION:
+        raise IrlsimError(
+            f"dataset schema version {version} differs from this irlsim's {SCHEMA_VERSION}: "
+            "re-run 'irlsim collect'"
+        )
+    return {"schema_version": version, "feature_names": names}
+
+
+def check_split_shape(name: str, entry: dict[str, Any], split: Any, split_name: str) -> None:
+    """Refuse (one line) a split whose policies per cycle N or control points K differ from those the
+    stage-1 ``entry`` (a checkpoint, or a stage-2 checkpoint's 'base') was trained on."""
+    n, k = split.features.shape[1], split.control_points.shape[2]
+    trained_n, trained_k = int(entry["n_policies"]), int(entry["feature_stats"]["k"])
+    if trained_n != n:
+        raise IrlsimError(
+            f"{name} was trained on N={trained_n} policies per cycle, the {split_name} split has {n}: "
+            f"evaluate on a dataset collected with planner.n_policies={trained_n}, or retrain on this one"
+        )
+    if trained_k != k:
+        raise IrlsimError(
+            f"{name} was trained on K={trained_k} control points per policy, the {split_name} split has "
+            f"{k}: evaluate on the dataset it was trained on, or retrain on this one"
+        )
+
+
+def to_tensor(a: Any, dtype: torch.dtype = torch.float32) -> torch.Tensor:
+    return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
+
+
+def gather_batch(split: Any, rows: np.ndarray) -> dict[str, torch.Tensor]:
+    """Mini-batch of cycles ``rows`` (prefix ``b_``-style tensors): features, control_points, actions,
+    distances, demo_index."""
+    rows = np.asarray(rows)
+    return {
+        "features": to_tensor(split.features[rows]),
+        "control_points": to_tensor(split.control_points[rows]),
+        "actions": to_tensor(split.actions[rows]),
+        "distances": to_tensor(split.distances[rows]),
+        "demo_index": to_tensor(split.demo_index[rows], torch.int64),
+    }
+
+
+@torch.no_grad()
+def predict_split(
+    model: nn.Module, split: Any, chunk: int = 64, desc: str | None = None
+) -> dict[str, np.ndarray]:
+    """Run a stage-1 model over every cycle of ``split`` in chunks.
+
+    -> {'theta': [C, 15] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}.
+    """
+    from irlsim.utils import progress
+
+    model.eval()
+    n, n_policies = split.features.shape[:2]
+    built_for = getattr(model, "n_policies", n_policies)
+    if built_for != n_policies:  # 1DCNN / Bi1DCNN would fail on a raw shape error deep inside
+        raise IrlsimError(
+            f"{type(model).__name__} was trained on N={built_for} policies per cycle, the split has "
+            f"{n_policies}: use a dataset collected with planner.n_policies={built_for}, or retrain"
+        )
+    parts: dict[str, list[np.ndarray]] = {}
+    starts = range(0, n, chunk)
+    for start in progress(starts, desc=desc, disable=desc is None, leave=False):
+        rows = np.arange(start, min(start + chunk, n))
+        b = gather_batch(split, rows)
+        out = model(b["features"], b["control_points"], b["actions"])
+        for k in ("theta", "context", "attention"):
+            if k in out:
+                parts.setdefault(k, []).append(out[k].numpy())
+    return (
+        {k: np.concatenate(v) for k, v in parts.items()}
+        if parts
+        else {"theta": np.zeros((0, 15), np.float32)}
+    )

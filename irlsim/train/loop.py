@@ -1,0 +1,202 @@
+"""The one training loop of both stages: seed, build, resume, epochs of optimizer steps, validation,
+model selection, the metrics log and an atomic checkpoint after every epoch.
+
+A stage supplies what differs: how to build its network, what one epoch of mini-batches is, how it
+validates and what its checkpoint carries besides the common entries (see stage1.py, stage2.py).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import torch
+from torch import nn
+
+from irlsim.config import to_dict
+from irlsim.errors import IrlsimError
+from irlsim.models.registry import count_parameters
+from irlsim.train.checkpoint import save_checkpoint
+from irlsim.train.config import TrainConfig
+from irlsim.train.layout import CHECKPOINT_NAME
+from irlsim.train.metrics_log import MetricsLog
+from irlsim.train.repro import provenance
+from irlsim.utils import progress
+
+
+class BestTracker:
+    """Model selection on the validation split: keeps a copy of the weights of the epoch with the lowest
+    ``metric`` seen so far (ties keep the earlier epoch). ``metric='last'`` keeps nothing."""
+
+    def __init__(self, metric: str, previous: dict[str, Any] | None = None) -> None:
+        self.metric = metric
+        self.best = previous if metric != "last" else None
+
+    def update(self, row: dict[str, Any], model: nn.Module) -> None:
+        value = row.get(self.metric)
+        if self.metric == "last" or value is None or not np.isfinite(value):
+            return
+        if self.best is None or value < self.best["value"]:
+            state = {k: v.detach().clone() for k, v in model.state_dict().items()}
+            self.best = {
+                "metric": self.metric,
+                "value": float(value),
+                "epoch": int(row["epoch"]),
+                "state_dict": state,
+            }
+
+    @property
+    def epoch(self) -> int | None:
+        return None if self.best is None else int(self.best["epoch"])
+
+
+def check_finite(loss: torch.Tensor, model: str, epoch: int, lr: float, stage: str) -> None:
+    if not torch.isfinite(loss):
+        raise IrlsimError(
+            f"{model}: the loss became {loss.item()} in epoch {epoch + 1}: lower {stage}.lr (now {lr:g}) "
+            "or check the dataset for non-finite features"
+        )
+
+
+#: config fields a resume refuses to change (one line naming the field): they decide what the finished
+#: epochs mean (the seed fixes the initial weights and every epoch's shuffle, max_cycles the train rows and
+#: the feature normalisation, select_by / history what the stored best epoch was selected by, model the
+#: network). Every other field (epochs, lr, weight_decay, grad_clip, batch_size, the attention loss
+#: weights, validate_every, threads, eval_batch, tensorboard, models) may change: the remaining epochs use
+#: the new value and the checkpoint's 'resumes' records {epoch, changed: {field: [old, new]}}.
+REFUSED_ON_RESUME = ("seed", "max_cycles", "select_by", "history", "model")
+
+
+def check_resume(
+    path: Path, ckpt: dict[str, Any], config: dict[str, Any], dataset: str | None
+) -> dict[str, list[Any]]:
+    """Compare an existing checkpoint with what is asked: another dataset or a field of
+    ``REFUSED_ON_RESUME`` -> IrlsimError (one line naming the difference); returns the other changed
+    fields as {field: [old, new]}."""
+    have = ckpt.get("dataset")
+    if dataset is not None and have != dataset:
+        raise IrlsimError(
+            f"{path} was trained on another dataset ({str(have)[:19]}..., --data is {dataset[:19]}...): "
+            "train into another --out, delete the model's folder, or pass the dataset it was trained on"
+        )
+    old = ckpt.get("config") or {}
+    changed = {k: [old.get(k), v] for k, v in config.items() if old.get(k) != v}
+    for key in REFUSED_ON_RESUME:
+        if key in changed:
+            was, now = changed[key]
+            what = "model sizes" if key == "model" else key
+            raise IrlsimError(
+                f"{path} was trained with {what} {_short(was)}, asked {_short(now)}: resuming cannot change "
+                f"{what}; train into another --out, delete the model's folder, or set {key} back"
+            )
+    return changed
+
+
+def _short(v: Any) -> str:
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{k}={x}" for k, x in v.items()) + "}"
+    return repr(v)
+
+
+class TrainingRun:
+    """One model's training into ``run_dir``: ``build()`` makes the network after seeding torch with
+    ``cfg.seed``; ``ckpt`` (a checkpoint already checked to match what is asked) resumes its weights,
+    optimizer state, metrics and best epoch. ``fit`` runs the remaining epochs."""
+
+    def __init__(
+        self,
+        name: str,
+        stage: int,
+        cfg: TrainConfig,
+        run_dir: Path,
+        ckpt: dict[str, Any] | None,
+        build: Callable[[], nn.Module],
+        dataset: str | None = None,
+    ) -> None:
+        self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
+        self.dataset = dataset
+        self.resumes: list[dict[str, Any]] = list(ckpt.get("resumes") or []) if ckpt else []
+        self.ckpt_path = run_dir / CHECKPOINT_NAME
+        torch.manual_seed(cfg.seed)
+        self.model = build()
+        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+        self.start_epoch = 0
+        if ckpt:
+            changed = check_resume(self.ckpt_path, ckpt, to_dict(cfg), dataset)
+            self.model.load_state_dict(ckpt["state_dict"])
+            self.optimizer.load_state_dict(ckpt["optimizer"])
+            for group in self.optimizer.param_groups:  # the asked values, not the stored ones
+                group["lr"], group["weight_decay"] = cfg.lr, cfg.weight_decay
+            self.start_epoch = int(ckpt["epoch"])
+            if changed and self.start_epoch < cfg.epochs:
+                self.resumes.append({"epoch": self.start_epoch, "changed": changed})
+                print(
+                    f"{name}: resuming after epoch {self.start_epoch} with "
+                    + ", ".join(f"{k} {_short(a)} -> {_short(b)}" for k, (a, b) in changed.items()),
+                    flush=True,
+                )
+        self.log = MetricsLog(run_dir, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
+        self.best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
+
+    def payload(self, stage_payload: Callable[[int], dict[str, Any]], epochs_done: int) -> dict[str, Any]:
+        """The checkpoint: the stage's entries, then the identity and resume record every checkpoint
+        carries. Metric rows are stored without their wall times (time/*), which differ between identical
+        runs: metrics.csv keeps them."""
+        out = stage_payload(epochs_done)
+        out["metrics"] = [{k: v for k, v in r.items() if not k.startswith("time/")} for r in out["metrics"]]
+        out["dataset"] = self.dataset
+        out["resumes"] = self.resumes
+        return out
+
+    def order(self, rows: np.ndarray, epoch: int) -> np.ndarray:
+        """The epoch's shuffled ``rows``; depends only on (seed, epoch), so a resumed run sees the same
+        batches."""
+        return np.random.default_rng([self.cfg.seed, epoch]).permutation(rows)
+
+    def step(self, loss: torch.Tensor, epoch: int) -> None:
+        """One optimizer step on ``loss`` (refused if not finite), with gradient clipping."""
+        check_finite(loss, self.name, epoch, self.cfg.lr, f"stage{self.stage}")
+        self.optimizer.zero_grad()
+        loss.backward()
+        if self.cfg.grad_clip > 0:
+            torch.nn.utils.clip_grad_norm_(self.model.parameters(), self.cfg.grad_clip)
+        self.optimizer.step()
+
+    def fit(
+        self,
+        train_epoch: Callable[[int], dict[str, float]],
+        validate: Callable[[], dict[str, float]],
+        payload: Callable[[int], dict[str, Any]],
+        summary_extra: dict[str, Any] | None = None,
+    ) -> dict[str, Any]:
+        """Epochs ``start_epoch .. cfg.epochs``: ``train_epoch(epoch)`` -> the epoch's train metrics;
+        ``validate()`` every ``validate_every`` epochs and after the last; then the metrics row, model
+        selection and the checkpoint ``payload(epochs_done)``. Returns the model's summary."""
+        cfg = self.cfg
+        desc = f"stage {self.stage} {self.name}"
+        for epoch in progress(range(self.start_epoch, cfg.epochs), desc=desc, unit="epoch"):
+            t0 = time.perf_counter()
+            self.model.train()
+            row: dict[str, Any] = {"epoch": epoch + 1, **train_epoch(epoch)}
+            if (epoch + 1) % cfg.validate_every == 0 or epoch + 1 == cfg.epochs:
+                row.update(validate())
+            row["time/epoch_s"] = time.perf_counter() - t0
+            self.log.add(row)
+            self.best.update(row, self.model)
+            save_checkpoint(self.ckpt_path, self.payload(payload, epoch + 1))
+        self.log.close()
+        if not self.ckpt_path.exists():  # epochs == 0: still leave an (untrained) checkpoint behind
+            save_checkpoint(self.ckpt_path, self.payload(payload, 0))
+        return {
+            "checkpoint": str(self.ckpt_path),
+            **({"resumes": self.resumes} if self.resumes else {}),
+            "epochs": max(cfg.epochs, self.start_epoch),
+            "parameters": count_parameters(self.model),
+            **(summary_extra or {}),
+            "selected_epoch": self.best.epoch,
+            "final": self.log.rows[-1] if self.log.rows else {},
+            "provenance": provenance(),
+        }
