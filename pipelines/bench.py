@@ -42,6 +42,7 @@ TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),
     "infer": ("infer_median_ms", "<=", 10.0, "ms"),
+    "scale": ("ray_over_local", ">=", 0.9, "x the local pool"),
 }
 
 
@@ -56,6 +57,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="time collection end to end (SUMO + planner + demonstrations + Parquet)",
     )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
+    parser.add_argument(
+        "--scale",
+        action="store_true",
+        help="collection with the local pool vs Ray (2 workers), 1 -> 2 workers on a simulated two-node "
+        "Ray cluster, stage-1 training cycles/s per device and precision (needs the ray extra)",
+    )
     parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
@@ -165,11 +172,18 @@ def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
     return run_infer(n_policies=2500, seed=args.seed)
 
 
+def bench_scale(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks_scale import bench_scale as run_scale
+
+    return run_scale(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
+
+
 #: section name -> function; ``--<name>`` selects it
 SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
     "collect": bench_collect,
     "infer": bench_infer,
+    "scale": bench_scale,
 }
 
 

@@ -13,7 +13,6 @@ import argparse
 import json
 import sys
 import time
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +35,7 @@ from irlsim.data.layout import (
 )
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
+from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.road.network import build_net
 from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress, spawn_pool
 
@@ -47,6 +47,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
     p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
     p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
+    add_executor_arguments(p)
     p.add_argument(
         "--set",
         action="append",
@@ -55,11 +56,28 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_executor_arguments(p: argparse.ArgumentParser) -> None:
+    """``--executor`` and ``--address`` (collect and drive)."""
+    p.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="where episodes run: 'local' spawned worker processes (default) or 'ray' tasks (needs the "
+        "ray extra: pip install -e '.[ray]'); the outputs are the same bytes either way",
+    )
+    p.add_argument(
+        "--address",
+        default=None,
+        help="with --executor ray: 'auto' or host:port joins a running Ray cluster (default: start a "
+        "local Ray of --workers CPUs); every node must be able to write --out (a shared folder)",
+    )
+
+
 #: held by the running collect for its whole run, so two never write into one dataset folder
 LOCK_NAME = ".lock"
 
 
-def _run_job(job):  # top level: picklable for spawn workers
+def _run_job(job):  # top level: picklable for spawn workers and Ray tasks
 
     return collect_episode(job)
 
@@ -75,12 +93,13 @@ def run(args: argparse.Namespace) -> int:
         check_non_negative("seed", args.seed)
         overrides["seed"] = args.seed
     cfg = load_config(CollectConfig, args.config, overrides)
+    check_executor(args.executor, cfg.workers, args.address)
     out: Path = args.out
     if out.exists() and not out.is_dir():
         raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
     try:
         with exclusive_lock(out / LOCK_NAME):
-            return _collect(cfg, out)
+            return _collect(cfg, out, args.executor, args.address)
     except LockBusy as busy:
         raise IrlsimError(
             f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
@@ -113,7 +132,7 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
         )
 
 
-def _collect(cfg: Any, out: Path) -> int:
+def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
     """The collection itself, run while this process holds ``<out>/.lock``."""
 
     manifest_path = out / "manifest.json"
@@ -141,9 +160,11 @@ def _collect(cfg: Any, out: Path) -> int:
                     continue
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
-            jobs.append(EpisodeJob(str(out), split, episode, seed, cfg))
+            # an absolute path: a Ray worker runs in a folder of its own
+            jobs.append(Job(f"{split}/{episode}", EpisodeJob(str(out.resolve()), split, episode, seed, cfg)))
     total = sum(len(v) for v in seeds.values())
-    print(f"collect: {total} episodes ({total - len(jobs)} already done), {cfg.workers} worker(s) -> {out}")
+    where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
+    print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for
         # a small one; it lists the config, so a re-run with another config is refused
@@ -155,23 +176,51 @@ def _collect(cfg: Any, out: Path) -> int:
     t0 = time.perf_counter()
     cycles = 0
     bar = progress(total=len(jobs), desc="episodes", unit="ep")
-    results: Iterator[Any]
-    if cfg.workers == 1 or len(jobs) <= 1:
-        results = map(_run_job, jobs)
-        pool = None
-    else:
-        pool = spawn_pool(min(cfg.workers, len(jobs)))
-        results = pool.imap_unordered(_run_job, jobs)
+
+    def on_result(job: Any, stats: dict[str, Any]) -> None:
+        nonlocal cycles
+        cycles += stats["collect/cycles"]
+        bar.update(1)
+        bar.set_postfix(cycles=cycles, rate=f"{cycles / (time.perf_counter() - t0):.1f}/s")
+
+    def on_retry(job: Any, reason: str) -> None:
+        bar.write(f"collect: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr)
+
     try:
-        for stats in results:
-            cycles += stats["collect/cycles"]
-            bar.update(1)
-            bar.set_postfix(cycles=cycles, rate=f"{cycles / (time.perf_counter() - t0):.1f}/s")
+        result = run_jobs(
+            _run_job,
+            jobs,
+            executor=executor,
+            workers=cfg.workers,
+            address=address,
+            on_result=on_result,
+            on_retry=on_retry,
+        )
     finally:
         bar.close()
-        if pool is not None:
-            pool.terminate()
-            pool.join()
+    for split in SPLITS:  # what a killed worker left behind (no job runs now)
+        remove_partial(out, split)
+    if result.failed:
+        # the failed episodes are not listed and the dataset stays incomplete (readers refuse it); the
+        # same command collects just those, as it resumes any other incomplete collection
+        done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
+        write_manifest(
+            out,
+            {
+                "config": config,
+                "seeds": seeds,
+                "splits": done,
+                "complete": False,
+                "failed": result.failed,
+            },
+        )
+        print(
+            f"irlsim: error: collect: {len(result.failed)} of {total} episodes failed twice: "
+            f"{describe_failures(result.failed)}; the other episodes are in {out}: re-run the same "
+            "command to collect the failed ones",
+            file=sys.stderr,
+        )
+        return 1
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
     manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
     wall = time.perf_counter() - t0

@@ -9,13 +9,18 @@ episode of each model the pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXX
 from __future__ import annotations
 
 import argparse
+import sys
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+from irlsim import devices
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
 from irlsim.drive.metrics import markdown_table, summarize
 from irlsim.errors import IrlsimError
+from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
 
@@ -68,10 +73,88 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="stop each episode after this many planning cycles (0 = laps, collision, exit or time-out)",
     )
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads of the reward inference")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="episodes driven in parallel processes, one libsumo each (default: 1, in this process); "
+        "drive.json is the same for any count",
+    )
+    from pipelines.collect import add_executor_arguments
+
+    add_executor_arguments(p)
+    from irlsim.devices import add_arguments as device_arguments
+
+    device_arguments(p, "reward inference")
+
+
+@dataclass(frozen=True)
+class DriveJob:
+    """One closed-loop episode of one model: what a worker process needs to drive it."""
+
+    spec: str  # a model name or an absolute checkpoint path
+    runs: str | None  # absolute
+    cfg: Any  # CollectConfig
+    seed: int
+    laps: int
+    episode: int
+    safety: bool
+    pictures: Any  # PictureSpec | None (absolute folder)
+    max_cycles: int
+    threads: int
+    device: str = "cpu"
+    precision: str = "fp32"
+
+
+#: per process: models and the road, loaded once by the first episode that needs them
+_MODELS: dict[tuple[Any, ...], Any] = {}
+_ROAD: list[Any] = []
+
+
+def _model_key(spec: str, runs: str | None, n_policies: int, threads: int) -> tuple[Any, ...]:
+    from irlsim.devices import current
+
+    return (spec, runs, n_policies, threads, current())
+
+
+def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for worker processes and Ray
+    from irlsim import devices
+
+    with devices.use(job.device, job.precision):
+        return _drive(job)
+
+
+def _drive(job: DriveJob) -> dict[str, Any]:
+    from irlsim.drive.closed_loop import drive_episode, load_drive_model
+    from irlsim.road import load_road
+
+    key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
+    if key not in _MODELS:
+        _MODELS[key] = load_drive_model(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
+    if not _ROAD:
+        _ROAD.append(load_road())
+    return drive_episode(
+        _MODELS[key],
+        _ROAD[0],
+        job.cfg,
+        job.seed,
+        job.laps,
+        episode=job.episode,
+        safety=job.safety,
+        pictures=job.pictures,
+        max_cycles=job.max_cycles,
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+
+    device = devices.resolve_device(args.device)  # a missing device is one line, before any work
+    with devices.use(device, args.precision):
+        return _run(args, str(device))
 
 
 # size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
-def run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace, device: str) -> int:
 
     for name in ("episodes", "laps"):
         if getattr(args, name) < 1:
@@ -84,32 +167,74 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
     if len(set(specs)) != len(specs):
         raise IrlsimError(f"--model names a model twice: {args.model}")
+    check_executor(args.executor, args.workers, args.address)
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
     models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
-    road = load_road()
+    runs = str(args.runs.resolve()) if args.runs else None
+    for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
+        _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
 
-    episodes, summaries = [], []
+    jobs: list[Any] = []
+    labels: list[str] = []
     for model, spec in zip(models, specs, strict=True):
-        folder = out / _folder(model.name if not model.checkpoint or spec == model.name else spec)
-        recs, times = [], []
+        folder = (out / _folder(model.name if not model.checkpoint or spec == model.name else spec)).resolve()
+        label = model.name if spec == model.name else spec
+        labels.append(label)
+        # a checkpoint path is made absolute: a Ray worker runs in a folder of its own
+        job_spec = spec if (model.checkpoint is None or spec == model.name) else str(Path(spec).resolve())
         for i in range(args.episodes):
             pics = PictureSpec(folder, frames=args.frames) if i == 0 and args.frames > 0 else None
-            rec = drive_episode(
-                model,
-                road,
+            if job_spec != spec:
+                _MODELS[_model_key(job_spec, runs, cfg.planner.n_policies, args.threads)] = model
+            job = DriveJob(
+                job_spec,
+                runs,
                 cfg,
                 args.seed + i,
                 args.laps,
-                episode=i,
-                safety=args.safety,
-                pictures=pics,
-                max_cycles=args.max_cycles,
+                i,
+                args.safety,
+                pics,
+                args.max_cycles,
+                args.threads,
+                device,
+                args.precision,
             )
+            jobs.append(Job(f"{label}/{i}", job))
+
+    def on_result(job: Any, rec: dict[str, Any]) -> None:
+        name, i = job.key.rsplit("/", 1)
+        print(f"{name} episode {i} (seed {args.seed + int(i)}): {_line(rec)}", flush=True)
+
+    def on_retry(job: Any, reason: str) -> None:
+        print(f"drive: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr, flush=True)
+
+    result = run_jobs(
+        _drive_job,
+        jobs,
+        executor=args.executor,
+        workers=args.workers,
+        address=args.address,
+        on_result=on_result,
+        on_retry=on_retry,
+    )
+    if result.failed:
+        print(
+            f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
+            f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
+            file=sys.stderr,
+        )
+        return 1
+    # in model and episode order, whatever order they finished in: the same JSON for any --workers
+    episodes, summaries = [], []
+    for label in labels:
+        recs, times = [], []
+        for i in range(args.episodes):
+            rec = dict(result.results[f"{label}/{i}"])
             times += rec.pop("_inference_ms")
             recs.append(rec)
-            print(f"{model.name} episode {i} (seed {args.seed + i}): {_line(rec)}", flush=True)
         episodes += recs
         summaries.append(summarize(recs, times))
 
@@ -136,6 +261,8 @@ def run(args: argparse.Namespace) -> int:
                 "config_file": str(args.config) if args.config else None,
                 "n_policies": cfg.planner.n_policies,
                 "max_cycles": args.max_cycles,
+                "device": device,
+                "precision": args.precision,
             },
             "summary": summaries,
             "episodes": episodes,

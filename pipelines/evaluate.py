@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from irlsim import devices
 from irlsim.data.reader import open_dataset
 from irlsim.errors import IrlsimError
 from irlsim.train.evaluate import evaluate_models
@@ -31,6 +32,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "a PTACNN trained with another H is refused)",
     )
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    from irlsim.devices import add_arguments as device_arguments
+
+    device_arguments(p, "evaluation")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -39,12 +43,14 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--history must be >= 1, got {args.history}")
     if args.threads < 1:
         raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
+    device = devices.resolve_device(args.device)
     out = args.out or args.runs / "eval"
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
-    evaluate_models(
-        open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
-    )
+    with devices.use(device, args.precision):
+        evaluate_models(
+            open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
+        )
     print((out / "results.md").read_text())
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
     return 0

@@ -13,6 +13,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from irlsim import devices
 from irlsim.config import load_config, parse_overrides, to_dict
 from irlsim.data.reader import open_dataset
 from irlsim.errors import IrlsimError
@@ -45,6 +46,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="stage 2 only: folder with the frozen stage-1 PACNN/ and PACNN+S/ (default: OUT/stage1)",
     )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
+    from irlsim.devices import add_arguments as device_arguments
+
+    device_arguments(p, "training")
 
 
 def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
@@ -61,6 +65,13 @@ def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
+
+    device = devices.resolve_device(args.device)  # a missing device is one line, before any work
+    with devices.use(device, args.precision):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
 
     if args.base is not None and args.stage != 2:
         raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")

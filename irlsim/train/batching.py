@@ -11,6 +11,7 @@ from torch import nn
 
 from irlsim import FEATURE_NAMES
 from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.devices import forward, to_device, to_numpy
 from irlsim.errors import IrlsimError
 
 
@@ -68,7 +69,8 @@ def check_split_shape(name: str, entry: dict[str, Any], split: Any, split_name: 
 
 
 def to_tensor(a: Any, dtype: torch.dtype = torch.float32) -> torch.Tensor:
-    return torch.as_tensor(np.ascontiguousarray(a), dtype=dtype)
+    """``a`` as a tensor on the current device (irlsim.devices; pinned, non-blocking on CUDA)."""
+    return to_device(torch.as_tensor(np.ascontiguousarray(a), dtype=dtype))
 
 
 def gather_batch(split: Any, rows: np.ndarray) -> dict[str, torch.Tensor]:
@@ -107,10 +109,10 @@ def predict_split(
     for start in progress(starts, desc=desc, disable=desc is None, leave=False):
         rows = np.arange(start, min(start + chunk, n))
         b = gather_batch(split, rows)
-        out = model(b["features"], b["control_points"], b["actions"])
+        out = forward(model, b["features"], b["control_points"], b["actions"])
         for k in ("theta", "context", "attention"):
             if k in out:
-                parts.setdefault(k, []).append(out[k].numpy())
+                parts.setdefault(k, []).append(to_numpy(out[k]))
     return (
         {k: np.concatenate(v) for k, v in parts.items()}
         if parts

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
 from irlsim.models.normalization import FeatureStats
@@ -104,10 +105,11 @@ def untrained_like(lm: LoadedModel, seed: int = 0) -> LoadedModel:
         entry["model"], model_config_from(entry["model_config"]), int(entry["n_policies"]), stats
     )
     if lm.base is None:
-        return LoadedModel(lm.name, stage1.eval(), None, None, lm.checkpoint)
+        return LoadedModel(lm.name, stage1.to(current_device()).eval(), None, None, lm.checkpoint)
     cfg = model_config_from(lm.checkpoint["model_config"])
     temporal = build_model(lm.name, cfg, 1, stats)
-    return LoadedModel(lm.name, temporal.eval(), stage1.eval(), cfg.history, lm.checkpoint)
+    dev = current_device()
+    return LoadedModel(lm.name, temporal.to(dev).eval(), stage1.to(dev).eval(), cfg.history, lm.checkpoint)
 
 
 def _row(model: str, params: str, n_params: list[int], metrics: dict[str, np.ndarray]) -> dict[str, Any]:

@@ -8,6 +8,7 @@ from typing import Any
 
 from torch import nn
 
+from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model
@@ -29,7 +30,7 @@ def rebuild_stage1(entry: dict[str, Any]) -> nn.Module:
         FeatureStats.from_dict(entry["feature_stats"]),
     )
     model.load_state_dict(inference_state(entry))
-    return model.eval()
+    return model.to(current_device()).eval()
 
 
 @dataclass
@@ -55,7 +56,9 @@ class LoadedModel:
 
 
 def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
-    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference (eval mode, CPU).
+    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference: eval mode, on the
+    current device (irlsim.devices); read onto the CPU first, so a checkpoint written on any device loads
+    on any other.
 
     Refused (one line) when it is not the model (and stage) of the folder it was found in
     (:func:`expected_identity`), has non-finite weights, or, with ``dataset`` (the dataset object it will
@@ -70,7 +73,7 @@ def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
             cfg = model_config_from(ckpt["model_config"])
             model = build_model(name, cfg, 1, FeatureStats.from_dict(ckpt["base"]["feature_stats"]))
             model.load_state_dict(inference_state(ckpt))
-            return LoadedModel(name, model.eval(), base, cfg.history, ckpt)
+            return LoadedModel(name, model.to(current_device()).eval(), base, cfg.history, ckpt)
         return LoadedModel(name, rebuild_stage1(ckpt), None, None, ckpt)
     except (KeyError, RuntimeError, TypeError) as e:
         raise IrlsimError(

@@ -17,6 +17,7 @@ import torch
 from torch import nn
 
 from irlsim.config import to_dict
+from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import count_parameters
 from irlsim.train.checkpoint import save_checkpoint
@@ -121,7 +122,7 @@ class TrainingRun:
         self.resumes: list[dict[str, Any]] = list(ckpt.get("resumes") or []) if ckpt else []
         self.ckpt_path = run_dir / CHECKPOINT_NAME
         torch.manual_seed(cfg.seed)
-        self.model = build()
+        self.model = build().to(current_device())
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.start_epoch = 0
         if ckpt:

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim.devices import forward, to_device, to_numpy
 from irlsim.train.loading import LoadedModel, load_model
 
 
@@ -46,27 +47,32 @@ class RewardPredictor:
     ) -> tuple[np.ndarray, dict[str, Any]]:
         torch.set_num_threads(self.threads)
         stage1 = self.loaded.base if self.loaded.base is not None else self.loaded.model
-        out = stage1(
-            torch.as_tensor(np.asarray(policy_features, dtype=np.float32))[None],
-            torch.as_tensor(np.asarray(control_points, dtype=np.float32))[None],
-            torch.as_tensor(np.asarray(actions, dtype=np.float32))[None],
+        raw = forward(
+            stage1,
+            to_device(torch.as_tensor(np.asarray(policy_features, dtype=np.float32))[None]),
+            to_device(torch.as_tensor(np.asarray(control_points, dtype=np.float32))[None]),
+            to_device(torch.as_tensor(np.asarray(actions, dtype=np.float32))[None]),
         )
+        out: dict[str, np.ndarray] = {k: to_numpy(v) for k, v in raw.items()}
         info: dict[str, Any] = {}
         if "attention" in out:
-            info["attention"] = out["attention"][0].numpy()
-        theta = out["theta"][0].numpy()
+            info["attention"] = out["attention"][0]
+        theta = out["theta"][0]
         if self.loaded.base is not None:
             assert self.history is not None
             if not self._thetas:  # first cycle of the episode: pad by repetition
                 for _ in range(self.history - 1):
-                    self._contexts.append(out["context"][0].numpy())
+                    self._contexts.append(out["context"][0])
                     self._thetas.append(theta)
-            self._contexts.append(out["context"][0].numpy())
+            self._contexts.append(out["context"][0])
             self._thetas.append(theta)
-            mix = self.loaded.model(
-                torch.as_tensor(np.stack(self._contexts))[None], torch.as_tensor(np.stack(self._thetas))[None]
+            raw_mix = forward(
+                self.loaded.model,
+                to_device(torch.as_tensor(np.stack(self._contexts))[None]),
+                to_device(torch.as_tensor(np.stack(self._thetas))[None]),
             )
-            theta = mix["theta"][0].numpy()
-            info["temporal_weights"] = mix["weights"][0].numpy().astype(np.float64)
-            info["stage1_theta"] = out["theta"][0].numpy().astype(np.float64)
+            mix = {k: to_numpy(v) for k, v in raw_mix.items()}
+            theta = mix["theta"][0]
+            info["temporal_weights"] = mix["weights"][0].astype(np.float64)
+            info["stage1_theta"] = out["theta"][0].astype(np.float64)
         return theta.astype(np.float64), info

@@ -8,6 +8,8 @@ from typing import Any
 
 import torch
 
+from irlsim.devices import describe
+
 
 def provenance() -> dict[str, Any]:
     """What besides seeds and data decides the trained bytes: torch's version, its CPU thread count and
@@ -19,6 +21,7 @@ def provenance() -> dict[str, Any]:
         "torch": str(torch.__version__),  # a TorchVersion, which weights_only loading refuses
         "threads": int(torch.get_num_threads()),
         "cpu_capability": str(torch.backends.cpu.get_cpu_capability()),
+        **describe(),  # device (and GPU name) and precision
     }
 
 

@@ -19,6 +19,7 @@ import numpy as np
 import torch
 
 from irlsim.config import to_dict
+from irlsim.devices import forward
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import (
     attention_loss,
@@ -94,7 +95,7 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
         sums = {"train/nll": 0.0, "train/evd": 0.0, "train/attention_loss": 0.0}
         for start in range(0, len(order), cfg.batch_size):
             mb = gather_batch(train, np.sort(order[start : start + cfg.batch_size]))
-            out = model(mb["features"], mb["control_points"], mb["actions"])
+            out = forward(model, mb["features"], mb["control_points"], mb["actions"])
             mb_metrics = cycle_metrics(out["theta"], mb["features"], mb["distances"], mb["demo_index"])
             loss = mb_metrics["nll"].mean()
             att = torch.zeros(())

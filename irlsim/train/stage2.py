@@ -20,6 +20,7 @@ import numpy as np
 import torch
 
 from irlsim.config import to_dict
+from irlsim.devices import forward, to_numpy
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import cycle_metrics, evaluate_thetas, history_indices, summarize
 from irlsim.models.networks import PTACNN
@@ -47,9 +48,9 @@ def predict_temporal(
     out_t, out_w = [], []
     for start in range(0, len(hist), chunk):
         h = hist[start : start + chunk]
-        out = model(to_tensor(contexts[h]), to_tensor(thetas[h]))
-        out_t.append(out["theta"].numpy())
-        out_w.append(out["weights"].numpy())
+        out = forward(model, to_tensor(contexts[h]), to_tensor(thetas[h]))
+        out_t.append(to_numpy(out["theta"]))
+        out_w.append(to_numpy(out["weights"]))
     if not out_t:
         return np.zeros((0, 15), np.float32), np.zeros((0, hist.shape[1]), np.float32)
     return np.concatenate(out_t), np.concatenate(out_w)
@@ -139,7 +140,7 @@ def _train_one_stage2(
         for start in range(0, len(order), cfg.batch_size):
             mb_t = np.sort(order[start : start + cfg.batch_size])
             mb_next = mb_t + 1
-            out = model(to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
+            out = forward(model, to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
             m = cycle_metrics(
                 out["theta"],
                 to_tensor(train.features[mb_next]),

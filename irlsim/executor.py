@@ -1,0 +1,375 @@
+"""Run a list of episode jobs in parallel processes: a local spawn pool or Ray tasks, one behaviour.
+
+``run_jobs(fn, jobs, ...)`` calls the top-level (picklable) function ``fn(job.arg)`` for every job and
+reports each result to ``on_result`` as it arrives, in completion order. Two executors:
+
+- ``local``: ``workers`` spawned processes of our own (``workers == 1``: in this process). Each worker is
+  one single-threaded process (``THREAD_VARS`` = 1) that ignores Ctrl-C and dies with its parent
+  (:func:`irlsim.utils.die_with_parent`) and runs one job at a time, so one libsumo per process. The
+  parent watches every worker's pipe *and* its process sentinel: a worker that dies (``kill -9``, the
+  OOM killer, a segfault in SUMO) is noticed at once, its job is counted as a failed attempt and a fresh
+  worker takes its place. (``multiprocessing.Pool`` never notices a dead worker: its job just never
+  returns, and the run hangs; that is why this module does not use it.)
+- ``ray``: every job is a Ray task (``num_cpus=1``, ``THREAD_VARS`` = 1 in its runtime environment) in a
+  Ray worker process, which runs one task at a time: one libsumo per process here too. At most
+  ``workers`` tasks are in flight. ``address`` None starts a local Ray of ``workers`` CPUs (stopped at the
+  end); ``"auto"`` or ``"host:port"`` joins a running cluster. A Ray already initialised in this process
+  (a test fixture, a notebook) is used as it is. Ray's own task retries are off: retries are ours.
+
+Failures are handled the same way by both: a job that raises or whose worker dies is retried once
+(``retries``); a job that fails again is reported in ``RunResult.failed`` with a one-line reason, and the
+other jobs run to the end. Nothing here hangs on a dead process, and nothing is written here: the jobs
+write their own outputs (atomically), so a run started with one executor resumes with the other.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from irlsim.errors import IrlsimError
+
+EXECUTORS = ("local", "ray")
+#: attempts after the first for a job that raises or whose worker dies
+RETRIES = 1
+RAY_EXTRA = "pip install -e '.[ray]'"
+
+
+@dataclass(frozen=True)
+class Job:
+    """One unit of work: ``key`` names it in messages (e.g. ``train/3``), ``arg`` is passed to the
+    function (picklable)."""
+
+    key: str
+    arg: Any
+
+
+@dataclass
+class RunResult:
+    results: dict[str, Any] = field(default_factory=dict)  # key -> the function's return value
+    failed: dict[str, str] = field(default_factory=dict)  # key -> one-line reason of the last attempt
+    retried: dict[str, str] = field(default_factory=dict)  # key -> one-line reason of the failed attempt
+
+
+def one_line(exc: BaseException) -> str:
+    """An exception as one line: its type and the first line of its message."""
+    msg = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {msg[0]}" if msg else type(exc).__name__
+
+
+def check_executor(executor: str, workers: int, address: str | None = None) -> None:
+    """One-line IrlsimErrors for a bad ``--executor`` / ``--workers`` / ``--address``, before any work."""
+    if executor not in EXECUTORS:
+        raise IrlsimError(f"--executor must be one of {', '.join(EXECUTORS)}, got {executor!r}")
+    if workers < 1:
+        raise IrlsimError(f"--workers must be >= 1, got {workers}")
+    if address is not None and executor != "ray":
+        raise IrlsimError("--address joins a Ray cluster: use it with --executor ray")
+    if executor == "ray":
+        _import_ray()
+
+
+def _import_ray() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise IrlsimError(
+            f"--executor ray needs Ray, which is not installed: {RAY_EXTRA} (or use --executor local)"
+        ) from None
+    return ray
+
+
+def run_jobs(
+    fn: Callable[[Any], Any],
+    jobs: Sequence[Job],
+    *,
+    executor: str = "local",
+    workers: int = 1,
+    address: str | None = None,
+    retries: int = RETRIES,
+    on_result: Callable[[Job, Any], None] | None = None,
+    on_retry: Callable[[Job, str], None] | None = None,
+) -> RunResult:
+    """Run ``fn(job.arg)`` for every job (see the module docstring); never raises for a failed job."""
+    check_executor(executor, workers, address)
+    if len({j.key for j in jobs}) != len(jobs):
+        raise ValueError("job keys must be unique")
+    state = _State(list(jobs), retries, on_result, on_retry)
+    if not jobs:
+        return state.result
+    if executor == "ray":
+        _run_ray(fn, state, workers, address)
+    elif workers == 1 or len(jobs) == 1:
+        _run_inline(fn, state)
+    else:
+        _run_local(fn, state, min(workers, len(jobs)))
+    return state.result
+
+
+class _State:
+    """The queue of jobs with their attempt counts, and what came back."""
+
+    def __init__(self, jobs: list[Job], retries: int, on_result: Any, on_retry: Any) -> None:
+        self.queue = list(reversed(jobs))  # pop() takes the first job first
+        self.attempts: dict[str, int] = {}
+        self.retries = retries
+        self.on_result = on_result
+        self.on_retry = on_retry
+        self.result = RunResult()
+
+    def next(self) -> Job | None:
+        if not self.queue:
+            return None
+        job = self.queue.pop()
+        self.attempts[job.key] = self.attempts.get(job.key, 0) + 1
+        return job
+
+    def ok(self, job: Job, value: Any) -> None:
+        self.result.results[job.key] = value
+        if self.on_result is not None:
+            self.on_result(job, value)
+
+    def fail(self, job: Job, reason: str) -> None:
+        if self.attempts[job.key] <= self.retries:
+            self.result.retried[job.key] = reason
+            if self.on_retry is not None:
+                self.on_retry(job, reason)
+            self.queue.append(job)  # next in line
+        else:
+            self.result.failed[job.key] = reason
+
+
+# ------------------------------------------------------------------------------------------ in process
+
+
+def _run_inline(fn: Callable[[Any], Any], state: _State) -> None:
+    while (job := state.next()) is not None:
+        try:
+            value = fn(job.arg)
+        except Exception as exc:  # KeyboardInterrupt and SystemExit end the run
+            state.fail(job, one_line(exc))
+        else:
+            state.ok(job, value)
+
+
+# ------------------------------------------------------------------------------------- local processes
+
+
+def _worker_main(conn: Any, parent_pid: int) -> None:  # top level: the spawn target
+    from irlsim.utils import die_with_parent
+
+    die_with_parent(parent_pid)
+    while True:
+        try:
+            msg = conn.recv()
+        except EOFError:  # the parent is gone
+            return
+        if msg is None:
+            return
+        fn, arg = msg
+        try:
+            reply: tuple[Any, ...] = ("ok", fn(arg))
+        except Exception as exc:
+            reply = ("error", one_line(exc), traceback.format_exc())
+        try:
+            conn.send(reply)
+        except Exception as exc:  # an unpicklable result: report it instead of dying
+            conn.send(("error", f"result not picklable: {one_line(exc)}", ""))
+
+
+class _Worker:
+    def __init__(self, ctx: Any) -> None:
+        parent, child = ctx.Pipe()
+        self.conn = parent
+        self.process = ctx.Process(target=_worker_main, args=(child, os.getpid()), daemon=True)
+        self.process.start()
+        child.close()
+        self.job: Job | None = None
+
+    def stop(self, kill: bool) -> None:
+        if kill and self.process.is_alive():
+            self.process.kill()
+        else:
+            try:
+                self.conn.send(None)
+            except OSError:
+                pass
+        self.process.join(timeout=None if kill else 10)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join()
+        self.conn.close()
+
+
+def _death_reason(process: Any) -> str:
+    code = process.exitcode
+    if code is not None and code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = f"signal {-code}"
+        return f"worker process {process.pid} died ({name})"
+    return f"worker process {process.pid} exited with status {code}"
+
+
+def _start_workers(ctx: Any, n: int) -> list[_Worker]:
+    """``n`` workers with single-threaded BLAS/OpenMP (read by the children at start-up; this process's
+    values are restored), started while this process ignores SIGINT: the children inherit that until
+    their own set-up, so a Ctrl-C during their start-up prints no traceback from them."""
+    from irlsim import THREAD_VARS
+
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: signals are not ours to change
+        previous = None
+    saved = {var: os.environ.get(var) for var in THREAD_VARS}
+    os.environ.update({var: "1" for var in THREAD_VARS})
+    try:
+        return [_Worker(ctx) for _ in range(n)]
+    finally:
+        for var, value in saved.items():
+            if value is None:
+                os.environ.pop(var, None)
+            else:
+                os.environ[var] = value
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _run_local(fn: Callable[[Any], Any], state: _State, n: int) -> None:
+    import multiprocessing as mp
+    from multiprocessing.connection import wait
+
+    ctx = mp.get_context("spawn")
+    pool = _start_workers(ctx, n)
+    clean = False
+    try:
+        for w in pool:
+            _assign(w, fn, state)
+        while any(w.job is not None for w in pool):
+            busy = [w for w in pool if w.job is not None]
+            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
+            for i, w in enumerate(pool):
+                if w.job is None:
+                    continue
+                job = w.job
+                if w.conn in ready or w.conn.poll():
+                    try:
+                        reply = w.conn.recv()
+                    except (EOFError, OSError):
+                        reply = None  # it died while sending
+                    if reply is not None:
+                        w.job = None
+                        if reply[0] == "ok":
+                            state.ok(job, reply[1])
+                        else:
+                            state.fail(job, reply[1])
+                        _assign(w, fn, state)
+                        continue
+                if w.process.sentinel in ready or not w.process.is_alive():
+                    w.process.join()
+                    reason = _death_reason(w.process)
+                    w.job = None
+                    w.stop(kill=True)
+                    state.fail(job, reason)
+                    pool[i] = _start_workers(ctx, 1)[0]
+                    _assign(pool[i], fn, state)
+        clean = True
+    finally:
+        for w in pool:
+            w.stop(kill=not clean)
+
+
+def _assign(w: _Worker, fn: Callable[[Any], Any], state: _State) -> None:
+    job = state.next()
+    if job is None:
+        return
+    w.job = job
+    try:
+        w.conn.send((fn, job.arg))
+    except (OSError, EOFError):  # dead already: the sentinel reports it in the loop
+        pass
+
+
+# ----------------------------------------------------------------------------------------------- Ray
+
+
+def _ray_call(fn: Callable[[Any], Any], arg: Any) -> Any:  # top level: the task function
+    return fn(arg)
+
+
+def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str | None) -> None:
+    ray = _import_ray()
+    from irlsim import THREAD_VARS
+
+    started = False
+    if not ray.is_initialized():
+        kwargs: dict[str, Any] = {
+            "include_dashboard": False,
+            "log_to_driver": False,
+            "logging_level": logging.WARNING,
+        }
+        if address is None:
+            kwargs["num_cpus"] = workers
+        else:
+            kwargs["address"] = address
+        try:
+            ray.init(**kwargs)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            where = f"the Ray cluster at {address}" if address else "a local Ray"
+            raise IrlsimError(
+                f"cannot start or join {where} ({one_line(exc)}): check --address, or 'ray start --head'"
+            ) from None
+        started = True
+    task = ray.remote(
+        num_cpus=1,
+        max_retries=0,  # retries are ours, counted the same way as with the local pool
+        retry_exceptions=False,
+        runtime_env={"env_vars": {var: "1" for var in THREAD_VARS}},
+    )(_ray_call)
+    fn_ref = ray.put(fn)
+    in_flight: dict[Any, Job] = {}
+    try:
+        while True:
+            while len(in_flight) < workers and (job := state.next()) is not None:
+                in_flight[task.remote(fn_ref, job.arg)] = job
+            if not in_flight:
+                break
+            done, _ = ray.wait(list(in_flight), num_returns=1)
+            for ref in done:
+                job = in_flight.pop(ref)
+                try:
+                    value = ray.get(ref)
+                except ray.exceptions.RayTaskError as exc:  # the job raised
+                    cause = exc.cause if isinstance(exc.cause, BaseException) else exc
+                    state.fail(job, one_line(cause))
+                except ray.exceptions.RayError as exc:  # its worker or node died
+                    state.fail(job, _ray_reason(exc))
+                else:
+                    state.ok(job, value)
+    finally:
+        for ref in in_flight:
+            ray.cancel(ref, force=True)
+        if started:
+            ray.shutdown()
+
+
+def _ray_reason(exc: BaseException) -> str:
+    name = type(exc).__name__
+    if "WorkerCrashed" in name or "ActorDied" in name:
+        return "Ray worker process died"
+    if "NodeDied" in name or "ObjectLost" in name:
+        return "Ray node died"
+    return one_line(exc)
+
+
+def describe_failures(failed: dict[str, str], limit: int = 5) -> str:
+    """``train/3 (worker process 123 died (SIGKILL)), validation/0 (...)``, at most ``limit`` named."""
+    items = [f"{k} ({v})" for k, v in failed.items()]
+    more = f" and {len(items) - limit} more" if len(items) > limit else ""
+    return ", ".join(items[:limit]) + more

@@ -1,0 +1,320 @@
+"""The episode executor (irlsim.executor): the local spawn workers and Ray tasks give the same bytes, a
+worker killed in the middle of an episode is retried, an episode that keeps failing is named and
+collected again by the same command. Real processes, real SUMO, real Parquet, a real Ray: one simulated
+two-node cluster (ray.cluster_utils.Cluster, 1 CPU per node) shared by this module's Ray tests.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from irlsim.cli import main
+from irlsim.executor import Job, run_jobs
+from tests.conftest import TINY_COLLECT
+from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
+
+ROOT = Path(__file__).resolve().parents[2]
+#: the session's tiny dataset (one in-process worker) is the reference; these runs use two workers
+TWO_WORKERS = [*TINY_COLLECT, "--set", "workers=2"]
+
+
+def _collect_args(out: Path, *extra: str) -> list[str]:
+    return ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TWO_WORKERS, *extra]
+
+
+def _sha256(folder: Path) -> dict[str, str]:
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(folder.rglob("*.parquet"))
+    }
+
+
+# --------------------------------------------------------------------- job functions (top level: picklable)
+
+
+def _double(x: int) -> int:
+    return 2 * x
+
+
+def _die_once(arg: tuple[str, int]) -> int:
+    """SIGKILL its own process on the first attempt (a marker file remembers it), then succeed."""
+    marker, x = arg
+    if not os.path.exists(marker):
+        Path(marker).write_text("died")
+        os.kill(os.getpid(), signal.SIGKILL)
+    return 2 * x
+
+
+def _always_fails(x: int) -> int:
+    if x == 1:
+        return 2
+    raise RuntimeError(f"episode {x} cannot be driven\nsecond line of the message")
+
+
+# ------------------------------------------------------------------------------------------- fixtures
+
+
+@pytest.fixture(scope="module")
+def ray_cluster():
+    """One simulated two-node Ray cluster for the module (head + one worker node, 1 CPU each)."""
+    ray = pytest.importorskip("ray")
+    from ray.cluster_utils import Cluster
+
+    cluster = Cluster(initialize_head=True, head_node_args={"num_cpus": 1, "include_dashboard": False})
+    cluster.add_node(num_cpus=1)
+    ray.init(address=cluster.address, include_dashboard=False, log_to_driver=False)
+    try:
+        yield cluster
+    finally:
+        ray.shutdown()
+        cluster.shutdown()
+
+
+# ----------------------------------------------------------------------------- the executor by itself
+
+
+@pytest.mark.parametrize("executor", ["inline", "local", "ray"])
+def test_results_retries_and_failures(executor, tmp_path, request):
+    """Each job's result once; a raising job is tried twice and named with a one-line reason; the others
+    finish; a worker that dies (not possible in this process) is replaced and its job retried."""
+    if executor == "ray":
+        request.getfixturevalue("ray_cluster")
+    kind, workers = ("local", 1) if executor == "inline" else (executor, 2)
+    seen: list[str] = []
+    retried: list[str] = []
+    jobs = [Job(f"ok/{i}", i) for i in range(5)]
+    out = run_jobs(
+        _double,
+        jobs,
+        executor=kind,
+        workers=workers,
+        on_result=lambda job, value: seen.append(job.key),
+        on_retry=lambda job, reason: retried.append(job.key),
+    )
+    assert out.results == {f"ok/{i}": 2 * i for i in range(5)} and not out.failed
+    assert sorted(seen) == sorted(out.results) and not retried
+
+    failing = run_jobs(
+        _always_fails,
+        [Job("bad/7", 7), Job("ok/1", 1)],
+        executor=kind,
+        workers=workers,
+        on_retry=lambda job, reason: retried.append(job.key),
+    )
+    assert failing.failed == {"bad/7": "RuntimeError: episode 7 cannot be driven"}
+    assert failing.results == {"ok/1": 2}
+    assert retried == ["bad/7"]
+    if executor == "inline":
+        return
+    died = run_jobs(
+        _die_once,
+        [
+            Job("a", (str(tmp_path / "a"), 1)),
+            Job("b", (str(tmp_path / "b"), 2)),
+            Job("c", (str(tmp_path / "c"), 3)),
+        ],
+        executor=kind,
+        workers=workers,
+    )
+    assert died.results == {"a": 2, "b": 4, "c": 6} and not died.failed
+    assert set(died.retried) == {"a", "b", "c"}
+    assert all("died" in reason for reason in died.retried.values()), died.retried
+
+
+def test_ray_without_the_extra_is_one_line(tmp_path, capsys, monkeypatch):
+    """Without Ray installed ('ray' not importable), --executor ray is one line naming the extra."""
+    monkeypatch.setitem(sys.modules, "ray", None)  # what an environment without the extra sees
+    assert main(_collect_args(tmp_path / "x", "--executor", "ray")) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pip install -e '.[ray]'" in err[0], err
+    assert not (tmp_path / "x").exists()
+
+
+def test_address_without_ray_is_refused(tmp_path, capsys):
+    assert main(_collect_args(tmp_path / "x", "--address", "auto")) == 2
+    assert "--executor ray" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------------------------- collect, same bytes
+
+
+def _live_children(pid: int) -> list[int]:
+    out = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[1]) == pid and fields[0] != "Z":
+            out.append(int(stat.parent.name))
+    return out
+
+
+def _cmdline(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
+    except OSError:
+        return ""
+
+
+def test_local_workers_killed_worker_is_retried_to_the_same_bytes(tiny_dataset, tmp_path):
+    """Two spawned workers; one is SIGKILLed in the middle of an episode: the episode is collected again
+    by a fresh worker, the command ends 0 (no hang) and every file is the bytes of one in-process worker."""
+    out = tmp_path / "killed"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "irlsim.cli", *_collect_args(out)],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and not list(out.glob("*/*.cycles.parquet")):
+            time.sleep(0.02)
+        workers = [p for p in _live_children(proc.pid) if "spawn_main" in _cmdline(p)]
+        assert workers and proc.poll() is None, "collect ended before a worker could be killed"
+        os.kill(workers[0], signal.SIGKILL)
+        _, err = proc.communicate(timeout=180)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, err[-2000:]
+    assert "died (SIGKILL)): trying it once more" in err
+    assert _sha256(out) == _sha256(tiny_dataset)
+    assert not list(out.rglob(".*.tmp"))
+    assert json.loads((out / "manifest.json").read_text())["complete"] is True
+
+
+def test_ray_default_starts_a_local_ray_with_the_same_bytes(tiny_dataset, tmp_path):
+    """The CLI as a user runs it: --executor ray without --address starts (and stops) its own local Ray."""
+    out = tmp_path / "ray"
+    proc = subprocess.run(
+        [sys.executable, "-m", "irlsim.cli", *_collect_args(out, "--executor", "ray")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert "as Ray tasks" in proc.stdout
+    assert _sha256(out) == _sha256(tiny_dataset)
+
+
+def _ray_task_pids() -> list[int]:
+    """Ray worker processes running a task of the executor (Ray titles them 'ray::_ray_call')."""
+    return [
+        int(p.name)
+        for p in Path("/proc").iterdir()
+        if p.name.isdigit() and _cmdline(int(p.name)).startswith("ray::_ray_call")
+    ]
+
+
+def test_two_node_cluster_same_bytes_and_a_killed_task_is_retried(
+    ray_cluster, tiny_dataset, tmp_path, capsys
+):
+    """Episodes as Ray tasks on two nodes; one task's worker is SIGKILLed mid-episode: retried, and the
+    dataset is the bytes of the local pool's."""
+    out = tmp_path / "cluster"
+    rc: list[int] = []
+    runner = threading.Thread(target=lambda: rc.append(main(_collect_args(out, "--executor", "ray"))))
+    runner.start()
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and not (pids := _ray_task_pids()):
+            time.sleep(0.05)
+        assert pids, "no Ray task seen running"
+        os.kill(pids[0], signal.SIGKILL)
+    finally:
+        runner.join(timeout=300)
+    assert rc == [0], capsys.readouterr().err[-2000:]
+    assert "Ray worker process died): trying it once more" in capsys.readouterr().err
+    assert _sha256(out) == _sha256(tiny_dataset)
+
+
+@pytest.mark.parametrize("first", ["ray", "local"])
+def test_failing_episode_is_named_then_recollected_by_the_same_command(
+    first, ray_cluster, tiny_dataset, tmp_path, capsys
+):
+    """The test split's folder is a file, so its episode fails (a real OSError) on every attempt: the
+    other episodes finish, the command exits 1 with one line naming it, the manifest records it; once
+    the folder can be written, the same command (with the other executor) collects just that episode."""
+    out = tmp_path / "failing"
+    out.mkdir()
+    (out / "test").write_text("not a folder")
+    other = "local" if first == "ray" else "ray"
+    capsys.readouterr()
+    assert main(_collect_args(out, "--executor", first)) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert any("test/0 failed (" in line and "trying it once more" in line for line in err), err
+    assert err[-1].startswith("irlsim: error: collect: 1 of 4 episodes failed twice: test/0 (")
+    assert "re-run the same command" in err[-1]
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["complete"] is False and list(man["failed"]) == ["test/0"]
+    assert man["splits"] == {"train": [0, 1], "validation": [0], "test": []}
+
+    (out / "test").unlink()
+    assert main(_collect_args(out, "--executor", other)) == 0
+    assert "4 episodes (3 already done)" in capsys.readouterr().out
+    assert _sha256(out) == _sha256(tiny_dataset)
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["complete"] is True and "failed" not in man
+
+
+# ------------------------------------------------------------------------------------------------ drive
+
+
+def _drive_json(out: Path) -> dict[str, Any]:
+    """drive.json without the wall-clock figures (inference and planning times, wall time, steps/s)."""
+
+    def strip(d: dict[str, Any]) -> dict[str, Any]:
+        return {k: v for k, v in d.items() if not any(t in k for t in ("_ms", "wall_s", "_per_s"))}
+
+    doc = json.loads((out / "drive.json").read_text())
+    return {
+        **doc,
+        "summary": [strip(s) for s in doc["summary"]],
+        "episodes": [strip(e) for e in doc["episodes"]],
+    }
+
+
+def test_drive_same_json_for_workers_and_executors(ray_cluster, tiny_runs, tmp_path):  # noqa: F811
+    base = [
+        "drive",
+        "--runs",
+        str(tiny_runs),
+        "--model",
+        "expert,PACNN+S",
+        "--episodes",
+        "2",
+        "--max-cycles",
+        "25",
+        "--frames",
+        "0",
+        "--config",
+        "configs/collect/tiny.toml",
+    ]
+    results = {}
+    for name, extra in {
+        "one": [],
+        "two": ["--workers", "2"],
+        "ray": ["--workers", "2", "--executor", "ray"],
+    }.items():
+        assert main([*base, "--out", str(tmp_path / name), *extra]) == 0
+        results[name] = _drive_json(tmp_path / name)
+    assert [e["drive/seed"] for e in results["one"]["episodes"]] == [100, 101, 100, 101]
+    assert results["one"]["episodes"][0]["drive/cycles"] == 25
+    assert results["two"] == results["one"]
+    assert results["ray"] == results["one"]

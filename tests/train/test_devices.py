@@ -1,0 +1,104 @@
+"""--device / --precision: devices resolve or fail in one line, bf16 autocast really runs (on the CPU),
+the provenance records both, checkpoints load on another device. The CUDA test runs where CUDA is."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+import torch
+
+from irlsim import devices
+from irlsim.cli import main
+from irlsim.errors import IrlsimError
+from irlsim.train import Stage1Config, Stage2Config, load_model, train_stage1, train_stage2
+from irlsim.train.batching import predict_split
+from irlsim.train.predictor import RewardPredictor
+from irlsim.train.synthetic import make_synthetic_dataset
+
+
+@pytest.fixture(scope="module")
+def dataset():
+    return make_synthetic_dataset(n_train=64, n_eval=24, n_policies=32, seed=0)
+
+
+def _cfg(**kw):
+    return dataclasses.replace(Stage1Config.smoke(), **{"models": ("PACNN+S",), "epochs": 2, **kw})
+
+
+def test_device_names_resolve_or_fail_in_one_line():
+    assert devices.resolve_device("cpu") == torch.device("cpu")
+    assert devices.resolve_device("auto").type == ("cuda" if torch.cuda.is_available() else "cpu")
+    for bad in ("tpu", "cuda:x", "gpu0"):
+        with pytest.raises(IrlsimError, match="not a device|cuda or cuda:N") as e:
+            devices.resolve_device(bad)
+        assert "\n" not in str(e.value)
+    if not torch.cuda.is_available():
+        with pytest.raises(IrlsimError, match="no CUDA device is available"):
+            devices.resolve_device("cuda:0")
+    with pytest.raises(IrlsimError, match="precision"):
+        devices.check_precision("fp16")
+
+
+def test_missing_device_is_one_line_before_any_work(tmp_path, capsys):
+    if torch.cuda.is_available():
+        pytest.skip("CUDA is present here")
+    assert main(["train", "--stage", "1", "--data", str(tmp_path / "none"), "--out", str(tmp_path / "r"),
+                 "--device", "cuda"]) == 2  # fmt: skip
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "no CUDA device" in err[0]
+    assert not (tmp_path / "r").exists()
+
+
+def test_bf16_autocast_trains_on_the_cpu_and_is_recorded(dataset, tmp_path):
+    """bf16 changes the numbers (autocast is really on) but not by much, and the provenance says so."""
+    with devices.use("cpu", "fp32"):
+        train_stage1(dataset, _cfg(), tmp_path / "fp32")
+    with devices.use("cpu", "bf16"):
+        summary = train_stage1(dataset, _cfg(), tmp_path / "bf16")
+    assert summary["PACNN+S"]["provenance"]["precision"] == "bf16"
+    assert summary["PACNN+S"]["provenance"]["device"] == "cpu"
+    a = load_model(tmp_path / "fp32" / "PACNN+S" / "checkpoint.pt")
+    b = load_model(tmp_path / "bf16" / "PACNN+S" / "checkpoint.pt")
+    assert a.checkpoint["provenance"]["precision"] == "fp32"
+    assert b.checkpoint["provenance"]["precision"] == "bf16"
+    for k, v in b.model.state_dict().items():  # weights stay float32 (autocast casts per op)
+        assert v.dtype == a.model.state_dict()[k].dtype and torch.isfinite(v).all()
+    val = dataset.split_tensors("validation")
+    theta_a = predict_split(a.model, val)["theta"]
+    with devices.use("cpu", "bf16"):
+        theta_b16 = predict_split(a.model, val)["theta"]  # same weights, bf16 inference
+    assert theta_b16.dtype == np.float32
+    rel = np.abs(theta_b16 - theta_a).max() / np.abs(theta_a).max()
+    assert 0 < rel < 0.05, rel
+
+
+def test_predictor_in_bf16_matches_fp32_closely(dataset, tmp_path):
+    train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path)
+    train_stage2(dataset, dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1), tmp_path)
+    test = dataset.split_tensors("test")
+    thetas = {}
+    for precision in ("fp32", "bf16"):
+        with devices.use("cpu", precision):
+            p = RewardPredictor(tmp_path / "PTACNN" / "checkpoint.pt")
+            thetas[precision] = [p.predict(test.features[t], test.control_points[t], test.actions[t])[0]
+                                 for t in range(3)]  # fmt: skip
+    a, b = np.array(thetas["fp32"]), np.array(thetas["bf16"])
+    assert not np.array_equal(a, b) and np.allclose(a, b, rtol=0.05, atol=1e-3 * np.abs(a).max())
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_cuda_training_loads_on_the_cpu(dataset, tmp_path):
+    """Trained on the GPU (pinned, non-blocking batches), loaded on the CPU (map_location): the same
+    predictions up to float reassociation."""
+    with devices.use("cuda", "fp32"):
+        summary = train_stage1(dataset, _cfg(), tmp_path)
+        gpu = predict_split(
+            load_model(tmp_path / "PACNN+S" / "checkpoint.pt").model, dataset.split_tensors("test")
+        )
+    assert summary["PACNN+S"]["provenance"]["device"].startswith("cuda")
+    cpu = predict_split(
+        load_model(tmp_path / "PACNN+S" / "checkpoint.pt").model, dataset.split_tensors("test")
+    )
+    np.testing.assert_allclose(gpu["theta"], cpu["theta"], rtol=1e-3, atol=1e-4)
