@@ -16,10 +16,11 @@ from typing import Any
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
 from irlsim.data.schema import stats_name
+from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
-from irlsim.road import load_road
+from irlsim.road import Road, load_road
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.simulation import Simulation
@@ -158,8 +159,8 @@ class CycleRecorder(ObserverBase):
     ``EpisodeWriter``, the odometry of what was actually driven to the ``DemoProjector``, whose
     demonstrations follow once each cycle's horizon has been driven."""
 
-    def __init__(self, writer: EpisodeWriter, projector: DemoProjector):
-        self.writer, self.projector = writer, projector
+    def __init__(self, writer: EpisodeWriter, projector: DemoProjector, road: Road):
+        self.writer, self.projector, self.road = writer, projector, road
 
     def on_reset(self, sim: Simulation, obs: Observation) -> None:
         e = obs.ego
@@ -172,7 +173,12 @@ class CycleRecorder(ObserverBase):
         self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
         ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
         self.writer.add_cycle(
-            cycle.index, ps, ego, executed_index=cycle.chosen, target_checkpoint=obs.target_checkpoint
+            cycle.index,
+            ps,
+            ego,
+            executed_index=cycle.chosen,
+            target_checkpoint=obs.target_checkpoint,
+            situation=situation_of(obs, self.road),
         )
         # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
         # time-out) must not complete a demonstration window with states that were never driven
@@ -215,7 +221,7 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
 
     with Simulation(road, cfg.scenario) as sim:
         with EpisodeWriter(out, job.split, job.episode) as writer:
-            observers = [_SetupClock(), CycleRecorder(writer, projector)]
+            observers = [_SetupClock(), CycleRecorder(writer, projector, road)]
             result = EpisodeRunner(sim, observers=observers, max_cycles=cfg.max_cycles).run(driver, job.seed)
     n_cycles = result.cycles
     stats = dict(result.stats)

@@ -30,7 +30,7 @@ import pyarrow as pa
 from irlsim import N_FEATURES
 
 #: bump when a column is added, removed or changes meaning; readers refuse other versions
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: control points per policy (DESIGN.md section 4)
 N_CONTROL_POINTS = 10
 #: whole planning cycles per Parquet row group (policies: this x N rows; ~40 MB uncompressed at N=2,500)
@@ -82,6 +82,8 @@ def cycles_schema() -> pa.Schema:
             pa.field("has_demo", pa.bool_(), nullable=False),
             # progress-sorted index of the policy the driver executed
             pa.field("executed_index", pa.int32(), nullable=False),
+            # situation code (irlsim.data.situations.SITUATION_NAMES), -1 = not labelled; since version 2
+            pa.field("situation", pa.int8(), nullable=False),
         ],
         metadata=_metadata(TABLE_CYCLES),
     )

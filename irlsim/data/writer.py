@@ -73,6 +73,7 @@ class _Cycle:
     ego: tuple[float, ...]  # EGO_KEYS order
     target_checkpoint: int
     executed_index: int
+    situation: int
     features: np.ndarray  # [N, 15]
     control_points: np.ndarray  # [N, K, 3]
     actions: np.ndarray  # [N, K, 2]
@@ -122,6 +123,7 @@ class EpisodeWriter:
         *,
         executed_index: int,
         target_checkpoint: int,
+        situation: int = -1,
     ) -> None:
         """Add one planning cycle.
 
@@ -132,6 +134,7 @@ class EpisodeWriter:
             ego: ego state at the cycle, keys ``x, y [m], yaw [rad], v [m/s], s, d [m], lane``.
             executed_index: progress-sorted index of the policy the driver executed.
             target_checkpoint: index of the next route checkpoint.
+            situation: the cycle's situation code (``irlsim.data.situations``), -1 = not labelled.
         """
         self._check_open()
         cycle = int(cycle)
@@ -156,6 +159,7 @@ class EpisodeWriter:
             ego=tuple(float(ego[key]) for key in EGO_KEYS),
             target_checkpoint=int(target_checkpoint),
             executed_index=int(executed_index),
+            situation=int(situation),
             features=np.asarray(policy_set.features, dtype=np.float32),
             control_points=np.asarray(policy_set.control_points, dtype=np.float32),
             actions=np.asarray(policy_set.actions, dtype=np.float32),
@@ -230,6 +234,7 @@ class EpisodeWriter:
                     rec.demo.demo_index,
                     rec.demo.demo_distance,
                     rec.executed_index,
+                    rec.situation,
                 )
             )
 
@@ -348,12 +353,13 @@ def build_policies_table(
 
 
 def build_cycles_table(episode: int, rows: list[tuple[Any, ...]], n_policies: int) -> pa.Table:
-    """Cycles rows from (cycle, t, x, y, yaw, v, s, d, lane, target, demo_index, demo_distance, executed)."""
+    """Cycles rows from (cycle, t, x, y, yaw, v, s, d, lane, target, demo_index, demo_distance, executed,
+    situation)."""
     schema = cycles_schema()
     if rows:
-        a = np.array(rows, dtype=np.float64)  # [C, 13]; every value is exactly representable
+        a = np.array(rows, dtype=np.float64)  # [C, 14]; every value is exactly representable
     else:
-        a = np.zeros((0, 13), dtype=np.float64)
+        a = np.zeros((0, 14), dtype=np.float64)
     c = a.shape[0]
     demo_index = a[:, 10].astype(np.int32)
     demo_distance = a[:, 11].astype(np.float32)
@@ -369,5 +375,6 @@ def build_cycles_table(episode: int, rows: list[tuple[Any, ...]], n_policies: in
         demo_distance,
         demo_index >= 0,
         a[:, 12].astype(np.int32),
+        a[:, 13].astype(np.int8),
     ]
     return pa.Table.from_arrays([pa.array(col) for col in columns], schema=schema)

@@ -229,13 +229,19 @@ def upsample_attention(alpha: torch.Tensor, n: int, pool: int) -> torch.Tensor:
     return (alpha / sizes).repeat_interleave(pool, dim=-1)[..., :n]
 
 
+#: PTACNN per-step inputs: the paper's (context, theta) and the alternatives of the issue-13 study
+TAN_INPUTS: tuple[str, ...] = ("context+theta", "context", "theta", "context+theta+delta")
+
+
 class PTACNN(nn.Module):
     """Temporal attention network (stage 2, on a frozen PACNN).
 
     contexts [B, H, Cc], thetas [B, H, 15] (oldest first, raw units) -> per step input
-    [context, theta * theta_scale] (theta in normalised units) -> 2-layer LSTM -> last hidden state ->
-    4 FC layers -> softmax weights w [B, H]; theta_next = sum_h w_h theta_h, a convex combination of the
-    history's thetas (so it stays >= 0 and in raw units).
+    [context, theta * theta_scale] (theta in normalised units; ``inputs`` picks another set, TAN_INPUTS)
+    -> 2-layer LSTM -> last hidden state -> 4 FC layers -> softmax weights w [B, H];
+    theta_next = sum_h w_h theta_h, a convex combination of the history's thetas (so it stays >= 0 and in
+    raw units). In training mode, with probability ``drop_newest`` per sample the newest entry is dropped
+    (history shifted back one cycle, the oldest entry repeated).
     """
 
     theta_scale: torch.Tensor
@@ -248,12 +254,20 @@ class PTACNN(nn.Module):
         lstm_hidden: int,
         lstm_layers: int,
         fc_hidden: int,
+        inputs: str = "context+theta",
+        drop_newest: float = 0.0,
     ) -> None:
         super().__init__()
+        assert inputs in TAN_INPUTS, inputs
         self.context_dim = context_dim
         self.history = history
+        self.inputs = inputs
+        self.drop_newest = float(drop_newest)
         self.register_buffer("theta_scale", torch.as_tensor(theta_scale, dtype=torch.float32).clone())
-        self.lstm = nn.LSTM(context_dim + N_FEATURES, lstm_hidden, num_layers=lstm_layers, batch_first=True)
+        n_in = {"context+theta": context_dim + N_FEATURES, "context": context_dim, "theta": N_FEATURES}.get(
+            inputs, context_dim + 2 * N_FEATURES
+        )
+        self.lstm = nn.LSTM(n_in, lstm_hidden, num_layers=lstm_layers, batch_first=True)
         self.fc = nn.Sequential(
             nn.Linear(lstm_hidden, fc_hidden),
             nn.ReLU(),
@@ -268,6 +282,17 @@ class PTACNN(nn.Module):
         b = contexts.shape[0]
         assert contexts.shape == (b, self.history, self.context_dim), f"contexts {tuple(contexts.shape)}"
         assert thetas.shape == (b, self.history, N_FEATURES), f"thetas {tuple(thetas.shape)}"
-        out, _ = self.lstm(torch.cat([contexts, thetas * self.theta_scale], dim=-1))
+        if self.training and self.drop_newest > 0 and self.history > 1:
+            drop = (torch.rand(b) < self.drop_newest)[:, None, None]
+            contexts = torch.where(drop, torch.cat([contexts[:, :1], contexts[:, :-1]], 1), contexts)
+            thetas = torch.where(drop, torch.cat([thetas[:, :1], thetas[:, :-1]], 1), thetas)
+        scaled = thetas * self.theta_scale
+        parts = {
+            "context+theta": [contexts, scaled],
+            "context": [contexts],
+            "theta": [scaled],
+            "context+theta+delta": [contexts, scaled, scaled - torch.cat([scaled[:, :1], scaled[:, :-1]], 1)],
+        }[self.inputs]
+        out, _ = self.lstm(torch.cat(parts, dim=-1))
         weights = torch.softmax(self.fc(out[:, -1]), dim=-1)
         return {"theta": torch.einsum("bh,bhf->bf", weights, thetas), "weights": weights}

@@ -9,7 +9,7 @@ from torch import nn
 
 from irlsim.config import require
 from irlsim.errors import IrlsimError
-from irlsim.models.networks import LIRL, PACNN, PTACNN, Bi1DCNN, Conv1DCNN
+from irlsim.models.networks import LIRL, PACNN, PTACNN, TAN_INPUTS, Bi1DCNN, Conv1DCNN
 from irlsim.models.normalization import FeatureStats
 
 #: stage-1 models (one cycle -> theta), in Table-I order
@@ -50,6 +50,12 @@ class ModelConfig:
     """PTACNN hidden units of the 4 FC layers"""
     history: int = 10
     """PTACNN history length H [cycles] (paper: 10)"""
+    tan_inputs: str = "context+theta"
+    """PTACNN per-step LSTM input (TAN_INPUTS): 'context+theta' (the paper: PACNN context vector and
+    theta), 'context', 'theta', or 'context+theta+delta' (also theta_h - theta_{h-1}, normalised)"""
+    drop_newest: float = 0.0
+    """PTACNN training only: probability of dropping the newest history entry of a sample (the history
+    is shifted one cycle back, the oldest entry repeated), so the net cannot rely on it alone"""
 
     def validate(self) -> None:
         for name in (
@@ -68,6 +74,11 @@ class ModelConfig:
             require(getattr(self, name) >= 1, f"model.{name} must be >= 1")
         require(self.kernel % 2 == 1, "model.kernel must be odd (same-length convs)")
         require(self.bi_cross_layers >= 0, "model.bi_cross_layers must be >= 0")
+        require(
+            self.tan_inputs in TAN_INPUTS,
+            f"model.tan_inputs must be one of {', '.join(TAN_INPUTS)}, got '{self.tan_inputs}'",
+        )
+        require(0.0 <= self.drop_newest < 1.0, f"model.drop_newest must be in [0, 1), got {self.drop_newest}")
 
     @classmethod
     def paper(cls) -> ModelConfig:
@@ -130,7 +141,16 @@ def build_model(
             cfg.head_hidden,
         )
     theta_scale = torch.as_tensor(stats.std[:15], dtype=torch.float32)
-    return PTACNN(cfg.latent, cfg.history, theta_scale, cfg.lstm_hidden, cfg.lstm_layers, cfg.tan_fc_hidden)
+    return PTACNN(
+        cfg.latent,
+        cfg.history,
+        theta_scale,
+        cfg.lstm_hidden,
+        cfg.lstm_layers,
+        cfg.tan_fc_hidden,
+        inputs=cfg.tan_inputs,
+        drop_newest=cfg.drop_newest,
+    )
 
 
 def count_parameters(model: nn.Module) -> int:

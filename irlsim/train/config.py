@@ -123,11 +123,25 @@ class Stage2Config(TrainConfig):
     """histories per mini-batch"""
     model: ModelConfig = field(default_factory=ModelConfig)
     """sizes of the temporal network (lstm_hidden, lstm_layers, tan_fc_hidden, history = H [cycles]);
-    the context size comes from the frozen PACNN checkpoint"""
+    the context size comes from the frozen PACNN checkpoint; tan_inputs and drop_newest (issue-13 study)"""
+    target_ahead: int = 1
+    """[cycles] training target: the mean NLL of cycles t+1 .. t+target_ahead given the history ending at t
+    (1 = the paper's next cycle; pairs leaving the episode or without a demonstration are skipped)"""
+    weight_reg: float = 0.0
+    """weight of a regulariser on the temporal softmax w [H] (0 = none), see weight_reg_kind"""
+    weight_reg_kind: str = "kl_uniform"
+    """'kl_uniform': KL(uniform || w) = -log H - mean_h log w_h (pulls w towards the H-mean of the stage-1
+    models); 'entropy': -entropy(w) = sum_h w_h log w_h (rewards spread weights); both are 0 at uniform w"""
 
     def validate(self) -> None:
         for m in self.models:
             require(m in STAGE2_BASE, f"models: '{m}' is not a stage-2 model ({', '.join(STAGE2_BASE)})")
+        require(self.target_ahead >= 1, f"target_ahead must be >= 1 cycle, got {self.target_ahead}")
+        require(self.weight_reg >= 0, f"weight_reg must be >= 0, got {self.weight_reg}")
+        require(
+            self.weight_reg_kind in ("kl_uniform", "entropy"),
+            f"weight_reg_kind must be 'kl_uniform' or 'entropy', got '{self.weight_reg_kind}'",
+        )
         super().validate()
 
     @property

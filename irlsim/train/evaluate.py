@@ -8,6 +8,11 @@ averaged over cycles that have a demonstration. References: each model's OPD at 
 (column 'OPD untrained', same sizes and normalisation, seed 0) and a 'random policy' row (a uniformly
 random policy per cycle; ED is the mean distance over the policy set, OPD the distance of the random
 pick, no EVD).
+
+Reference rows (irlsim.irl.references, issue 13): 'expert-theta' (the hand-tuned theta, argmax V),
+'executed' (the policy the demonstrator executed), 'oracle' (a per-cycle linear theta fitted to that
+cycle's own demonstration: an optimistic bound, not a model). On a dataset read from disk every row also
+gets OPD / ED per situation label and its reward stability (irlsim.irl.breakdown).
 """
 
 from __future__ import annotations
@@ -21,7 +26,10 @@ import torch
 
 from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
+from irlsim.irl.breakdown import CycleContext, breakdown_markdown, row_breakdown
 from irlsim.irl.objectives import evaluate_thetas, history_mean, summarize
+from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle_metrics
+from irlsim.irl.stability import temporal_weight_summary
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.train.batching import as_dataset, check_split_shape, get_split, predict_split
@@ -34,6 +42,8 @@ from irlsim.train.stage2 import predict_temporal
 from irlsim.utils import atomic_path, atomic_write_text, write_json
 
 METRIC_KEYS = ("evd", "ed", "opd", "demo")
+#: the reference rows after the trained models, in this order (irlsim.irl.references)
+REFERENCE_ROWS = ("expert-theta", "executed", "oracle (optimistic bound)", "random policy")
 #: H [cycles] when no --history is given and no temporal model fixes it (the paper's H)
 DEFAULT_HISTORY = 10
 
@@ -64,13 +74,20 @@ def resolve_history(loaded: dict[str, LoadedModel], H: int | None) -> int:
 
 def predict_sequential(loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64) -> np.ndarray:
     """Thetas [C, 15] a model uses on a sequential split (history mean or temporal mixture)."""
+    return predict_sequential_weights(loaded, split, H, chunk)[0]
+
+
+def predict_sequential_weights(
+    loaded: LoadedModel, split: Any, H: int = 10, chunk: int = 64
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """(thetas [C, 15], temporal weights [C, H] or None for a stage-1 model) on a sequential split."""
     episode = np.asarray(split.episode)
     if loaded.history is not None and loaded.history != H:
         resolve_history({loaded.name: loaded}, H)  # raises the one-line refusal
     if loaded.base is None:
-        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H)
+        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H), None
     base = predict_split(loaded.base, split, chunk)
-    return predict_temporal(loaded.model, base["context"], base["theta"], episode)[0]
+    return predict_temporal(loaded.model, base["context"], base["theta"], episode)
 
 
 def random_policy_metrics(split: Any, seed: int = 0, chunk: int = 256) -> dict[str, np.ndarray]:
@@ -146,9 +163,13 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
         "demonstration; OPD: distance of the optimal policy; DEMO: distance of the demonstration "
         "(lower bound of OPD); OPD untrained: the same model at its initial weights; epoch: the "
         "validation-selected epoch whose weights were evaluated (select_by in the train config). Means "
-        "over cycles with a demonstration.",
+        "over cycles with a demonstration. Reference rows: expert-theta = the expert's hand-tuned theta, "
+        "argmax V; executed = the policy the demonstrator executed (a choice: ED = OPD); oracle = a "
+        "per-cycle linear theta fitted to that cycle's own demonstration, an OPTIMISTIC BOUND on any "
+        "linear reward over the 15 features (it sees the answer), not a model.",
         "",
     ]
+    lines.append(breakdown_markdown(rows))
     trained = sorted({_provenance_text(r["provenance"]) for r in rows if r.get("provenance")})
     if trained:  # the weights' bytes depend on these (irlsim.train.repro.provenance)
         lines += [f"Trained with {'; '.join(trained)}.", ""]
@@ -223,6 +244,67 @@ def plot_opd(per_model: dict[str, np.ndarray], demo: np.ndarray, path: Path) -> 
     plt.close(fig)
 
 
+def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
+    """Situations, ego (s, d) and time of the split's cycles; None for an in-memory dataset."""
+    if not hasattr(dataset, "read_cycles"):
+        return None
+    horizon = float(((dataset.manifest.get("config") or {}).get("planner") or {}).get("horizon", 5.0))
+    return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon)
+
+
+def reference_rows(data: Any, ctx: CycleContext | None) -> list[dict[str, Any]]:
+    """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``)."""
+    from irlsim.planner.expert import THETA_EXPERT
+
+    oracle, oracle_thetas = oracle_metrics(data)
+    refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = [
+        (
+            "expert-theta",
+            expert_theta_metrics(data, THETA_EXPERT),
+            {"thetas": np.tile(THETA_EXPERT, (data.features.shape[0], 1))},
+        ),
+        ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
+        ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),
+        ("random policy", random_policy_metrics(data), {}),
+    ]
+    rows = []
+    for name, metrics, extra in refs:
+        row = _row(name, "15 per cycle" if name.startswith("oracle") else "0", [0], metrics)
+        if ctx is not None:
+            row.update(row_breakdown(metrics, data, ctx, **extra))
+        rows.append(row)
+    return rows
+
+
+def temporal_outputs(
+    name: str, weights: np.ndarray, data: Any, ctx: CycleContext | None, out_dir: Path
+) -> dict[str, Any]:
+    """A temporal model's weight summary (irlsim.irl.stability.temporal_weight_summary) and its strips
+    over the split's first stop-line approach and first lane change (``temporal_<model>_<situation>.png``)."""
+    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
+    from irlsim.viz.temporal import onset_window, save_temporal_strip
+
+    episode = np.asarray(data.episode)
+    sit = ctx.situation if ctx is not None and (ctx.situation >= 0).all() else None
+    out: dict[str, Any] = temporal_weight_summary(weights, sit, episode)
+    if sit is None or ctx is None:
+        return out
+    for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
+        win = onset_window(sit, episode, code)
+        if win is None:
+            continue
+        path = out_dir / f"temporal_{name.replace('+', 'p')}_{label}.png"
+        save_temporal_strip(
+            path,
+            weights[win],
+            sit[win],
+            ctx.t[win],
+            title=f"{name}: temporal attention, {label.replace('_', ' ')}",
+        )
+        out[f"strip_{label}"] = path.name
+    return out
+
+
 def evaluate_models(
     dataset: Any,
     runs_dir: str | Path,
@@ -239,7 +321,8 @@ def evaluate_models(
     ``out_dir/results.md``, ``results.json`` (with the H used and this process's provenance),
     ``convergence.png`` and ``opd_distribution.png`` (all atomically); returns the Table-I rows (model,
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
-    provenance), trained models in registry order, then 'random policy'.
+    provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
+    then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)', 'random policy'.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -254,10 +337,13 @@ def evaluate_models(
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
+    ctx = cycle_context(dataset, split, data)
+    out_dir.mkdir(parents=True, exist_ok=True)
     with num_threads(threads):
         rows, opd = [], {}
         for name, lm in loaded.items():
-            metrics = evaluate_thetas(predict_sequential(lm, data, H), data)
+            thetas, weights = predict_sequential_weights(lm, data, H)
+            metrics = evaluate_thetas(thetas, data)
             a, b = lm.parameters
             params = (
                 format_parameters(a)
@@ -270,13 +356,17 @@ def evaluate_models(
             row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
             # what the weights were trained with (older checkpoints: unknown)
             row["provenance"] = lm.checkpoint.get("provenance")
+            if ctx is not None:
+                row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
+            if weights is not None:
+                row["temporal"] = temporal_outputs(name, weights, data, ctx, out_dir)
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+        rows += reference_rows(data, ctx)
         evaluated_with = provenance()
 
-    rnd = random_policy_metrics(data)
-    rows.append(_row("random policy", "0", [0], rnd))
-    demo = np.where(rnd["valid"], rnd["demo"], np.nan)
+    demo_index = np.asarray(data.demo_index)
+    demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
 
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))

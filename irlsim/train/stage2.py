@@ -3,7 +3,8 @@
 Reads top to bottom: load the frozen PACNN -> its context vectors and thetas for every cycle of the
 (sequential) train and validation splits -> H-cycle histories that never cross an episode boundary
 (the first cycles of an episode repeat the episode's first cycle) -> train the temporal network with the
-NLL of the next cycle t+1 given the history ending at t -> checkpoint + metrics.csv each epoch.
+NLL of the next cycle t+1 (or the mean over t+1 .. t+target_ahead, plus an optional regulariser on
+the temporal softmax) given the history ending at t -> checkpoint + metrics.csv each epoch.
 
 Validation (and evaluation) convention: at cycle t every model may use cycles <= t; PTACNN's theta for
 cycle t is its mixture over the history ending at t (the current cycle included), the same information
@@ -13,6 +14,7 @@ the stage-1 models' history mean uses.
 from __future__ import annotations
 
 import dataclasses
+import math
 from pathlib import Path
 from typing import Any, cast
 
@@ -56,11 +58,26 @@ def predict_temporal(
     return np.concatenate(out_t), np.concatenate(out_w)
 
 
-def next_cycle_pairs(episode: np.ndarray, demo_index: np.ndarray) -> np.ndarray:
-    """Rows t whose next row t+1 is in the same episode and has a demonstration -> [M] int64."""
+def target_rows(episode: np.ndarray, demo_index: np.ndarray, ahead: int) -> np.ndarray:
+    """[C, ahead] rows t+1 .. t+ahead of every row t, -1 where that row leaves t's episode or the split
+    or has no demonstration (the training targets of ``Stage2Config.target_ahead``)."""
     episode, demo_index = np.asarray(episode), np.asarray(demo_index)
-    t = np.arange(len(episode) - 1)
-    return t[(episode[1:] == episode[:-1]) & (demo_index[1:] >= 0)]
+    c = len(episode)
+    idx = np.arange(c)[:, None] + np.arange(1, ahead + 1)[None, :]
+    inside = idx < c
+    j = np.minimum(idx, max(c - 1, 0))
+    ok = inside & (episode[j] == episode[:, None]) & (demo_index[j] >= 0)
+    return np.where(ok, idx, -1)
+
+
+def weight_regulariser(weights: torch.Tensor, kind: str) -> torch.Tensor:
+    """Per-sample regulariser of temporal softmax weights [B, H] -> [B]; 0 at uniform weights.
+    'kl_uniform': KL(u || w) = -log H - mean_h log w_h; 'entropy': sum_h w_h log w_h + log H."""
+    h = weights.shape[-1]
+    logw = torch.log(weights.clamp_min(1e-12))
+    if kind == "kl_uniform":
+        return -math.log(h) - logw.mean(-1)
+    return (weights * logw).sum(-1) + math.log(h)
 
 
 def train_one_stage2(
@@ -111,7 +128,8 @@ def _train_one_stage2(
     va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation")
     train_episode = np.asarray(train.episode)[:n_cycles]
     hist = history_indices(train_episode, H)
-    pairs = next_cycle_pairs(train_episode, np.asarray(train.demo_index)[:n_cycles])
+    targets = target_rows(train_episode, np.asarray(train.demo_index)[:n_cycles], cfg.target_ahead)
+    pairs = np.flatnonzero((targets >= 0).any(1))
     if len(pairs) == 0:
         raise IrlsimError(
             "the train split has no (cycle, next cycle with a demonstration) pair: collect more"
@@ -139,22 +157,33 @@ def _train_one_stage2(
         sums = {"train/nll": 0.0, "train/evd": 0.0}
         for start in range(0, len(order), cfg.batch_size):
             mb_t = np.sort(order[start : start + cfg.batch_size])
-            mb_next = mb_t + 1
             out = forward(model, to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
+            # every (sample, target cycle) pair at once: rows t+1 .. t+target_ahead that exist
+            tgt = targets[mb_t]  # [B, A]
+            b_idx, a_idx = np.nonzero(tgt >= 0)
+            rows = tgt[b_idx, a_idx]
             m = cycle_metrics(
-                out["theta"],
-                to_tensor(train.features[mb_next]),
-                to_tensor(train.distances[mb_next]),
-                to_tensor(train.demo_index[mb_next], torch.int64),
+                out["theta"][torch.as_tensor(b_idx)],
+                to_tensor(train.features[rows]),
+                to_tensor(train.distances[rows]),
+                to_tensor(train.demo_index[rows], torch.int64),
             )
-            run.step(m["nll"].mean(), epoch)
-            sums["train/nll"] += m["nll"].detach().sum().item()
-            sums["train/evd"] += m["evd"].detach().sum().item()
+            # mean over each sample's targets, then over the batch
+            per = torch.zeros(len(mb_t), dtype=m["nll"].dtype).index_add_(0, torch.as_tensor(b_idx), m["nll"])
+            per = per / torch.as_tensor((tgt >= 0).sum(1), dtype=per.dtype)
+            loss = per.mean()
+            if cfg.weight_reg > 0:
+                loss = loss + cfg.weight_reg * weight_regulariser(out["weights"], cfg.weight_reg_kind).mean()
+            run.step(loss, epoch)
+            sums["train/nll"] += per.detach().sum().item()
+            sums["train/evd"] += m["evd"].detach().mean().item() * len(mb_t)
         return {k: v / len(order) for k, v in sums.items()}
 
     def validate() -> dict[str, float]:
-        thetas, _ = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
-        return {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()}
+        thetas, w = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
+        row = {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()}
+        row["val/newest_weight"] = float(w[:, -1].mean()) if len(w) else float("nan")
+        return row
 
     def checkpoint(epochs_done: int) -> dict[str, Any]:
         return {

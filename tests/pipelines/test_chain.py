@@ -12,6 +12,7 @@ from pathlib import Path
 import pytest
 
 from irlsim.cli import main
+from irlsim.train.evaluate import REFERENCE_ROWS
 
 STAGE1 = ("LIRL", "1DCNN", "Bi1DCNN", "PACNN", "PACNN+S")
 STAGE2 = ("PTACNN", "PTACNN+S")
@@ -72,10 +73,10 @@ def test_chain_outputs_are_consistent(demo):
     res = json.loads((runs / "eval" / "results.json").read_text())
     assert res["history"] == 10  # configs/train/tiny_stage2.toml's H
     rows = {r["model"]: r for r in res["rows"]}
-    assert set(rows) == {*STAGE1, *STAGE2, "random policy"}
+    assert set(rows) == {*STAGE1, *STAGE2, *REFERENCE_ROWS}
     for r in rows.values():  # OPD is bounded below by DEMO (the demonstration is the argmin)
         assert r["opd"] >= r["demo"] - 1e-6
-        if r["model"] != "random policy":
+        if r["model"] not in REFERENCE_ROWS:
             assert r["opd_untrained"] >= r["demo"] - 1e-6
     drive = json.loads((runs / "drive" / "drive.json").read_text())
     assert "PTACNN+S" in json.dumps(drive)

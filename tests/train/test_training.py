@@ -1,6 +1,7 @@
 """Training loops on a tiny synthetic dataset with a known reward: learning, determinism, resume, errors,
 stage 2, evaluation and the online predictor."""
 
+import csv
 import dataclasses
 import json
 
@@ -23,6 +24,7 @@ from irlsim.train import (
     train_stage2,
 )
 from irlsim.train.batching import predict_split
+from irlsim.train.evaluate import REFERENCE_ROWS
 from irlsim.train.synthetic import make_synthetic_dataset
 
 
@@ -153,8 +155,8 @@ def test_stage2_evaluate_and_predictor(dataset, tmp_path):
     out = tmp_path / "eval"
     table = evaluate_models(dataset, tmp_path, out, H=4)
     names = [r["model"] for r in table]
-    assert names == ["LIRL", "PACNN", "PACNN+S", "PTACNN", "PTACNN+S", "random policy"]
-    for r in table[:-1]:  # every trained model is compared with itself at initialisation
+    assert names == ["LIRL", "PACNN", "PACNN+S", "PTACNN", "PTACNN+S", *REFERENCE_ROWS]
+    for r in table[:5]:  # every trained model is compared with itself at initialisation
         assert np.isfinite(r["opd_untrained"]) and r["opd_untrained"] >= r["demo"] - 1e-9
     ptacnn = table[names.index("PTACNN")]
     assert " + " in ptacnn["parameters"] and len(ptacnn["parameter_counts"]) == 2
@@ -181,3 +183,38 @@ def test_stage2_evaluate_and_predictor(dataset, tmp_path):
     expected = predict_split(plain.loaded.model, test)["theta"][5]
     np.testing.assert_allclose(theta, expected, rtol=1e-5)
     assert "temporal_weights" not in info
+
+
+def test_stage2_target_rows_and_weight_regulariser():
+    from irlsim.train.stage2 import target_rows, weight_regulariser
+
+    episode = np.array([0, 0, 0, 0, 1, 1])
+    demo = np.array([0, 0, -1, 0, 0, 0])
+    t = target_rows(episode, demo, 2)
+    assert t.tolist() == [[1, -1], [-1, 3], [3, -1], [-1, -1], [5, -1], [-1, -1]]
+    uniform = torch.full((1, 4), 0.25)
+    peaked = torch.tensor([[0.01, 0.01, 0.01, 0.97]])
+    for kind in ("kl_uniform", "entropy"):
+        assert abs(weight_regulariser(uniform, kind).item()) < 1e-6
+        assert weight_regulariser(peaked, kind).item() > 0.5
+
+
+def test_stage2_study_options_train(dataset, tmp_path):
+    """Every issue-13 stage-2 option trains and changes the weights; a strong pull to the uniform
+    H-mean makes the temporal weights near-uniform."""
+    train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path)
+    base = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=2)
+    variants = {
+        "ahead": dataclasses.replace(base, target_ahead=3),
+        "kl": dataclasses.replace(base, weight_reg=10.0),
+        "entropy": dataclasses.replace(base, weight_reg=1.0, weight_reg_kind="entropy"),
+        "inputs": dataclasses.replace(
+            base, model=dataclasses.replace(base.model, tan_inputs="context+theta+delta", drop_newest=0.5)
+        ),
+    }
+    for tag, cfg in variants.items():
+        train_stage2(dataset, cfg, tmp_path / tag, tmp_path)
+        rows = (tmp_path / tag / "PTACNN" / "metrics.csv").read_text().splitlines()
+        assert "val/newest_weight" in rows[0], tag
+    kl = [r for r in csv.DictReader((tmp_path / "kl" / "PTACNN" / "metrics.csv").open())]
+    assert abs(float(kl[-1]["val/newest_weight"]) - 1 / base.model.history) < 0.05

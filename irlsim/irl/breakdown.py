@@ -1,0 +1,181 @@
+"""Table I's breakdowns (issue 13): OPD and ED per situation, and reward stability, per row.
+
+``CycleContext`` carries what the breakdowns need beyond the split's tensors, read from the cycles table
+(situation, ego s / d, time) and aligned with the split's rows. ``row_breakdown`` turns one row's
+per-cycle metrics (and, where the row has them, its thetas or chosen policies) into the figures that
+``irlsim evaluate`` adds to a Table-I row; ``breakdown_markdown`` renders them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import torch
+
+from irlsim.data.situations import SITUATION_NAMES
+from irlsim.irl.objectives import policy_values
+from irlsim.irl.stability import plan_change, stability_summary, theta_change
+
+#: cycles before / after a situation switch counted as "around" it
+SWITCH_WINDOW = 2
+
+
+@dataclass(frozen=True)
+class CycleContext:
+    """Per-cycle data of a split beyond its tensors, rows aligned with the split: [C] each."""
+
+    situation: np.ndarray  # int8 codes (irlsim.data.situations), -1 = unlabelled
+    ego_s: np.ndarray  # [m] unwrapped
+    ego_d: np.ndarray  # [m]
+    t: np.ndarray  # [s]
+    horizon: float  # [s] planning horizon (control points at horizon * k / K)
+
+    @staticmethod
+    def from_cycles(cycles: Any, split: Any, horizon: float) -> CycleContext:
+        """From a cycles DataFrame (``Dataset.read_cycles``) in (episode, cycle) order; checks alignment."""
+        ep = np.asarray(cycles["episode"]).astype(np.int64)
+        cy = np.asarray(cycles["cycle"]).astype(np.int64)
+        c = split.features.shape[0]
+        if (
+            len(ep) < c
+            or (ep[:c] != np.asarray(split.episode)).any()
+            or (cy[:c] != np.asarray(split.cycle)).any()
+        ):
+            raise ValueError("cycles table and split tensors are not aligned (rebuild the dataset cache)")
+        sit = np.asarray(cycles["situation"])[:c] if "situation" in cycles else np.full(c, -1)
+        return CycleContext(
+            situation=sit.astype(np.int64),
+            ego_s=np.asarray(cycles["ego_s"], np.float64)[:c],
+            ego_d=np.asarray(cycles["ego_d"], np.float64)[:c],
+            t=np.asarray(cycles["t"], np.float64)[:c],
+            horizon=float(horizon),
+        )
+
+
+def argmax_policies(thetas: np.ndarray, split: Any, chunk: int = 256) -> np.ndarray:
+    """[C] index of argmax V = -theta^T f per cycle (ties: lowest index, as OPD)."""
+    c = split.features.shape[0]
+    out = np.zeros(c, dtype=np.int64)
+    with torch.no_grad():
+        for start in range(0, c, chunk):
+            sl = slice(start, min(start + chunk, c))
+            v = policy_values(
+                torch.as_tensor(np.asarray(thetas[sl]), dtype=torch.float64),
+                torch.tensor(np.asarray(split.features[sl]), dtype=torch.float64),
+            )
+            out[sl] = v.argmax(-1).numpy()
+    return out
+
+
+def per_situation(metrics: dict[str, np.ndarray], situation: np.ndarray) -> dict[str, dict[str, float]]:
+    """{situation name: {'opd', 'ed', 'cycles'}} over cycles with a demonstration."""
+    out = {}
+    valid = metrics["valid"]
+    for code, name in enumerate(SITUATION_NAMES):
+        m = valid & (situation == code)
+        n = int(m.sum())
+        out[name] = {
+            "opd": float(metrics["opd"][m].mean()) if n else float("nan"),
+            "ed": float(metrics["ed"][m].mean()) if n else float("nan"),
+            "cycles": n,
+        }
+    return out
+
+
+def row_breakdown(
+    metrics: dict[str, np.ndarray],
+    split: Any,
+    ctx: CycleContext,
+    thetas: np.ndarray | None = None,
+    chosen: np.ndarray | None = None,
+) -> dict[str, Any]:
+    """{'situations': per_situation(...), 'stability': stability_summary(...)} of one row. ``thetas``
+    [C, 15] (None: a row without a reward, e.g. 'executed'); ``chosen`` [C] policy per cycle (default:
+    argmax V of ``thetas``; None for both: no plan stability, e.g. 'random policy')."""
+    episode = np.asarray(split.episode)
+    if chosen is None and thetas is not None:
+        chosen = argmax_policies(thetas, split)
+    plan = (
+        plan_change(chosen, split.control_points, ctx.ego_s, ctx.ego_d, ctx.t, episode, ctx.horizon)
+        if chosen is not None
+        else np.full(split.features.shape[0], np.nan)
+    )
+    theta = theta_change(thetas, episode) if thetas is not None else None
+    sit = ctx.situation if (ctx.situation >= 0).all() else None
+    return {
+        "situations": per_situation(metrics, ctx.situation),
+        "stability": stability_summary(theta, plan, sit, episode, SWITCH_WINDOW),
+    }
+
+
+def _f(v: Any, digits: int = 3) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
+    """The per-situation and stability tables of rows that carry a 'situations' / 'stability' entry."""
+    rows = [r for r in rows if "situations" in r]
+    if not rows:
+        return ""
+    counts = rows[0]["situations"]
+    names = [n for n in SITUATION_NAMES if counts[n]["cycles"] > 0]
+    head = " | ".join(f"{n} ({counts[n]['cycles']})" for n in names)
+    lines = [
+        "## OPD / ED per situation [m]",
+        "",
+        f"| model | {head} |",
+        "|---|" + "---|" * len(names),
+    ]
+    for r in rows:
+        s = r["situations"]
+        lines.append(
+            f"| {r['model']} | " + " | ".join(f"{_f(s[n]['opd'])} / {_f(s[n]['ed'])}" for n in names) + " |"
+        )
+    lines += [
+        "",
+        "OPD / ED per situation label (irlsim.data.situations; cycles with a demonstration in brackets).",
+        "",
+        "## Reward stability",
+        "",
+        "| model | theta change | theta change at switches | plan change [m] | plan change at switches [m] |",
+        "|---|---|---|---|---|",
+    ]
+    for r in rows:
+        st = r["stability"]
+        lines.append(
+            f"| {r['model']} | {_f(st['theta_change'])} | {_f(st['theta_change_switch'])} | "
+            f"{_f(st['plan_change'])} | {_f(st['plan_change_switch'])} |"
+        )
+    lines += [
+        "",
+        "theta change: mean |theta_{t+1} - theta_t| / |theta_t| between consecutive cycles; plan change: "
+        "mean distance over their common time span between the policies chosen at t+1 and t "
+        "(irlsim.irl.stability); "
+        f"'at switches': pairs within {SWITCH_WINDOW} cycles of a situation change.",
+        "",
+    ]
+    temporal = [r for r in rows if r.get("temporal")]
+    if temporal:
+        lines += [
+            "## Temporal attention",
+            "",
+            "| model | newest-entry weight | at switches | weight shift (L1) | at switches |",
+            "|---|---|---|---|---|",
+        ]
+        for r in temporal:
+            w = r["temporal"]
+            lines.append(
+                f"| {r['model']} | {_f(w['newest_weight'])} | {_f(w['newest_weight_switch'])} | "
+                f"{_f(w['weight_shift'])} | {_f(w['weight_shift_switch'])} |"
+            )
+        lines += [
+            "",
+            "newest-entry weight: mean softmax weight of the current cycle in the H-cycle history (1 = the "
+            "history is ignored, 1/H = the H-mean); weight shift: mean L1 change of the weights between "
+            "consecutive cycles.",
+            "",
+        ]
+    return "\n".join(lines)
