@@ -125,8 +125,7 @@ def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for wor
 
 
 def _drive(job: DriveJob) -> dict[str, Any]:
-    from irlsim.drive.closed_loop import drive_episode, load_drive_model
-    from irlsim.road import load_road
+    from irlsim.drive.closed_loop import load_drive_model
 
     key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
     if key not in _MODELS:

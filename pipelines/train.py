@@ -15,7 +15,7 @@ from typing import Any
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides, to_dict
-from irlsim.data.reader import open_dataset
+from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import format_parameters
 from irlsim.train import config as tc
@@ -32,7 +32,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--stage", type=int, choices=(1, 2), required=True, help="1: per-cycle models, 2: temporal"
     )
     p.add_argument("--config", type=Path, default=None, help="TOML config (default: built-in defaults)")
-    p.add_argument("--data", type=Path, required=True, help="dataset folder written by 'irlsim collect'")
+    p.add_argument(
+        "--data",
+        type=Path,
+        nargs="+",
+        required=True,
+        help="dataset folder written by 'irlsim collect'; several folders are aggregated (DAgger: the "
+        "expert's data and the rounds' expert-labelled data; irlsim.data.aggregate)",
+    )
     p.add_argument(
         "--out",
         type=Path,
@@ -78,7 +85,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise IrlsimError(f"--out {args.out} is a file: pass a runs folder such as runs/default")
     overrides = parse_overrides(args.set)
-    dataset = open_dataset(args.data)
+    dataset = open_datasets(args.data)
     out = stage_dir(args.out, args.stage)
     extra: dict[str, Any] = {}
     if args.stage == 1:
@@ -98,7 +105,9 @@ def _run(args: argparse.Namespace) -> int:
         summary = train_stage2(dataset, cfg2, out, base)
         cfg_dict = to_dict(cfg2)
         extra["base"] = str(base)
-    write_json(out / "summary.json", {"config": cfg_dict, "data": str(args.data), **extra, "models": summary})
+    data = [str(p) for p in args.data]
+    record = {"config": cfg_dict, "data": data[0] if len(data) == 1 else data, **extra, "models": summary}
+    write_json(out / "summary.json", record)
     print(f"stage {args.stage}: trained {', '.join(summary)}; checkpoints and metrics in {out}/<model>/")
     print("\n".join(parameter_lines(summary)))
     return 0

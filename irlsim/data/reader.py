@@ -20,16 +20,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.schema import (
+    DEMO_EXPERT,
+    DEMO_ODOMETRY,
+    DEMO_SOURCES,
     META_TABLE,
     META_VERSION,
     SCHEMA_VERSION,
     TABLE_CYCLES,
     TABLE_POLICIES,
     cycles_name,
+    cycles_schema,
     policies_name,
 )
 from irlsim.errors import IrlsimError
@@ -38,7 +43,7 @@ from irlsim.utils import atomic_path, write_json
 
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 _REGENERATE = "delete it and re-run irlsim collect to regenerate it"
 
 
@@ -57,6 +62,7 @@ class SplitTensors:
         cycle:          [C] int32
         executed_index: [C] int32           index of the policy the driver executed
         labels:         [C, N, 3] bool      collision, offroad, exit (LABEL_NAMES)
+        demo_source:    [C] int8            index into DEMO_SOURCES: 0 odometry (projected), 1 expert (DAgger)
     """
 
     features: np.ndarray
@@ -69,9 +75,12 @@ class SplitTensors:
     cycle: np.ndarray
     executed_index: np.ndarray
     labels: np.ndarray
+    demo_source: np.ndarray = None  # type: ignore[assignment]  # None: all odometry (code 0)
 
     def __post_init__(self) -> None:
         c, n = self.distances.shape
+        if self.demo_source is None:
+            object.__setattr__(self, "demo_source", np.zeros(c, np.int8))
         k = self.control_points.shape[2] if self.control_points.ndim == 4 else -1
         expected = {
             "features": ((c, n, N_FEATURES), np.float32),
@@ -84,6 +93,7 @@ class SplitTensors:
             "cycle": ((c,), np.int32),
             "executed_index": ((c,), np.int32),
             "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
+            "demo_source": ((c,), np.int8),
         }
         for name, (shape, dtype) in expected.items():
             arr = getattr(self, name)
@@ -100,6 +110,11 @@ class SplitTensors:
     @property
     def n_policies(self) -> int:
         return int(self.distances.shape[1])
+
+    @property
+    def expert_labelled(self) -> np.ndarray:
+        """[C] bool: cycles whose demonstration is the expert's selection (DAgger), not projected odometry."""
+        return np.asarray(self.demo_source == DEMO_SOURCES.index(DEMO_EXPERT))
 
     @property
     def has_demo(self) -> np.ndarray:
@@ -232,10 +247,8 @@ class Dataset:
         tables = []
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
-            tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
+            tables.append(with_demo_source(read_parquet(open_parquet(path, TABLE_CYCLES), path)))
         if not tables:
-            from irlsim.data.schema import cycles_schema
-
             return cycles_schema().empty_table()
         table = pa.concat_tables(tables)
         self._check_cycles(split, table)
@@ -322,6 +335,7 @@ class Dataset:
             "episode": cycles.column("episode").to_numpy().astype(np.int32),
             "cycle": cycles.column("cycle").to_numpy().astype(np.int32),
             "executed_index": cycles.column("executed_index").to_numpy().astype(np.int32),
+            "demo_source": demo_source_codes(cycles.column("demo_source")),
         }
         with _AtomicNpys(folder, specs) as big:
             row = 0  # next cycle row to fill
@@ -388,6 +402,25 @@ class Dataset:
         path = self.policies_path(split, eps[0])
         width = open_parquet(path, TABLE_POLICIES).schema_arrow.field("control_points").type.list_size
         return int(width) // 3
+
+
+def with_demo_source(table: pa.Table) -> pa.Table:
+    """A cycles table with its ``demo_source`` column; a version-2 file written before the column existed
+    (its demonstrations were all projected odometry, the only source then) gets 'odometry' rows."""
+    if "demo_source" in table.column_names:
+        return table
+    return table.append_column(
+        cycles_schema().field("demo_source"), pa.array([DEMO_ODOMETRY] * table.num_rows, pa.string())
+    )
+
+
+def demo_source_codes(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
+    """[C] int8 indices into DEMO_SOURCES of a ``demo_source`` column; an unknown value is refused."""
+    idx = pc.index_in(column, value_set=pa.array(DEMO_SOURCES, pa.string()))
+    if idx.null_count:
+        bad = pc.filter(column, pc.is_null(idx))[0].as_py()
+        raise IrlsimError(f"demo_source {bad!r} is none of {', '.join(DEMO_SOURCES)}: {_REGENERATE}")
+    return np.asarray(idx.to_numpy(zero_copy_only=False), dtype=np.int8)
 
 
 def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: np.ndarray, n: int) -> None:

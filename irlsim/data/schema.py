@@ -50,6 +50,13 @@ META_TABLE = b"irlsim.table"
 TABLE_CYCLES = "cycles"
 TABLE_POLICIES = "policies"
 
+#: where a cycle's demonstration comes from (cycles column ``demo_source``, since version 2):
+#: ``odometry``: what the driver drove, projected onto the policy set (DemoProjector; expert collection);
+#: ``expert``: the expert's own selection on the same policy set at the learner's state (DAgger labels,
+#: ``irlsim collect --driver``)
+DEMO_SOURCES: tuple[str, ...] = ("odometry", "expert")
+DEMO_ODOMETRY, DEMO_EXPERT = DEMO_SOURCES
+
 #: ego-state keys the writer expects, with their column names in the cycles table
 EGO_KEYS: tuple[str, ...] = ("x", "y", "yaw", "v", "s", "d", "lane")
 
@@ -84,6 +91,8 @@ def cycles_schema() -> pa.Schema:
             pa.field("executed_index", pa.int32(), nullable=False),
             # situation code (irlsim.data.situations.SITUATION_NAMES), -1 = not labelled; since version 2
             pa.field("situation", pa.int8(), nullable=False),
+            # DEMO_SOURCES: 'odometry' (projected) or 'expert' (DAgger label); since version 2
+            pa.field("demo_source", pa.string(), nullable=False),
         ],
         metadata=_metadata(TABLE_CYCLES),
     )
