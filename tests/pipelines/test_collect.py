@@ -21,6 +21,7 @@ import pytest
 
 from irlsim.cli import main
 from irlsim.data.demos import W_YAW
+from irlsim.data.schema import SCHEMA_VERSION
 from tests.conftest import TINY_COLLECT
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -289,7 +290,7 @@ def test_workers_do_not_block_a_resume(tiny_dataset, tmp_path, capsys):
 @pytest.mark.parametrize(
     "key, value, needle",
     [
-        ("schema_version", 0, "holds a dataset of schema version 0, this irlsim writes 1"),
+        ("schema_version", 0, f"holds a dataset of schema version 0, this irlsim writes {SCHEMA_VERSION}"),
         ("feature_names", ["acc_lon"], "holds a dataset of other features than this irlsim computes"),
     ],
 )
