@@ -194,23 +194,11 @@ def _check_resumable(
         )
 
 
-def _collect(
-    cfg: Any,
-    out: Path,
-    executor: str = "local",
-    address: str | None = None,
-    driver: dict[str, Any] | None = None,
-) -> int:
-    """The collection itself, run while this process holds ``<out>/.lock``. ``driver``: the learned
-    driver's identity (:func:`driver_identity`) for a DAgger collection, recorded in the manifest."""
-
-    manifest_path = out / "manifest.json"
-    config = data_config(cfg)
-    if manifest_path.is_file():
-        _check_resumable(manifest_path, config, driver)
-    build_net()  # once, before the workers start (they only read it)
-
-    jobs, seeds = [], {}
+def _pending_jobs(cfg: Any, out: Path, ckpt: str | None) -> tuple[list[Job], dict[str, list[int]]]:
+    """(the episodes still to collect as jobs, every split's seeds); a finished episode whose files do
+    not pass ``check_episode`` is deleted and collected again. ``ckpt``: the DAgger driver's checkpoint."""
+    jobs: list[Job] = []
+    seeds: dict[str, list[int]] = {}
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
@@ -230,9 +218,29 @@ def _collect(
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
-            ckpt = driver["checkpoint"] if driver is not None else None
             job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt)
             jobs.append(Job(f"{split}/{episode}", job))
+    return jobs, seeds
+
+
+# size-ok: one command's orchestration: manifests before and after, executor callbacks, failure report
+def _collect(
+    cfg: Any,
+    out: Path,
+    executor: str = "local",
+    address: str | None = None,
+    driver: dict[str, Any] | None = None,
+) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``. ``driver``: the learned
+    driver's identity (:func:`driver_identity`) for a DAgger collection, recorded in the manifest."""
+
+    manifest_path = out / "manifest.json"
+    config = data_config(cfg)
+    if manifest_path.is_file():
+        _check_resumable(manifest_path, config, driver)
+    build_net()  # once, before the workers start (they only read it)
+
+    jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
     total = sum(len(v) for v in seeds.values())
     where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
     if driver is not None:

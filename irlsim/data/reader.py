@@ -20,13 +20,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import pyarrow as pa
-import pyarrow.compute as pc
 import pyarrow.parquet as pq
 
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.schema import (
     DEMO_EXPERT,
-    DEMO_ODOMETRY,
     DEMO_SOURCES,
     META_TABLE,
     META_VERSION,
@@ -35,7 +33,9 @@ from irlsim.data.schema import (
     TABLE_POLICIES,
     cycles_name,
     cycles_schema,
+    demo_source_codes,
     policies_name,
+    with_demo_source,
 )
 from irlsim.errors import IrlsimError
 from irlsim.planner.policy_set import LABEL_NAMES
@@ -402,25 +402,6 @@ class Dataset:
         path = self.policies_path(split, eps[0])
         width = open_parquet(path, TABLE_POLICIES).schema_arrow.field("control_points").type.list_size
         return int(width) // 3
-
-
-def with_demo_source(table: pa.Table) -> pa.Table:
-    """A cycles table with its ``demo_source`` column; a version-2 file written before the column existed
-    (its demonstrations were all projected odometry, the only source then) gets 'odometry' rows."""
-    if "demo_source" in table.column_names:
-        return table
-    return table.append_column(
-        cycles_schema().field("demo_source"), pa.array([DEMO_ODOMETRY] * table.num_rows, pa.string())
-    )
-
-
-def demo_source_codes(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
-    """[C] int8 indices into DEMO_SOURCES of a ``demo_source`` column; an unknown value is refused."""
-    idx = pc.index_in(column, value_set=pa.array(DEMO_SOURCES, pa.string()))
-    if idx.null_count:
-        bad = pc.filter(column, pc.is_null(idx))[0].as_py()
-        raise IrlsimError(f"demo_source {bad!r} is none of {', '.join(DEMO_SOURCES)}: {_REGENERATE}")
-    return np.asarray(idx.to_numpy(zero_copy_only=False), dtype=np.int8)
 
 
 def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: np.ndarray, n: int) -> None:
