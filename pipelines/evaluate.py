@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 
 from irlsim import devices
-from irlsim.data.reader import open_dataset
+from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.train.evaluate import evaluate_models
 
@@ -15,7 +15,14 @@ HELP = "evaluate every trained model on the sequential test split: Table I (Mark
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--data", type=Path, required=True, help="dataset folder")
+    p.add_argument(
+        "--data",
+        type=Path,
+        nargs="+",
+        required=True,
+        help="dataset folder; several: the aggregate the models were trained on (DAgger rounds add no test "
+        "episodes, so its test split is the first folder's)",
+    )
     p.add_argument(
         "--runs",
         type=Path,
@@ -49,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     with devices.use(device, args.precision):
         evaluate_models(
-            open_dataset(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
+            open_datasets(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
         )
     print((out / "results.md").read_text())
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")

@@ -118,6 +118,12 @@ def test_dagger_round_end_to_end(tiny_dataset, learner, dagger_run):
     assert (tr.demo_source[:n_odo] == 0).all() and (tr.demo_source[n_odo:] == 1).all()
     assert tr.expert_labelled.sum() == tr.n_cycles - n_odo > 0
     assert len(set(tr.episode[:n_odo]) & set(tr.episode[n_odo:])) == 0  # histories never span folders
+    # evaluated on the aggregate it was trained on (its test split is the expert data's)
+    ev = out / "eval"
+    assert (
+        main(["evaluate", "--data", str(tiny_dataset), str(data), "--runs", str(runs), "--out", str(ev)]) == 0
+    )
+    assert (ev / "results.json").is_file()
     # finished rounds are skipped: nothing is collected or trained again
     mtime = new.stat().st_mtime_ns
     buf = io.StringIO()
