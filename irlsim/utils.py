@@ -20,6 +20,7 @@ from tqdm.auto import tqdm
 
 from irlsim import THREAD_VARS
 from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_file as check_output_file_
 
 
 def _current_umask() -> int:
@@ -37,6 +38,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
 
     On any exception the temporary file is removed, so ``path`` is either the old file or the complete
     new one, never a half-written one. A killed process leaves at most a ``.*.tmp`` file that readers ignore.
+    An OSError on the temporary file is re-raised naming ``path`` (what the user knows).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -48,6 +50,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         if tmp.exists():  # mkstemp creates 0600; give the result the usual umask-based mode
             tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
+    except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
+        if e.filename is not None and str(e.filename) == str(tmp):
+            e.filename = str(path)
+        raise
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -177,21 +183,7 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     directory, a folder on its way is a file, or the nearest existing folder takes no new file (tried
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
-    if path.is_dir():
-        raise IrlsimError(f"{option} {path} is a directory: pass a file name such as {path / example}")
-    folder = path.absolute().parent
-    try:
-        while not folder.exists():
-            folder = folder.parent
-        if not folder.is_dir():
-            raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
-        with tempfile.TemporaryFile(dir=folder):
-            pass
-    except OSError as e:
-        raise IrlsimError(
-            f"{option} {path} cannot be written ({e.strerror or type(e).__name__} in {folder}): "
-            "choose a writable place"
-        ) from None
+    check_output_file_(path, option, example)
 
 
 def _init_spawned_worker(parent_pid: int) -> None:  # top level: picklable as the Pool initializer

@@ -28,7 +28,9 @@ import numpy as np  # noqa: E402
 
 from irlsim.benchmarks import bench_collect as run_collect  # noqa: E402
 from irlsim.benchmarks import bench_infer as run_infer  # noqa: E402
+from irlsim.config import MAX_SEED, int_in  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
+from irlsim.outputs import check_output_dir  # noqa: E402
 from irlsim.planner.config import PlannerConfig  # noqa: E402
 from irlsim.planner.planner import Planner  # noqa: E402
 from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
@@ -63,14 +65,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="collection with the local pool vs Ray (2 workers), 1 -> 2 workers on a simulated two-node "
         "Ray cluster, stage-1 training cycles/s per device and precision (needs the ray extra)",
     )
-    parser.add_argument("--cycles", type=int, default=300, help="timed planner cycles (default 300)")
+    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
-        type=int,
+        type=int_in(1),
         default=150,
         help="planning cycles per timed collection episode (default 150)",
     )
-    parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic traffic (default 0)")
+    parser.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
+    )
 
 
 # ---------------------------------------------------------------------------------------------- planner
@@ -215,8 +219,7 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--cycles must be >= 1, got {args.cycles}")
     if args.collect_cycles < 1:
         raise IrlsimError(f"--collect-cycles must be >= 1, got {args.collect_cycles}")
-    if args.out.exists() and not args.out.is_dir():
-        raise IrlsimError(f"--out {args.out} is a file: pass a folder such as bench/")
+    check_output_dir(args.out, "--out")
     chosen = [name for name in SECTIONS if getattr(args, name, False)] or list(SECTIONS)
     for name in chosen:
         res = SECTIONS[name](args)

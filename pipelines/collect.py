@@ -18,13 +18,14 @@ from pathlib import Path
 from typing import Any
 
 from irlsim import FEATURE_NAMES
-from irlsim.config import load_config, parse_overrides
+from irlsim.config import MAX_SEED, int_in, load_config, parse_overrides
 from irlsim.data.collection import (
     SPLITS,
     CollectConfig,
     EpisodeJob,
     collect_episode,
     data_config,
+    estimate_dataset_bytes,
     first_difference,
 )
 from irlsim.data.layout import (
@@ -39,6 +40,7 @@ from irlsim.drive.closed_loop import EXPERT, EXPERT_THETA, load_drive_model
 from irlsim.drive.dagger import dagger_driver_factory
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
+from irlsim.outputs import check_output_dir
 from irlsim.road.network import build_net
 from irlsim.utils import LockBusy, check_non_negative, exclusive_lock, progress
 
@@ -48,8 +50,10 @@ HELP = "drive the expert and record policy sets + demonstrations to a Parquet da
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, default=None, help="TOML config (configs/collect/*.toml)")
     p.add_argument("--out", type=Path, required=True, help="dataset folder, e.g. data/default")
-    p.add_argument("--workers", type=int, default=None, help="worker processes (overrides the config)")
-    p.add_argument("--seed", type=int, default=None, help="base seed (overrides the config)")
+    p.add_argument(
+        "--workers", type=int_in(1, 256), default=None, help="worker processes (overrides the config)"
+    )
+    p.add_argument("--seed", type=int_in(0, MAX_SEED), default=None, help="base seed (overrides the config)")
     add_executor_arguments(p)
     p.add_argument(
         "--driver",
@@ -149,8 +153,8 @@ def run(args: argparse.Namespace) -> int:
     )
     check_executor(args.executor, cfg.workers, args.address)
     out: Path = args.out
-    if out.exists() and not out.is_dir():
-        raise IrlsimError(f"--out {out} is a file: choose a folder for the dataset")
+    # before any work: a folder that takes files, with disk for the dataset (irlsim.outputs)
+    check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
             return _collect(cfg, out, args.executor, args.address, driver)

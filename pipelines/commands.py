@@ -14,6 +14,7 @@ import sys
 from typing import NoReturn
 
 from irlsim.errors import IrlsimError
+from irlsim.outputs import os_error_message
 
 #: command name -> stage module
 COMMANDS: dict[str, str] = {
@@ -70,6 +71,9 @@ def main(argv: list[str] | None = None) -> int:
     except IrlsimError as e:
         print(f"irlsim: error: {e}", file=sys.stderr)
         return 2
+    except OSError as e:  # disk full, permissions, a vanished folder: one line naming the path, exit 1
+        print(f"irlsim: error: {os_error_message(e)}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print("irlsim: interrupted; finished files are kept, re-run the command to resume", file=sys.stderr)
         return 130

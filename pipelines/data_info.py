@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from irlsim.data.info import dataset_info, format_info
+from irlsim.outputs import check_output_file
 from irlsim.utils import write_json
 
 HELP = "inspect a dataset: 'irlsim data info data/<name>'"
@@ -19,6 +20,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
 
+    if args.json:  # before reading the dataset
+        check_output_file(args.json, "--json", "info.json")
     info = dataset_info(args.path)
     print(format_info(info))
     if args.json:

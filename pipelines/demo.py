@@ -12,6 +12,7 @@ import argparse
 import time
 from pathlib import Path
 
+from irlsim.config import int_in
 from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE
 from pipelines.commands import main
 
@@ -23,7 +24,7 @@ CONFIGS = Path(__file__).resolve().parents[1] / "configs"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--data", type=Path, default=Path("data/default"), help="dataset folder")
     p.add_argument("--runs", type=Path, default=Path("runs/default"), help="runs folder")
-    p.add_argument("--seed", type=int, default=0, help="base seed of collection and driving")
+    p.add_argument("--seed", type=int_in(0, 2147), default=0, help="base seed of collection and driving")
     p.add_argument(
         "--preset",
         default="default",

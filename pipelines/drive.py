@@ -15,12 +15,13 @@ from pathlib import Path
 from typing import Any
 
 from irlsim import devices
-from irlsim.config import load_config
+from irlsim.config import MAX_SEED, int_in, load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
 from irlsim.drive.metrics import markdown_table, summarize
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
+from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
 
@@ -43,9 +44,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "alone, argmax V), LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S or checkpoint paths "
         "(default: expert)",
     )
-    p.add_argument("--episodes", type=int, default=1, help="episodes per model (default: 1)")
-    p.add_argument("--laps", type=int, default=1, help="laps per episode (default: 1)")
-    p.add_argument("--seed", type=int, default=100, help="episode i uses seed S + i (default: 100)")
+    p.add_argument("--episodes", type=int_in(1), default=1, help="episodes per model (default: 1)")
+    p.add_argument("--laps", type=int_in(1), default=1, help="laps per episode (default: 1)")
+    p.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=100, help="episode i uses seed S + i (default: 100)"
+    )
     p.add_argument(
         "--config",
         type=Path,
@@ -62,17 +65,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--frames",
-        type=int,
+        type=int_in(0),
         default=40,
         help="animation frames of the first episode of each model (0 = no pictures; default: 40)",
     )
     p.add_argument(
         "--max-cycles",
-        type=int,
+        type=int_in(0),
         default=0,
         help="stop each episode after this many planning cycles (0 = laps, collision, exit or time-out)",
     )
-    p.add_argument("--threads", type=int, default=1, help="torch CPU threads of the reward inference")
+    p.add_argument(
+        "--threads", type=int_in(1, 1024), default=1, help="torch CPU threads of the reward inference"
+    )
     p.add_argument(
         "--workers",
         type=int,
@@ -169,6 +174,11 @@ def _run(args: argparse.Namespace, device: str) -> int:
     check_executor(args.executor, args.workers, args.address)
     cfg = load_config(CollectConfig, args.config)
     out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
+    if args.seed + args.episodes - 1 > MAX_SEED:
+        raise IrlsimError(
+            f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {MAX_SEED}"
+        )
+    check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
     models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
     runs = str(args.runs.resolve()) if args.runs else None

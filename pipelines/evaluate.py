@@ -7,8 +7,10 @@ import argparse
 from pathlib import Path
 
 from irlsim import devices
+from irlsim.config import int_in
 from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
 from irlsim.train.evaluate import evaluate_models
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
@@ -33,12 +35,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--split", default="test", help="split to evaluate on (default: test)")
     p.add_argument(
         "--history",
-        type=int,
+        type=int_in(1),
         default=None,
         help="H: history of predicted thetas [cycles] (default: the PTACNN's own H, else 10; "
         "a PTACNN trained with another H is refused)",
     )
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--threads", type=int_in(1, 1024), default=2, help="torch CPU threads")
     from irlsim.devices import add_arguments as device_arguments
 
     device_arguments(p, "evaluation")
@@ -52,6 +54,7 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
     device = devices.resolve_device(args.device)
     out = args.out or args.runs / "eval"
+    check_output_dir(out, "--out")
     if not args.runs.is_dir():
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     with devices.use(device, args.precision):

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from irlsim import FEATURE_NAMES
-from irlsim.config import load_config
+from irlsim.config import float_in, int_in, load_config
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
 from irlsim.road import load_road
@@ -21,15 +21,19 @@ HELP = "draw one planning cycle's policies coloured by value under a theta (expe
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--seed", type=int, default=0, help="episode seed (>= 0)")
-    parser.add_argument("--time", type=float, default=20.0, help="simulation time of the cycle to draw [s]")
+    parser.add_argument("--seed", type=int_in(0, MAX_SEED), default=0, help="episode seed (>= 0)")
+    parser.add_argument(
+        "--time", type=float_in(0), default=20.0, help="simulation time of the cycle to draw [s]"
+    )
     parser.add_argument("--out", type=Path, default=Path("cycle.png"), help="output PNG")
     parser.add_argument(
         "--theta",
         default="expert",
         help="'expert' or 15 comma-separated weights (FEATURE_NAMES order) to colour by",
     )
-    parser.add_argument("--vehicles", type=int, default=None, help="background vehicles, 0..15 (default 15)")
+    parser.add_argument(
+        "--vehicles", type=int_in(0, 15), default=None, help="background vehicles, 0..15 (default 15)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import load_config, to_dict
+from irlsim.config import float_in, int_in, load_config, to_dict
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.rollout import EpisodeRunner, make_driver
@@ -28,13 +28,22 @@ HELP = "run headless SUMO episodes with a simple driver and report per-episode f
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--episodes", type=int, default=1, help="number of episodes (>= 1)")
+    parser.add_argument("--episodes", type=int_in(1), default=1, help="number of episodes (>= 1)")
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the first episode (>= 0); episode i uses seed + i"
+        "--seed",
+        type=int_in(0, MAX_SEED),
+        default=0,
+        help="seed of the first episode (>= 0); episode i uses seed + i",
     )
-    parser.add_argument("--laps", type=int, default=None, help="laps per episode (default: the config's, 2)")
-    parser.add_argument("--vehicles", type=int, default=None, help="background vehicles, 0..15 (default 15)")
-    parser.add_argument("--max-time", type=float, default=None, help="time-out per episode [s] (default 600)")
+    parser.add_argument(
+        "--laps", type=int_in(1), default=None, help="laps per episode (default: the config's, 2)"
+    )
+    parser.add_argument(
+        "--vehicles", type=int_in(0, 15), default=None, help="background vehicles, 0..15 (default 15)"
+    )
+    parser.add_argument(
+        "--max-time", type=float_in(0), default=None, help="time-out per episode [s] (default 600)"
+    )
     parser.add_argument(
         "--driver", default="simple", help="driver name (registered in irlsim.rollout.drivers.DRIVERS)"
     )

@@ -11,18 +11,20 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides, to_dict
 from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
-from irlsim.models.registry import format_parameters
+from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE, format_parameters
+from irlsim.outputs import check_output_dir
 from irlsim.train import config as tc
-from irlsim.train.layout import stage_dir
+from irlsim.train.checkpoint import dataset_identity
+from irlsim.train.layout import SUMMARY_NAME, find_checkpoint, stage_dir
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2
-from irlsim.utils import write_json
+from irlsim.utils import LockBusy, exclusive_lock, write_json
 
 HELP = "train the reward models: --stage 1 (PACNN & baselines) or --stage 2 (PTACNN on frozen PACNN)"
 
@@ -58,6 +60,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     device_arguments(p, "training")
 
 
+#: the lock file of a runs folder while 'irlsim train' writes it (as collect's in a dataset folder)
+LOCK_NAME = ".lock"
+#: [bytes] disk a model's folder may take (checkpoint with latest + best weights and optimizer state,
+#: metrics.csv): an upper estimate for the default sizes (PACNN's checkpoint is ~1 MB)
+CHECKPOINT_BYTES = 16 << 20
+
+
+def _stage_models(stage: int) -> tuple[str, ...]:
+    return STAGE1_MODELS if stage == 1 else tuple(STAGE2_BASE)
+
+
 def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
     """One line per trained model: its trainable parameters (and the frozen base's, for stage 2)."""
 
@@ -82,32 +95,44 @@ def _run(args: argparse.Namespace) -> int:
 
     if args.base is not None and args.stage != 2:
         raise IrlsimError("--base names the stage-1 folder stage 2 builds on: use it only with --stage 2")
-    if args.out.exists() and not args.out.is_dir():
-        raise IrlsimError(f"--out {args.out} is a file: pass a runs folder such as runs/default")
     overrides = parse_overrides(args.set)
+    cfg = load_config(tc.Stage1Config if args.stage == 1 else tc.Stage2Config, args.config, overrides)
+    base = args.base if args.base is not None else stage_dir(args.out, 1)
+    if args.stage == 2 and not base.is_dir():
+        hint = "pass --base" if args.base is not None else f"run 'irlsim train --stage 1 --out {args.out}'"
+        raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
+    check_output_dir(args.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     dataset = open_datasets(args.data)
     out = stage_dir(args.out, args.stage)
-    extra: dict[str, Any] = {}
-    if args.stage == 1:
-        cfg1 = load_config(tc.Stage1Config, args.config, overrides)
-        out.mkdir(parents=True, exist_ok=True)
-        summary = train_stage1(dataset, cfg1, out)
-        cfg_dict = to_dict(cfg1)
-    else:
-        cfg2 = load_config(tc.Stage2Config, args.config, overrides)
-        base = args.base if args.base is not None else stage_dir(args.out, 1)
-        if not base.is_dir():
-            hint = (
-                "pass --base" if args.base is not None else f"run 'irlsim train --stage 1 --out {args.out}'"
+    try:  # one training at a time per runs folder (both stages: stage 2 reads stage 1's checkpoints)
+        with exclusive_lock(args.out / LOCK_NAME):
+            out.mkdir(parents=True, exist_ok=True)
+            if args.stage == 1:
+                summary = train_stage1(dataset, cast(tc.Stage1Config, cfg), out)
+                extra: dict[str, Any] = {}
+            else:
+                summary = train_stage2(dataset, cast(tc.Stage2Config, cfg), out, base)
+                extra = {"base": str(base)}
+            # models trained into this stage folder earlier and not by this call stay as they were: named
+            # here, so summary.json does not pass for the whole folder
+            others = [m for m in _stage_models(args.stage) if m not in summary and find_checkpoint(out, m)]
+            if others:
+                extra["other_models"] = others
+            write_json(
+                out / SUMMARY_NAME,
+                {
+                    "config": to_dict(cfg),
+                    "data": str(args.data[0]) if len(args.data) == 1 else [str(p) for p in args.data],
+                    "dataset": dataset_identity(dataset),
+                    **extra,
+                    "models": summary,
+                },
             )
-            raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
-        out.mkdir(parents=True, exist_ok=True)
-        summary = train_stage2(dataset, cfg2, out, base)
-        cfg_dict = to_dict(cfg2)
-        extra["base"] = str(base)
-    data = [str(p) for p in args.data]
-    record = {"config": cfg_dict, "data": data[0] if len(data) == 1 else data, **extra, "models": summary}
-    write_json(out / "summary.json", record)
+    except LockBusy as busy:
+        raise IrlsimError(
+            f"another 'irlsim train' is writing {args.out} (pid {busy.holder}): wait for it, or train into "
+            "another --out"
+        ) from None
     print(f"stage {args.stage}: trained {', '.join(summary)}; checkpoints and metrics in {out}/<model>/")
     print("\n".join(parameter_lines(summary)))
     return 0

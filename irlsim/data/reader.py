@@ -22,7 +22,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from irlsim import FEATURE_NAMES, N_FEATURES
+from irlsim import N_FEATURES
 from irlsim.data.schema import (
     DEMO_EXPERT,
     DEMO_SOURCES,
@@ -37,14 +37,15 @@ from irlsim.data.schema import (
     policies_name,
     with_demo_source,
 )
+from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
 from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
 from irlsim.planner.policy_set import LABEL_NAMES
 from irlsim.utils import atomic_path, write_json
 
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
 CACHE_VERSION = 2
-_REGENERATE = "delete it and re-run irlsim collect to regenerate it"
 
 
 @dataclass(frozen=True)
@@ -127,18 +128,14 @@ class SplitTensors:
 
 
 _ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
-
-
-class BadParquetFile(IrlsimError):
-    """A dataset file that is missing, truncated, corrupt, foreign or of another schema version.
-
-    ``str()`` is the one-line user message; ``problem`` is the same without the fix, for callers that
-    repair the file themselves (``irlsim collect`` re-collects the episode)."""
-
-    def __init__(self, path: Path, problem: str, fix: str) -> None:
-        super().__init__(f"{path} {problem}: {fix}")
-        self.path = path
-        self.problem = f"{path} {problem}"
+#: per-cycle arrays read straight from the cycles table's column of the same name
+_SMALL_COLUMNS: tuple[tuple[str, Any], ...] = (
+    ("demo_index", np.int64),
+    ("demo_distance", np.float32),
+    ("episode", np.int32),
+    ("cycle", np.int32),
+    ("executed_index", np.int32),
+)
 
 
 def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
@@ -146,8 +143,9 @@ def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
     return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
 
 
-def open_parquet(path: Path, table: str) -> pq.ParquetFile:
-    """Open an irlsim Parquet file, checking it is complete, ours and of this schema version.
+def open_parquet(path: Path, table: str, n_control_points: int | None = None) -> pq.ParquetFile:
+    """Open an irlsim Parquet file, checking it is complete, ours, of this schema version and has the
+    columns, types and list widths of this irlsim's ``table`` (with ``n_control_points`` K if given).
 
     Raises ``BadParquetFile`` (an ``IrlsimError``) naming the file."""
     try:
@@ -170,6 +168,7 @@ def open_parquet(path: Path, table: str) -> pq.ParquetFile:
             f"has schema version {version}, this irlsim reads {SCHEMA_VERSION}",
             "re-collect it with 'irlsim collect'",
         )
+    check_columns(pf.schema_arrow, path, table, n_control_points)
     return pf
 
 
@@ -220,6 +219,10 @@ class Dataset:
         self.path = path
         self.manifest = manifest
         check_complete(path, manifest)
+        planner = (manifest.get("config") or {}).get("planner") or {}
+        #: K and N the collection was configured with (None: not recorded, taken from the files)
+        self.n_control_points: int | None = planner.get("n_control_points")
+        self.n_policies: int | None = planner.get("n_policies")
 
     @property
     def splits(self) -> list[str]:
@@ -248,6 +251,7 @@ class Dataset:
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
             tables.append(with_demo_source(read_parquet(open_parquet(path, TABLE_CYCLES), path)))
+            self._check_policy_count(path, tables[-1])
         if not tables:
             return cycles_schema().empty_table()
         table = pa.concat_tables(tables)
@@ -257,6 +261,16 @@ class Dataset:
     def read_cycles(self, split: str) -> pd.DataFrame:
         """All cycles rows of a split as a DataFrame, ordered by (episode, cycle)."""
         return self.read_cycles_table(split).to_pandas()
+
+    def _check_policy_count(self, path: Path, table: pa.Table) -> None:
+        n_pol = table.column("n_policies").to_numpy()
+        if self.n_policies is not None and n_pol.size and (n_pol != self.n_policies).any():
+            raise BadParquetFile(
+                path,
+                f"has {int(n_pol[n_pol != self.n_policies][0])} policies per cycle, the dataset's manifest "
+                f"{self.n_policies} (planner.n_policies)",
+                "remove it from the dataset folder, or re-collect the dataset with 'irlsim collect'",
+            )
 
     def _check_cycles(self, split: str, table: pa.Table) -> None:
         n_pol = table.column("n_policies").to_numpy()
@@ -320,6 +334,7 @@ class Dataset:
         n = int(cycles.column("n_policies")[0].as_py()) if c else 0
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
+        self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)))
         folder.mkdir(parents=True, exist_ok=True)
         (folder / "meta.json").unlink(missing_ok=True)  # invalid while rebuilding
         specs: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -329,19 +344,13 @@ class Dataset:
             "distances": ((c, n), np.float32),
             "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
         }
-        small = {
-            "demo_index": cycles.column("demo_index").to_numpy().astype(np.int64),
-            "demo_distance": cycles.column("demo_distance").to_numpy().astype(np.float32),
-            "episode": cycles.column("episode").to_numpy().astype(np.int32),
-            "cycle": cycles.column("cycle").to_numpy().astype(np.int32),
-            "executed_index": cycles.column("executed_index").to_numpy().astype(np.int32),
-            "demo_source": demo_source_codes(cycles.column("demo_source")),
-        }
+        small = {name: cycles.column(name).to_numpy().astype(dtype) for name, dtype in _SMALL_COLUMNS}
+        small["demo_source"] = demo_source_codes(cycles.column("demo_source"))
         with _AtomicNpys(folder, specs) as big:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):
                 path = self.policies_path(split, ep)
-                pf = open_parquet(path, TABLE_POLICIES)
+                pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
                 cols = [
                     "episode",
                     "cycle",
@@ -395,12 +404,23 @@ class Dataset:
             },
         )
 
+    def _check_cache_place(self, folder: Path, nbytes: int) -> None:
+        """Before any array is written: the cache folder takes files and its disk has ``nbytes``."""
+        check_output_dir(
+            folder,
+            f"dataset {self.path}: its cache",
+            nbytes,
+            fix="make the dataset folder writable (the cache of memory-mapped arrays lives in it), or copy "
+            "the dataset to a writable place",
+        )
+
     def _n_control_points(self, split: str) -> int:
         eps = self.episodes(split)
         if not eps:
             return 0
         path = self.policies_path(split, eps[0])
-        width = open_parquet(path, TABLE_POLICIES).schema_arrow.field("control_points").type.list_size
+        pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
+        width = pf.schema_arrow.field("control_points").type.list_size
         return int(width) // 3
 
 
@@ -472,18 +492,5 @@ def open_dataset(path: str | Path) -> Dataset:
         raise IrlsimError(f"{manifest_path} is not valid JSON ({exc}): {_REGENERATE}") from None
     if not isinstance(manifest, dict):
         raise IrlsimError(f"{manifest_path} is not a JSON object: {_REGENERATE}")
-    version = manifest.get("schema_version")
-    if version != SCHEMA_VERSION:
-        raise IrlsimError(
-            f"dataset {path} has schema version {version}, this irlsim reads {SCHEMA_VERSION}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    names = manifest.get("feature_names")
-    if names != list(FEATURE_NAMES):
-        raise IrlsimError(
-            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
-            "re-collect it with 'irlsim collect'"
-        )
-    if not isinstance(manifest.get("splits"), dict):
-        raise IrlsimError(f"{manifest_path} has no 'splits' mapping: re-collect it with 'irlsim collect'")
+    validate_manifest(manifest, manifest_path)
     return Dataset(path, manifest)

@@ -517,7 +517,10 @@ class Road:
         if s.ndim == 0 or d.ndim == 0:  # array arithmetic throughout (0-d arrays out, as before)
             s, d = (np.broadcast_to(a, shape).reshape(-1) for a in (s, d))
         sw = s % self.lap_length
-        seg = self._segment_of_wrapped(sw % self.lap_length)
+        # a tiny negative s wraps to exactly lap_length in floating point: that is s = 0 (found by the
+        # property test of the round trip; t = lap_length on segment 0 put the point 2 km away)
+        sw = np.where(sw >= self.lap_length, 0.0, sw)
+        seg = self._segment_of_wrapped(sw)
         t = sw - self.ref_s[seg]
         # the unit left normal interpolated linearly between the vertex normals (per component)
         f = t / self._seg_len[seg]
@@ -534,7 +537,8 @@ class Road:
         s = np.asarray(s, dtype=np.float64)
         shape = s.shape
         sw = s.reshape(-1) % self.lap_length  # array arithmetic throughout (0-d array out, as before)
-        seg = self._segment_of_wrapped(sw % self.lap_length)
+        sw = np.where(sw >= self.lap_length, 0.0, sw)  # a tiny negative s wraps to lap_length (see to_xy)
+        seg = self._segment_of_wrapped(sw)
         frac = (sw - self.ref_s[seg]) / self._seg_len[seg]
         # blend around the segment's mid point so the heading is continuous: towards the previous
         # segment's heading before it, towards the next one's after it
