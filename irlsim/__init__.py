@@ -27,7 +27,7 @@ FEATURE_NAMES: tuple[str, ...] = (
 N_FEATURES = len(FEATURE_NAMES)
 
 #: environment variables that size numpy's / torch's CPU thread pools; set to 1 for single-threaded
-#: processes (``irlsim bench``, collection workers: see :func:`irlsim.utils.spawn_pool`). Read once, when
+#: processes (``irlsim bench``, collection workers: see :mod:`irlsim.executor`). Read once, when
 #: the libraries load, so they must be set before numpy / torch are imported.
 THREAD_VARS: tuple[str, ...] = (
     "OMP_NUM_THREADS",

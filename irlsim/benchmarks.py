@@ -15,8 +15,8 @@ import numpy as np
 
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
+from irlsim.executor import Job, run_jobs
 from irlsim.road.network import build_net
-from irlsim.utils import spawn_pool
 
 #: the paper's scale: one hour of driving
 PAPER_TRAIN_CYCLES = 17_000
@@ -42,11 +42,12 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     with tempfile.TemporaryDirectory() as tmp:
         one = _collect_one((tmp + "/one", seed, cycles, n_policies))
         t0 = time.perf_counter()
-        with spawn_pool(2) as pool:  # as irlsim collect starts its workers
-            two = pool.map(
-                _collect_one,
-                [(tmp + "/two", seed + 1, cycles, n_policies), (tmp + "/two", seed + 2, cycles, n_policies)],
-            )
+        jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies)) for i in (1, 2)]
+        # as irlsim collect runs its episodes: the local executor's spawned single-threaded workers
+        done = run_jobs(_collect_one, jobs, executor="local", workers=2)
+        if done.failed:
+            raise RuntimeError(f"benchmark episodes failed: {done.failed}")
+        two = [done.results[j.key] for j in jobs]
         wall2 = time.perf_counter() - t0
     total2 = sum(r["collect/cycles"] for r in two)
     per_worker = [r["collect/cycles_per_s"] for r in two]

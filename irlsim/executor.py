@@ -314,8 +314,8 @@ def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str
             "log_to_driver": False,
             "logging_level": logging.WARNING,
         }
-        if address is None:
-            kwargs["num_cpus"] = workers
+        if address is None:  # a new local Ray, even where another one runs on this machine
+            kwargs.update(address="local", num_cpus=workers)
         else:
             kwargs["address"] = address
         try:

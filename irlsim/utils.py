@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import multiprocessing as mp
 import os
 import random
 import signal
@@ -18,7 +17,6 @@ from typing import Any
 import numpy as np
 from tqdm.auto import tqdm
 
-from irlsim import THREAD_VARS
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_file as check_output_file_
 
@@ -184,35 +182,3 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
     check_output_file_(path, option, example)
-
-
-def _init_spawned_worker(parent_pid: int) -> None:  # top level: picklable as the Pool initializer
-    die_with_parent(parent_pid)
-
-
-def spawn_pool(n: int) -> Any:
-    """A spawn ``multiprocessing.Pool`` of ``n`` single-threaded workers that ignore Ctrl-C and die with
-    this process (:func:`die_with_parent`).
-
-    Each worker is one process on one core: numpy's OpenBLAS (and torch's OpenMP) would otherwise start a
-    thread per core in every worker, and with 2 workers on 2 cores the spinning threads cut collection of
-    the paper config from ~175 to ~56 cycles/s in total. The children read ``THREAD_VARS`` on start-up;
-    this process's values are restored. SIGINT is ignored here while the workers start, as they inherit
-    that through exec: a Ctrl-C during their start-up, before their initializer runs, then prints no
-    traceback either."""
-    try:
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:  # not the main thread: signals are not ours to change
-        previous = None
-    saved = {var: os.environ.get(var) for var in THREAD_VARS}
-    os.environ.update({var: "1" for var in THREAD_VARS})
-    try:
-        return mp.get_context("spawn").Pool(n, initializer=_init_spawned_worker, initargs=(os.getpid(),))
-    finally:
-        for var, value in saved.items():
-            if value is None:
-                os.environ.pop(var, None)
-            else:
-                os.environ[var] = value
-        if previous is not None:
-            signal.signal(signal.SIGINT, previous)

@@ -1,6 +1,10 @@
 """``irlsim collect``: drive the expert in SUMO and write a Parquet dataset of policy sets and demonstrations.
 
-Episodes run in ``--workers`` processes (one libsumo each). Every file is written under a temporary name
+Episodes run through ``irlsim.executor`` in ``--workers`` processes (one libsumo each): spawned local
+workers, or Ray tasks with ``--executor ray`` (``--address`` joins a cluster whose nodes all write
+``--out``). An episode that raises or whose worker dies is tried once more; one that fails again is
+listed under ``"failed"`` in the manifest, the others finish, and the command exits 1 naming it.
+Every file is written under a temporary name
 and renamed; an episode is finished once its cycles file exists. Killing the command at any moment leaves
 only complete files, and running it again resumes by skipping finished episodes; each of those is checked
 first (``check_episode``: footers, schemas, ids), and a truncated or foreign pair is deleted and collected

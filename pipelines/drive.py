@@ -1,6 +1,9 @@
 """``irlsim drive``: closed-loop driving in SUMO with the expert and learned rewards, side by side.
 
-Every model drives the same seeds (episode i uses seed S + i). Writes ``<out>/drive.json`` (every episode
+Every model drives the same seeds (episode i uses seed S + i). Episodes run through ``irlsim.executor``
+(``--workers N`` processes, or Ray tasks with ``--executor ray``); results are put back in model and
+episode order, so drive.json is the same for any worker count (wall-clock figures aside).
+Writes ``<out>/drive.json`` (every episode
 and a summary per model) and ``<out>/drive.md`` (the side-by-side table), atomically, and for the first
 episode of each model the pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXXX.png``,
 ``temporal_XXXX.png`` and ``episode.gif``.
