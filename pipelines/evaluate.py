@@ -41,6 +41,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "a PTACNN trained with another H is refused)",
     )
     p.add_argument("--threads", type=int_in(1, 1024), default=2, help="torch CPU threads")
+    p.add_argument(
+        "--no-references",
+        action="store_true",
+        help="leave out the reference rows expert-theta, executed and oracle (the oracle's per-cycle fit "
+        "is the slow part); 'random policy' stays",
+    )
     from irlsim.devices import add_arguments as device_arguments
 
     device_arguments(p, "evaluation")
@@ -59,7 +65,13 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     with devices.use(device, args.precision):
         evaluate_models(
-            open_datasets(args.data), args.runs, out, H=args.history, split=args.split, threads=args.threads
+            open_datasets(args.data),
+            args.runs,
+            out,
+            H=args.history,
+            split=args.split,
+            threads=args.threads,
+            references=not args.no_references,
         )
     print((out / "results.md").read_text())
     print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")

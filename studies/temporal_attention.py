@@ -9,7 +9,8 @@ test separately (docs/RESULTS.md gives the commands). Run from the repository ro
         --base runs/default/stage1 --out runs/study [--only NAME ...]
 
 Each configuration lives in ``<out>/<name>/`` (stage2/PTACNN+S/ and val/results.{md,json}); a finished
-one is skipped when run again. The table goes to ``<out>/study.md`` and ``<out>/study.json``.
+one is skipped when run again. ``--set KEY=VALUE`` adds an override to every configuration (e.g. a
+seed). The table goes to ``<out>/study.md`` and ``<out>/study.json``.
 """
 
 from __future__ import annotations
@@ -54,6 +55,7 @@ def main() -> int:
     p.add_argument("--base", required=True, help="stage-1 folder holding PACNN+S/")
     p.add_argument("--out", required=True)
     p.add_argument("--config", default="configs/train/stage2.toml")
+    p.add_argument("--threads", type=int, default=1, help="torch threads of training and evaluation")
     p.add_argument("--only", nargs="*", help="names of VARIANTS to run (default: all)")
     p.add_argument("--set", action="append", default=[], help="extra override for every variant")
     args = p.parse_args()
@@ -73,6 +75,7 @@ def main() -> int:
                 os.symlink(Path(args.base).resolve() / "PACNN+S", stage1 / "PACNN+S")
             cmd = [irlsim, "train", "--stage", "2", "--config", args.config, "--data", args.data]
             cmd += ["--out", str(folder), "--base", args.base, "--set", 'models=["PTACNN+S"]']
+            cmd += ["--set", f"threads={args.threads}"]
             for s in sets:
                 cmd += ["--set", s]
             run(cmd)
@@ -88,6 +91,9 @@ def main() -> int:
                     "validation",
                     "--out",
                     str(folder / "val"),
+                    "--threads",
+                    str(args.threads),
+                    "--no-references",
                 ]
             )
         rows = {r["model"]: r for r in json.loads(res.read_text())["rows"]}

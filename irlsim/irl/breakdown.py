@@ -96,13 +96,17 @@ def row_breakdown(
     [C, 15] (None: a row without a reward, e.g. 'executed'); ``chosen`` [C] policy per cycle (default:
     argmax V of ``thetas``; None for both: no plan stability, e.g. 'random policy')."""
     episode = np.asarray(split.episode)
+    bad = np.zeros(split.features.shape[0], dtype=bool)  # cycles without a theta (oracle: no demonstration)
+    if thetas is not None:
+        bad = ~np.isfinite(thetas).all(1)
     if chosen is None and thetas is not None:
-        chosen = argmax_policies(thetas, split)
+        chosen = argmax_policies(np.nan_to_num(thetas), split)
     plan = (
         plan_change(chosen, split.control_points, ctx.ego_s, ctx.ego_d, ctx.t, episode, ctx.horizon)
         if chosen is not None
         else np.full(split.features.shape[0], np.nan)
     )
+    plan[bad | np.concatenate([[False], bad[:-1]])] = np.nan
     theta = theta_change(thetas, episode) if thetas is not None else None
     sit = ctx.situation if (ctx.situation >= 0).all() else None
     return {

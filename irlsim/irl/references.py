@@ -24,8 +24,8 @@ from irlsim import N_FEATURES
 from irlsim.irl.objectives import evaluate_thetas
 
 #: the oracle's optimiser: Adam steps, learning rate, L2 weight (in per-cycle standardised feature units)
-ORACLE_STEPS = 300
-ORACLE_LR = 0.2
+ORACLE_STEPS = 200
+ORACLE_LR = 0.3
 ORACLE_L2 = 1e-3
 
 
@@ -81,25 +81,25 @@ def fit_oracle_thetas(
     log-likelihood of its demonstration: argmin_theta NLL_c(theta) + l2 |theta'|^2 with theta' the weights
     of the cycle's standardised features (f - mean) / std over its policies (the mean shift leaves the
     softmax unchanged). Convex per cycle; solved by Adam on all cycles of a chunk at once. Cycles without
-    a demonstration get zeros. Deterministic (float64, start at 0)."""
+    a demonstration get NaN. Deterministic (float32, start at 0)."""
     c = split.features.shape[0]
-    out = np.zeros((c, N_FEATURES))
+    out = np.full((c, N_FEATURES), np.nan)
     demo_index = np.asarray(split.demo_index)
     for start in range(0, c, chunk):
         sl = slice(start, min(start + chunk, c))
-        di = torch.as_tensor(demo_index[sl], dtype=torch.int64)
+        di = torch.tensor(demo_index[sl], dtype=torch.int64)
         valid = di >= 0
         if not bool(valid.any()):
             continue
         f = torch.tensor(np.asarray(split.features[sl]), dtype=torch.float64)  # [B, N, 15]
         mean = f.mean(1, keepdim=True)
         std = f.std(1, keepdim=True).clamp_min(1e-9)
-        z = (f - mean) / std
+        z = ((f - mean) / std).float()
         idx = di.clamp_min(0)[:, None, None].expand(-1, 1, N_FEATURES)
         z_demo = z.gather(1, idx).squeeze(1)  # [B, 15]
-        w = torch.zeros(z.shape[0], N_FEATURES, dtype=torch.float64, requires_grad=True)
+        w = torch.zeros(z.shape[0], N_FEATURES, requires_grad=True)
         opt = torch.optim.Adam([w], lr=lr)
-        vmask = valid.to(torch.float64)
+        vmask = valid.float()
         for _ in range(steps):  # optimiser iterations (not a loop over cycles or policies)
             opt.zero_grad()
             values = -torch.einsum("bnf,bf->bn", z, w)
@@ -107,8 +107,8 @@ def fit_oracle_thetas(
             loss = ((nll + l2 * (w * w).sum(-1)) * vmask).sum()
             loss.backward()
             opt.step()
-        theta = (w.detach() / std.squeeze(1)) * vmask[:, None]
-        out[sl] = theta.numpy()
+        theta = w.detach().double() / std.squeeze(1)
+        out[sl] = torch.where(valid[:, None], theta, torch.full_like(theta, float("nan"))).numpy()
     return out
 
 

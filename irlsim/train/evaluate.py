@@ -252,21 +252,24 @@ def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
     return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon)
 
 
-def reference_rows(data: Any, ctx: CycleContext | None) -> list[dict[str, Any]]:
-    """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``)."""
+def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> list[dict[str, Any]]:
+    """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``);
+    only 'random policy' if not ``full``."""
     from irlsim.planner.expert import THETA_EXPERT
 
-    oracle, oracle_thetas = oracle_metrics(data)
-    refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = [
-        (
-            "expert-theta",
-            expert_theta_metrics(data, THETA_EXPERT),
-            {"thetas": np.tile(THETA_EXPERT, (data.features.shape[0], 1))},
-        ),
-        ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
-        ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),
-        ("random policy", random_policy_metrics(data), {}),
-    ]
+    refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = []
+    if full:
+        oracle, oracle_thetas = oracle_metrics(data)
+        refs += [
+            (
+                "expert-theta",
+                expert_theta_metrics(data, THETA_EXPERT),
+                {"thetas": np.tile(THETA_EXPERT, (data.features.shape[0], 1))},
+            ),
+            ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
+            ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),
+        ]
+    refs.append(("random policy", random_policy_metrics(data), {}))
     rows = []
     for name, metrics, extra in refs:
         row = _row(name, "15 per cycle" if name.startswith("oracle") else "0", [0], metrics)
@@ -312,6 +315,7 @@ def evaluate_models(
     H: int | None = None,
     split: str = "test",
     threads: int = 2,
+    references: bool = True,
 ) -> list[dict[str, Any]]:
     """Evaluate every trained model in ``runs_dir`` on ``split``.
 
@@ -322,7 +326,8 @@ def evaluate_models(
     ``convergence.png`` and ``opd_distribution.png`` (all atomically); returns the Table-I rows (model,
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
     provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
-    then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)', 'random policy'.
+    then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)' (unless not
+    ``references``) and 'random policy'.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -362,7 +367,7 @@ def evaluate_models(
                 row["temporal"] = temporal_outputs(name, weights, data, ctx, out_dir)
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
-        rows += reference_rows(data, ctx)
+        rows += reference_rows(data, ctx, references)
         evaluated_with = provenance()
 
     demo_index = np.asarray(data.demo_index)
