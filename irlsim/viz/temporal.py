@@ -1,4 +1,4 @@
-"""The temporal attention as a strip over time (issue 13): :func:`irlsim.viz.drive.draw_temporal`'s bars of
+"""The temporal attention as a strip over time (issue 13): :func:`irlsim.viz.frames.draw_temporal`'s bars of
 one cycle, stacked for consecutive cycles of a sequential split, with the situation labels on top.
 
 Rows of the strip are the history lags (now at the top, oldest at the bottom), columns the cycles, the
@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from irlsim.data.situations import SITUATION_NAMES
-from irlsim.viz.drive import FONT, new_figure, save_figure
+from irlsim.viz.figure import new_figure, save_figure
+from irlsim.viz.frames import FONT
 
 #: colours of the situation codes 0..5 in the top band
 SITUATION_COLOURS = ("#dddddd", "#b00000", "#ff8c00", "#1f77b4", "#2ca02c", "#9467bd")

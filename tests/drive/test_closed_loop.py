@@ -112,7 +112,9 @@ def test_bad_models_fail_with_one_line(tiny_runs, tmp_path):
         load_drive_model(str(tmp_path / "none" / "checkpoint.pt"))
     from irlsim.cli import main
 
-    assert main(["drive", "--model", "expert", "--episodes", "0"]) == 2
+    with pytest.raises(SystemExit) as e:  # refused when parsed (irlsim.config.int_in)
+        main(["drive", "--model", "expert", "--episodes", "0"])
+    assert e.value.code == 2
 
 
 def test_expert_theta_drives_argmax_of_the_experts_theta(road):

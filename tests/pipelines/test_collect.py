@@ -311,7 +311,7 @@ def test_collect_refuses_a_dataset_of_another_version(tiny_dataset, tmp_path, ca
     "args, needle",
     [
         (["--set", "workers=0"], "workers must be >= 1"),
-        (["--seed", "-1"], "--seed must be >= 0"),
+        (["--seed", "3000"], "seed must be in 0..2147 (episode seeds are seed * 1,000,000"),
         (["--set", "planner.n_polices=10"], "unknown key 'planner.n_polices'"),
         (["--set", "scenario.n_vehicles=99"], "n_vehicles must be in 0..15"),
         (["--set", "seed.x=1"], "cannot set 'seed.x': 'seed' is a value (0), not a table"),

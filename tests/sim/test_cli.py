@@ -74,7 +74,7 @@ def test_net_command(capsys):
 @pytest.mark.parametrize(
     ("argv", "words"),
     [
-        (["--seed", "-1"], ["--seed", ">= 0"]),
+        (["--seed", "-1"], ["--seed", "0..2147483647", "got -1"]),
         (["--seed", "2147483648"], ["--seed", "2147483647"]),
         (["--seed", "2147483647", "--episodes", "2"], ["--seed + --episodes - 1 = 2147483648", "2147483647"]),
         (["--episodes", "-2"], ["--episodes"]),
