@@ -11,6 +11,7 @@ from irlsim import FEATURE_NAMES
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
+from irlsim.train.evaluate import REFERENCE_ROWS
 from irlsim.train.layout import find_checkpoint, stage_dir
 from irlsim.train.synthetic import make_synthetic_dataset
 
@@ -67,7 +68,7 @@ def test_stage_folders_hide_a_stale_flat_layout(runs, tmp_path):
 
 def test_evaluate_finds_both_stages_and_uses_the_temporal_models_history(dataset, runs, tmp_path):
     rows = evaluate_models(dataset, runs, tmp_path / "eval")
-    assert [r["model"] for r in rows] == ["LIRL", "PACNN", "PTACNN", "random policy"]
+    assert [r["model"] for r in rows] == ["LIRL", "PACNN", "PTACNN", *REFERENCE_ROWS]
     res = json.loads((tmp_path / "eval" / "results.json").read_text())
     assert res["history"] == H
     assert res["provenance"]["torch"] == torch.__version__
