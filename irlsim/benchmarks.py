@@ -1,4 +1,4 @@
-"""Benchmarks of collection and inference (DESIGN.md section 9); the planner's lives in pipelines/bench.py.
+"""Benchmarks of collection and inference (docs/DESIGN.md section 9); the planner's is in pipelines/bench.py.
 
 Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
 """
@@ -150,4 +150,57 @@ def bench_infer(
         "target": "inference <= 10 ms per cycle; one epoch over 17,000 cycles <= 5 min on 2 cores",
         "what": "infer_*: default sizes (configs/train/stage*.toml); paper_*: ModelConfig.paper() (latent "
         "256, LSTM 256, FC 512); per cycle incl. the PTACNN mixture, one thread, initial weights",
+    }
+
+
+# ------------------------------------------------------------------------------------------ Gymnasium env
+
+
+def _make_env(n_policies: int) -> Any:
+    import gymnasium as gym
+
+    import irlsim.envs  # noqa: F401  (registers the ids)
+
+    return gym.make("irlsim/Oval-v0", overrides={"planner.n_policies": n_policies})
+
+
+def bench_env(steps: int = 200, n_policies: int = 500, n_envs: int = 2, seed: int = 0) -> dict[str, Any]:
+    """Environment steps (planning cycles) per second with uniformly random actions and the expert-theta
+    reward: one ``irlsim/Oval-v0`` in this process, then ``n_envs`` in a ``gymnasium.vector.AsyncVectorEnv``
+    (one libsumo per subprocess, spawned). Resets are outside the single env's timing; the vectorised
+    figure counts every step of every env over the wall time of ``steps`` vector steps (autoresets
+    included)."""
+    from functools import partial
+
+    from gymnasium.vector import AsyncVectorEnv
+
+    from irlsim.road.network import build_net
+
+    build_net()
+    env = _make_env(n_policies)
+    rng = np.random.default_rng(seed)
+    env.reset(seed=seed)
+    n = 0
+    t_single = 0.0
+    while n < steps:
+        t0 = time.perf_counter()
+        _, _, term, trunc, _ = env.step(int(rng.integers(0, n_policies)))
+        t_single += time.perf_counter() - t0
+        n += 1
+        if term or trunc:
+            env.reset(seed=seed + n)
+    env.close()
+    venv = AsyncVectorEnv([partial(_make_env, n_policies)] * n_envs, context="spawn")
+    venv.reset(seed=seed)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        venv.step(rng.integers(0, n_policies, size=n_envs))
+    t_vec = time.perf_counter() - t0
+    venv.close()
+    return {
+        "n_policies": n_policies,
+        "steps": steps,
+        "env_steps_per_s_single": round(steps / t_single, 1),
+        "env_steps_per_s_vector": round(n_envs * steps / t_vec, 1),
+        "n_envs": n_envs,
     }

@@ -1,4 +1,4 @@
-"""``irlsim bench``: the performance figures of DESIGN.md section 9, as JSON and Markdown.
+"""``irlsim bench``: the performance figures of docs/DESIGN.md section 9, as JSON and Markdown.
 
 Each section is a function ``(args) -> dict`` registered in ``SECTIONS`` and selected by its flag
 (``--planner``, ``--collect``, ``--infer``). Without a section
@@ -37,9 +37,9 @@ from irlsim.road import LANE_WIDTH, load_road  # noqa: E402
 from irlsim.sim.types import EgoState, Observation, VehicleStates  # noqa: E402
 from irlsim.utils import atomic_write_text, write_json  # noqa: E402
 
-HELP = "time the planner cycle, collection and inference (DESIGN.md section 9); write JSON and Markdown"
+HELP = "time the planner cycle, collection and inference (docs/DESIGN.md section 9); write JSON and Markdown"
 
-#: DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
+#: docs/DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
 TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),
@@ -60,12 +60,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--infer", action="store_true", help="time PACNN + PTACNN inference and training")
     parser.add_argument(
+        "--env",
+        action="store_true",
+        help="Gymnasium env steps/s (irlsim/Oval-v0, 500 policies), single and 2 AsyncVectorEnv workers",
+    )
+    parser.add_argument("--env-steps", type=int_in(1), default=200, help="timed env steps (default 200)")
+    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
+    parser.add_argument(
         "--scale",
         action="store_true",
         help="collection with the local pool vs Ray (2 workers), 1 -> 2 workers on a simulated two-node "
         "Ray cluster, stage-1 training cycles/s per device and precision (needs the ray extra)",
     )
-    parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")
     parser.add_argument(
         "--collect-cycles",
         type=int_in(1),
@@ -176,6 +182,12 @@ def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
     return run_infer(n_policies=2500, seed=args.seed)
 
 
+def bench_env(args: argparse.Namespace) -> dict[str, Any]:
+    from irlsim.benchmarks import bench_env as run_env
+
+    return run_env(steps=max(args.env_steps, 1), n_policies=500, n_envs=2, seed=args.seed)
+
+
 def bench_scale(args: argparse.Namespace) -> dict[str, Any]:
     from irlsim.benchmarks_scale import bench_scale as run_scale
 
@@ -187,6 +199,7 @@ SECTIONS: dict[str, Callable[[argparse.Namespace], dict[str, Any]]] = {
     "planner": bench_planner,
     "collect": bench_collect,
     "infer": bench_infer,
+    "env": bench_env,
     "scale": bench_scale,
 }
 

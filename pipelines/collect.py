@@ -202,10 +202,10 @@ def _check_resumable(
         )
 
 
-def _pending_jobs(cfg: Any, out: Path, ckpt: str | None) -> tuple[list[Job], dict[str, list[int]]]:
-    """(the episodes still to collect as jobs, every split's seeds); a finished episode whose files do
-    not pass ``check_episode`` is deleted and collected again. ``ckpt``: the DAgger driver's checkpoint."""
-    jobs: list[Job] = []
+def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[Any], dict[str, list[int]]]:
+    """The episodes still to collect (executor jobs) and every split's seeds; a finished episode whose
+    files fail the check is deleted and collected again."""
+    jobs: list[Any] = []
     seeds: dict[str, list[int]] = {}
     for split in SPLITS:
         remove_partial(out, split)
@@ -226,12 +226,44 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None) -> tuple[list[Job], dic
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
-            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt)
+            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt)  # ckpt: DAgger's driver
             jobs.append(Job(f"{split}/{episode}", job))
     return jobs, seeds
 
 
-# size-ok: one command's orchestration: manifests before and after, executor callbacks, failure report
+def _report_failures(
+    cfg: Any,
+    out: Path,
+    config: dict[str, Any],
+    seeds: dict[str, list[int]],
+    failed: dict[str, str],
+    total: int,
+    ident: dict[str, Any] | None = None,
+) -> int:
+    """Episodes that failed twice: the manifest lists the finished ones and the failed ones and stays
+    incomplete (readers refuse it); one line names them; the same command collects just those, as it
+    resumes any other incomplete collection. Returns the exit status 1."""
+    done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
+    write_manifest(
+        out,
+        {
+            "config": config,
+            **(ident or {}),
+            "seeds": seeds,
+            "splits": done,
+            "complete": False,
+            "failed": failed,
+        },
+    )
+    print(
+        f"irlsim: error: collect: {len(failed)} of {total} episodes failed twice: "
+        f"{describe_failures(failed)}; the other episodes are in {out}: re-run the same "
+        "command to collect the failed ones",
+        file=sys.stderr,
+    )
+    return 1
+
+
 def _collect(
     cfg: Any,
     out: Path,
@@ -291,27 +323,7 @@ def _collect(
     for split in SPLITS:  # what a killed worker left behind (no job runs now)
         remove_partial(out, split)
     if result.failed:
-        # the failed episodes are not listed and the dataset stays incomplete (readers refuse it); the
-        # same command collects just those, as it resumes any other incomplete collection
-        done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
-        write_manifest(
-            out,
-            {
-                "config": config,
-                **ident,
-                "seeds": seeds,
-                "splits": done,
-                "complete": False,
-                "failed": result.failed,
-            },
-        )
-        print(
-            f"irlsim: error: collect: {len(result.failed)} of {total} episodes failed twice: "
-            f"{describe_failures(result.failed)}; the other episodes are in {out}: re-run the same "
-            "command to collect the failed ones",
-            file=sys.stderr,
-        )
-        return 1
+        return _report_failures(cfg, out, config, seeds, result.failed, total, ident)
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
     manifest = write_manifest(
         out, {"config": config, **ident, "seeds": seeds, "splits": splits, "complete": True}

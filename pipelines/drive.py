@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,11 +22,13 @@ from irlsim.config import MAX_SEED, int_in, load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.closed_loop import PictureSpec, drive_episode, load_drive_model
 from irlsim.drive.metrics import markdown_table, summarize
+from irlsim.drive.scorecard import scorecard_table
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
+from pipelines.collect import add_executor_arguments
 
 HELP = (
     "drive the ego in SUMO with the expert and learned rewards: closed-loop table (JSON, Markdown), pictures"
@@ -83,17 +85,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--workers",
-        type=int,
+        type=int_in(1, 256),
         default=1,
         help="episodes driven in parallel processes, one libsumo each (default: 1, in this process); "
         "drive.json is the same for any count",
     )
-    from pipelines.collect import add_executor_arguments
-
     add_executor_arguments(p)
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "reward inference")
+    devices.add_arguments(p, "reward inference")
 
 
 @dataclass(frozen=True)
@@ -112,6 +110,7 @@ class DriveJob:
     threads: int
     device: str = "cpu"
     precision: str = "fp32"
+    expert_progress: Any = None  # the expert's (t, s) on the same seed, for the scorecard
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -120,21 +119,15 @@ _ROAD: list[Any] = []
 
 
 def _model_key(spec: str, runs: str | None, n_policies: int, threads: int) -> tuple[Any, ...]:
-    from irlsim.devices import current
-
-    return (spec, runs, n_policies, threads, current())
+    return (spec, runs, n_policies, threads, devices.current())
 
 
 def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for worker processes and Ray
-    from irlsim import devices
-
     with devices.use(job.device, job.precision):
         return _drive(job)
 
 
 def _drive(job: DriveJob) -> dict[str, Any]:
-    from irlsim.drive.closed_loop import load_drive_model
-
     key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
     if key not in _MODELS:
         _MODELS[key] = load_drive_model(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
@@ -150,44 +143,27 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         safety=job.safety,
         pictures=job.pictures,
         max_cycles=job.max_cycles,
+        expert_progress=job.expert_progress,
     )
 
 
+# size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
 def run(args: argparse.Namespace) -> int:
-
     device = devices.resolve_device(args.device)  # a missing device is one line, before any work
     with devices.use(device, args.precision):
         return _run(args, str(device))
 
 
-# size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
-def _run(args: argparse.Namespace, device: str) -> int:
-
-    for name in ("episodes", "laps"):
-        if getattr(args, name) < 1:
-            raise IrlsimError(f"--{name} must be >= 1, got {getattr(args, name)}")
-    for name in ("seed", "frames", "max_cycles"):
-        if getattr(args, name) < 0:
-            raise IrlsimError(f"--{name.replace('_', '-')} must be >= 0, got {getattr(args, name)}")
-    specs = [m.strip() for m in args.model.split(",") if m.strip()]
-    if not specs:
-        raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
-    if len(set(specs)) != len(specs):
-        raise IrlsimError(f"--model names a model twice: {args.model}")
-    check_executor(args.executor, args.workers, args.address)
-    cfg = load_config(CollectConfig, args.config)
-    out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
-    if args.seed + args.episodes - 1 > MAX_SEED:
-        raise IrlsimError(
-            f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {MAX_SEED}"
-        )
-    check_output_dir(out, "--out")  # before driving: the tables are written after every episode
-    # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
-    models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
-    runs = str(args.runs.resolve()) if args.runs else None
-    for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
-        _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
-
+def _episode_jobs(
+    args: argparse.Namespace,
+    models: list[Any],
+    specs: list[str],
+    cfg: Any,
+    out: Path,
+    runs: str | None,
+    device: str,
+) -> tuple[list[Any], list[str]]:
+    """One executor job per (model, episode), and each model's label in the job keys (``label/i``)."""
     jobs: list[Any] = []
     labels: list[str] = []
     for model, spec in zip(models, specs, strict=True):
@@ -216,41 +192,21 @@ def _run(args: argparse.Namespace, device: str) -> int:
             )
             jobs.append(Job(f"{label}/{i}", job))
 
-    def on_result(job: Any, rec: dict[str, Any]) -> None:
-        name, i = job.key.rsplit("/", 1)
-        print(f"{name} episode {i} (seed {args.seed + int(i)}): {_line(rec)}", flush=True)
+    return jobs, labels
 
-    def on_retry(job: Any, reason: str) -> None:
-        print(f"drive: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr, flush=True)
 
-    result = run_jobs(
-        _drive_job,
-        jobs,
-        executor=args.executor,
-        workers=args.workers,
-        address=args.address,
-        on_result=on_result,
-        on_retry=on_retry,
-    )
-    if result.failed:
-        print(
-            f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
-            f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
-            file=sys.stderr,
-        )
-        return 1
-    # in model and episode order, whatever order they finished in: the same JSON for any --workers
-    episodes, summaries = [], []
-    for label in labels:
-        recs, times = [], []
-        for i in range(args.episodes):
-            rec = dict(result.results[f"{label}/{i}"])
-            times += rec.pop("_inference_ms")
-            recs.append(rec)
-        episodes += recs
-        summaries.append(summarize(recs, times))
-
+def _write_outputs(
+    args: argparse.Namespace,
+    specs: list[str],
+    cfg: Any,
+    out: Path,
+    summaries: list[dict[str, Any]],
+    episodes: list[dict[str, Any]],
+    device: str,
+) -> None:
+    """drive.json and drive.md (atomically), and the table on stdout."""
     table = markdown_table(summaries)
+    scores = scorecard_table(summaries)
     safety = "with" if args.safety else "without"
     md = (
         f"# Closed-loop driving\n\n{args.episodes} episode(s) per model, {args.laps} lap(s) each, seeds "
@@ -259,7 +215,14 @@ def _run(args: argparse.Namespace, device: str) -> int:
         f"{cfg.planner.n_policies} policies per cycle.\n\n{table}\n"
         "stop compliance: stop lines crossed after a full stop / crossed; checkpoints in lane: passed in the "
         "required lane / passed; RMS jerk of the executed odometry; inference: reward prediction per 0.2 s "
-        "cycle (the expert: its model-based selection).\n"
+        "cycle (the expert: its model-based selection).\n\n"
+        "## Scorecard (nuPlan-style, means over episodes)\n\n"
+        f"{scores}\n"
+        "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "
+        "mean of TTC >= 0.95 s (5), progress against the expert on the same seed (5), speed limit (4), "
+        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard). "
+        "Progress needs the expert's episode on the same seed: without expert in --model it is null ('-') "
+        "and the score is the weighted mean of the other terms.\n"
     )
     write_json(
         out / "drive.json",
@@ -283,6 +246,8 @@ def _run(args: argparse.Namespace, device: str) -> int:
     atomic_write_text(out / "drive.md", md)
     print()
     print(table, end="")
+    print()
+    print(scores, end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (
@@ -291,7 +256,94 @@ def _run(args: argparse.Namespace, device: str) -> int:
             else ""
         )
     )
+
+
+def _run(args: argparse.Namespace, device: str) -> int:
+
+    specs = [m.strip() for m in args.model.split(",") if m.strip()]
+    if not specs:
+        raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
+    if len(set(specs)) != len(specs):
+        raise IrlsimError(f"--model names a model twice: {args.model}")
+    if args.seed + args.episodes - 1 > MAX_SEED:
+        raise IrlsimError(
+            f"--seed {args.seed} + --episodes {args.episodes} passes the largest seed {MAX_SEED}"
+        )
+    # the scorecard's progress term compares every model with the expert on the same seed: the expert
+    # drives first when --model names it; without it progress is null (left out of the score)
+    if "expert" in specs:
+        specs = ["expert"] + [s for s in specs if s != "expert"]
+    else:
+        print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
+    check_executor(args.executor, args.workers, args.address)
+    cfg = load_config(CollectConfig, args.config)
+    out = args.out or ((args.runs / "drive") if args.runs else Path("runs/drive"))
+    check_output_dir(out, "--out")  # before driving: the tables are written after every episode
+    # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
+    models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
+    runs = str(args.runs.resolve()) if args.runs else None
+    for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
+        _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
+
+    jobs, labels = _episode_jobs(args, models, specs, cfg, out, runs, device)
+    results = _drive_jobs(args, jobs, out)
+    if results is None:
+        return 1
+    # in model and episode order, whatever order they finished in: the same JSON for any --workers
+    episodes, summaries = [], []
+    for label in labels:
+        recs, times = [], []
+        for i in range(args.episodes):
+            rec = dict(results[f"{label}/{i}"])
+            times += rec.pop("_inference_ms")
+            rec.pop("_progress")
+            recs.append(rec)
+        episodes += recs
+        summaries.append(summarize(recs, times))
+
+    _write_outputs(args, specs, cfg, out, summaries, episodes, device)
     return 0
+
+
+def _drive_jobs(args: argparse.Namespace, jobs: list[Any], out: Path) -> dict[str, Any] | None:
+    """Run the episode jobs through the executor: the expert's first (their progress curves are the
+    scorecard's reference on each seed), then every other model's with the expert's curve of its seed.
+    Returns key -> episode record, or None (after one line on stderr) when an episode failed twice."""
+
+    def on_result(job: Any, rec: dict[str, Any]) -> None:
+        name, i = job.key.rsplit("/", 1)
+        print(f"{name} episode {i} (seed {args.seed + int(i)}): {_line(rec)}", flush=True)
+
+    def on_retry(job: Any, reason: str) -> None:
+        print(f"drive: episode {job.key} failed ({reason}): trying it once more", file=sys.stderr, flush=True)
+
+    expert = [j for j in jobs if j.key.rsplit("/", 1)[0] == "expert"]
+    phases = [expert, [j for j in jobs if j not in expert]]
+    results: dict[str, Any] = {}
+    for phase in phases:
+        if not phase:
+            continue
+        if phase is phases[1] and expert:
+            progress = {results[j.key]["drive/seed"]: results[j.key]["_progress"] for j in expert}
+            phase = [Job(j.key, replace(j.arg, expert_progress=progress.get(j.arg.seed))) for j in phase]
+        result = run_jobs(
+            _drive_job,
+            phase,
+            executor=args.executor,
+            workers=args.workers,
+            address=args.address,
+            on_result=on_result,
+            on_retry=on_retry,
+        )
+        if result.failed:
+            print(
+                f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
+                f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
+                file=sys.stderr,
+            )
+            return None
+        results.update(result.results)
+    return results
 
 
 def _folder(name: str) -> str:

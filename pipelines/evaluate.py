@@ -4,6 +4,7 @@ split with a history of H cycles, convergence plots and the OPD distribution per
 from __future__ import annotations
 
 import argparse
+import functools
 from pathlib import Path
 
 from irlsim import devices
@@ -12,6 +13,7 @@ from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.train.evaluate import evaluate_models
+from irlsim.viz.temporal import save_situation_strips
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
@@ -47,9 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="leave out the reference rows expert-theta, executed and oracle (the oracle's per-cycle fit "
         "is the slow part); 'random policy' stays",
     )
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "evaluation")
+    devices.add_arguments(p, "evaluation")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,7 +72,11 @@ def run(args: argparse.Namespace) -> int:
             split=args.split,
             threads=args.threads,
             references=not args.no_references,
+            strips=functools.partial(save_situation_strips, out),
         )
     print((out / "results.md").read_text())
-    print(f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png")
+    print(
+        f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png"
+        " (and temporal_<model>_<situation>.png for temporal models)"
+    )
     return 0

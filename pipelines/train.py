@@ -55,9 +55,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="stage 2 only: folder with the frozen stage-1 PACNN/ and PACNN+S/ (default: OUT/stage1)",
     )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
-    from irlsim.devices import add_arguments as device_arguments
-
-    device_arguments(p, "training")
+    devices.add_arguments(p, "training")
 
 
 #: the lock file of a runs folder while 'irlsim train' writes it (as collect's in a dataset folder)
@@ -85,7 +83,6 @@ def parameter_lines(summary: dict[str, dict[str, Any]]) -> list[str]:
 
 
 def run(args: argparse.Namespace) -> int:
-
     device = devices.resolve_device(args.device)  # a missing device is one line, before any work
     with devices.use(device, args.precision):
         return _run(args)

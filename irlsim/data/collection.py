@@ -49,7 +49,7 @@ MAX_DAGGER_ROUND = (SEED_STRIDE - DAGGER_OFFSET) // DAGGER_ROUND_STRIDE
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Projection of the odometry onto the policy set (DESIGN.md section 5)."""
+    """Projection of the odometry onto the policy set (docs/DESIGN.md section 5)."""
 
     alpha: float = ALPHA
     """discount per 0.1 s step of the distance's time weights alpha^t"""
@@ -235,10 +235,9 @@ class CycleRecorder(ObserverBase):
         self,
         writer: EpisodeWriter,
         projector: DemoProjector,
-        road: Road,
         labeller: LabelledDriver | None = None,
     ):
-        self.writer, self.projector, self.road, self.labeller = writer, projector, road, labeller
+        self.writer, self.projector, self.labeller = writer, projector, labeller
         self.agree = 0  # cycles whose executed policy is the expert's selection (DAgger)
 
     def on_reset(self, sim: Simulation, obs: Observation) -> None:
@@ -256,7 +255,7 @@ class CycleRecorder(ObserverBase):
             ego,
             executed_index=cycle.chosen,
             target_checkpoint=obs.target_checkpoint,
-            situation=situation_of(obs, self.road),
+            situation=situation_of(obs, sim.road),
         )
         if self.labeller is not None:
             assert self.labeller.last_policy_set is ps, "the label belongs to the executed policy set"
@@ -325,7 +324,7 @@ def collect_episode(
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
     with Simulation(road, cfg.scenario) as sim:
         with EpisodeWriter(out, job.split, job.episode, demo_source=source) as writer:
-            recorder = CycleRecorder(writer, projector, road, labeller)
+            recorder = CycleRecorder(writer, projector, labeller)
             runner = EpisodeRunner(
                 sim, observers=[_SetupClock(), recorder, *observers], max_cycles=cfg.max_cycles
             )

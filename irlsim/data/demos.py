@@ -1,4 +1,4 @@
-"""Demonstrations: project the driven odometry onto each cycle's policy set (DESIGN.md section 5).
+"""Demonstrations: project the driven odometry onto each cycle's policy set (docs/DESIGN.md section 5).
 
 At planning cycle k (time t_k) the demonstration window zeta_k is the odometry over [t_k, t_k + horizon],
 sampled on the planner's time grid (T = round(horizon / dt) + 1 states, t = 0 is now). The distance of a

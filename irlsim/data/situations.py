@@ -23,7 +23,8 @@ code  name             rule
 ====  ===============  ====================================================================================
 
 ``-1`` (``UNLABELLED``) marks cycles written without a label (``EpisodeWriter.add_cycle`` without
-``situation``). A "situation switch" is a change of label between consecutive cycles of an episode.
+``situation``). A "situation switch" is a change of label between consecutive cycles of an episode
+(``irlsim.irl.stability.situation_switches``).
 """
 
 from __future__ import annotations
@@ -127,28 +128,3 @@ def situation_of(obs: Any, road: Any, rule: SituationRule = RULE) -> int:
         vehicles_length=veh.length,
         rule=rule,
     )
-
-
-def situation_switches(situation: np.ndarray, episode: np.ndarray) -> np.ndarray:
-    """[C] bool: the cycle's label differs from the previous cycle's in the same episode (the first
-    cycle of an episode is no switch). Rows in (episode, cycle) order."""
-    situation, episode = np.asarray(situation), np.asarray(episode)
-    out = np.zeros(len(situation), dtype=bool)
-    out[1:] = (situation[1:] != situation[:-1]) & (episode[1:] == episode[:-1])
-    return out
-
-
-def near_switch(situation: np.ndarray, episode: np.ndarray, window: int = 2) -> np.ndarray:
-    """[C] bool: cycles at most ``window`` cycles before or after a situation switch, same episode
-    (the switch cycle is the first cycle of the new label; the cycles just before it are the old one's)."""
-    sw = situation_switches(situation, episode)
-    c = len(sw)
-    out = np.zeros(c, dtype=bool)
-    idx = np.flatnonzero(sw)
-    episode = np.asarray(episode)
-    for k in range(-window, window):  # before: -window..-1, after: 0..window-1
-        j = idx + k
-        ok = (j >= 0) & (j < c)
-        j = j[ok]
-        out[j[episode[j] == episode[idx[ok]]]] = True
-    return out

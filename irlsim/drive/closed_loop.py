@@ -23,6 +23,7 @@ import numpy as np
 
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.metrics import episode_metrics
+from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
 from irlsim.planner.planner import Planner
@@ -343,6 +344,7 @@ def drive_episode(
     pictures: PictureSpec | None = None,
     max_cycles: int = 0,
     show_progress: bool = True,
+    expert_progress: tuple[Any, Any] | None = None,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -350,10 +352,12 @@ def drive_episode(
     episodes), or a spec string resolved against ``runs``. ``cfg``: the collect config the model was trained
     with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``). ``max_cycles`` > 0 stops
     early (end reason 'max_cycles'). ``pictures``: write stills and an animation (see :class:`PictureSpec`).
+    ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (see :func:`_scores`).
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
-    ``sim/...`` keys), plus ``drive/pictures`` (paths written) and ``_inference_ms`` (every cycle's
-    inference time [ms], for pooled percentiles; not meant for JSON).
+    ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
+    ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
+    percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
@@ -380,7 +384,8 @@ def drive_episode(
     observers: list[Observer] = [timing]
     if recorder is not None:
         observers.append(_Pictures(recorder, decider))
-    observers.append(_Progress(bar))
+    scorer = ScorecardObserver()  # records every simulation step for the scorecard
+    observers += [_Progress(bar), scorer]
     with Simulation(road, scenario) as sim:
         result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
@@ -400,5 +405,18 @@ def drive_episode(
     )
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
+    rec.update(_scores(scorer, dict(result.stats), model.is_expert, expert_progress))
     rec["_inference_ms"] = timing.inference_ms
     return rec
+
+
+def _scores(
+    scorer: ScorecardObserver, stats: dict[str, Any], is_expert: bool, expert_progress: Any
+) -> dict[str, Any]:
+    """The scorecard's ``score/...`` keys and ``_progress`` ((t, s) per step). Progress is measured against
+    ``expert_progress`` (the expert's (t, s) on the same seed); None: the expert against its own run,
+    other models get progress None."""
+    curve = scorer.progress_curve()
+    if expert_progress is None and is_expert:
+        expert_progress = curve
+    return {**scorer.scorecard(stats, expert_progress), "_progress": curve}

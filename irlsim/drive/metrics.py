@@ -20,6 +20,9 @@ Metric keys (namespaced ``drive/``; an episode record also keeps the simulator's
     drive/plan_ms_mean                                        [ms] policy sampling + features per cycle
     drive/wall_s                                              [s] wall time of the episode
     drive/end_reason                                          collision, exit, laps, timeout or max_cycles
+
+The nuPlan-style scorecard (``score/...`` keys, formulas in :mod:`irlsim.drive.scorecard`) follows in
+every episode record and every summary (means over the episodes, ``score/score_std`` the spread).
 """
 
 from __future__ import annotations
@@ -166,6 +169,8 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
         if len(inference_ms)
         else max(e["drive/inference_ms_p90"] for e in episodes)
     )
+    from irlsim.drive.scorecard import summarize_scores
+
     return {
         "drive/model": episodes[0]["drive/model"],
         "drive/episodes": len(episodes),
@@ -194,6 +199,7 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
             sum(e["drive/plan_ms_mean"] * e["drive/cycles"] for e in episodes) / max(cycles, 1), 4
         ),
         "drive/end_reasons": dict(Counter(str(e["drive/end_reason"]) for e in episodes)),
+        **(summarize_scores(episodes) if "score/score" in episodes[0] else {}),
     }
 
 

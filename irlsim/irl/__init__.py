@@ -1,4 +1,4 @@
-"""Path-integral maximum-entropy IRL: the training objective and the metrics (DESIGN.md section 5)."""
+"""Path-integral maximum-entropy IRL: the training objective and the metrics (docs/DESIGN.md section 5)."""
 
 from irlsim.irl.objectives import (
     attention_loss,

@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 import torch
 
-from irlsim.data.situations import SITUATION_NAMES
 from irlsim.irl.objectives import policy_values
 from irlsim.irl.stability import plan_change, stability_summary, theta_change
 
@@ -32,9 +31,10 @@ class CycleContext:
     ego_d: np.ndarray  # [m]
     t: np.ndarray  # [s]
     horizon: float  # [s] planning horizon (control points at horizon * k / K)
+    names: tuple[str, ...] = ()  # situation code -> name (irlsim.data.situations.SITUATION_NAMES)
 
     @staticmethod
-    def from_cycles(cycles: Any, split: Any, horizon: float) -> CycleContext:
+    def from_cycles(cycles: Any, split: Any, horizon: float, names: tuple[str, ...]) -> CycleContext:
         """From a cycles DataFrame (``Dataset.read_cycles``) in (episode, cycle) order; checks alignment."""
         ep = np.asarray(cycles["episode"]).astype(np.int64)
         cy = np.asarray(cycles["cycle"]).astype(np.int64)
@@ -52,6 +52,7 @@ class CycleContext:
             ego_d=np.asarray(cycles["ego_d"], np.float64)[:c],
             t=np.asarray(cycles["t"], np.float64)[:c],
             horizon=float(horizon),
+            names=tuple(names),
         )
 
 
@@ -70,11 +71,13 @@ def argmax_policies(thetas: np.ndarray, split: Any, chunk: int = 256) -> np.ndar
     return out
 
 
-def per_situation(metrics: dict[str, np.ndarray], situation: np.ndarray) -> dict[str, dict[str, float]]:
-    """{situation name: {'opd', 'ed', 'cycles'}} over cycles with a demonstration."""
+def per_situation(
+    metrics: dict[str, np.ndarray], situation: np.ndarray, names: tuple[str, ...]
+) -> dict[str, dict[str, float]]:
+    """{situation name: {'opd', 'ed', 'cycles'}} over cycles with a demonstration (code i = names[i])."""
     out = {}
     valid = metrics["valid"]
-    for code, name in enumerate(SITUATION_NAMES):
+    for code, name in enumerate(names):
         m = valid & (situation == code)
         n = int(m.sum())
         out[name] = {
@@ -110,7 +113,7 @@ def row_breakdown(
     theta = theta_change(thetas, episode) if thetas is not None else None
     sit = ctx.situation if (ctx.situation >= 0).all() else None
     return {
-        "situations": per_situation(metrics, ctx.situation),
+        "situations": per_situation(metrics, ctx.situation, ctx.names),
         "stability": stability_summary(theta, plan, sit, episode, SWITCH_WINDOW),
     }
 
@@ -125,7 +128,7 @@ def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
     if not rows:
         return ""
     counts = rows[0]["situations"]
-    names = [n for n in SITUATION_NAMES if counts[n]["cycles"] > 0]
+    names = [n for n in counts if counts[n]["cycles"] > 0]
     head = " | ".join(f"{n} ({counts[n]['cycles']})" for n in names)
     lines = [
         "## OPD / ED per situation [m]",

@@ -1,4 +1,4 @@
-"""Path-integral maximum-entropy IRL objective and metrics (DESIGN.md section 5), batched over cycles.
+"""Path-integral maximum-entropy IRL objective and metrics (docs/DESIGN.md section 5), batched over cycles.
 
 Notation, per planning cycle with N policies (sorted by progress) and 15 path-integral feature costs:
 
@@ -7,7 +7,7 @@ Notation, per planning cycle with N policies (sorted by progress) and 15 path-in
     NLL           = theta^T f^D + logsumexp_pi(-theta^T f^pi)   gradient in theta: f^D - E_p[f]
 
 The paper's Eq. 3, E_p[f] - f^D, is the gradient of the log-likelihood L = -NLL (which it ascends);
-minimising the NLL is the same update. (DESIGN.md section 5 attributes Eq. 3 to the NLL: a sign slip.)
+minimising the NLL is the same update (docs/DESIGN.md section 5; the original brief had the sign slipped).
     EVD           = |E_p[V] - V(pi^D)| / |V(pi^D)|
     ED            = E_p[d(zeta, pi)]        OPD = d(zeta, argmax_pi V)      DEMO = d(zeta, pi^D)
 

@@ -12,7 +12,8 @@ For consecutive cycles t, t+1 of the same episode:
   control points). Distance in the route frame: sqrt(ds^2 + dd^2).
 
 Both are reported overall and "around situation switches": the pairs whose later cycle lies at most
-``window`` cycles before or after a change of situation label (``irlsim.data.situations.near_switch``).
+``window`` cycles before or after a change of situation label (:func:`near_switch`; the labels are the
+dataset's ``situation`` column, ``irlsim.data.situations``).
 """
 
 from __future__ import annotations
@@ -21,9 +22,32 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.situations import near_switch
-
 THETA_EPS = 1e-12
+
+
+def situation_switches(situation: np.ndarray, episode: np.ndarray) -> np.ndarray:
+    """[C] bool: the cycle's label differs from the previous cycle's in the same episode (the first
+    cycle of an episode is no switch). Rows in (episode, cycle) order."""
+    situation, episode = np.asarray(situation), np.asarray(episode)
+    out = np.zeros(len(situation), dtype=bool)
+    out[1:] = (situation[1:] != situation[:-1]) & (episode[1:] == episode[:-1])
+    return out
+
+
+def near_switch(situation: np.ndarray, episode: np.ndarray, window: int = 2) -> np.ndarray:
+    """[C] bool: cycles at most ``window`` cycles before or after a situation switch, same episode
+    (the switch cycle is the first cycle of the new label; the cycles just before it are the old one's)."""
+    sw = situation_switches(situation, episode)
+    c = len(sw)
+    out = np.zeros(c, dtype=bool)
+    idx = np.flatnonzero(sw)
+    episode = np.asarray(episode)
+    for k in range(-window, window):  # before: -window..-1, after: 0..window-1
+        j = idx + k
+        ok = (j >= 0) & (j < c)
+        j = j[ok]
+        out[j[episode[j] == episode[idx[ok]]]] = True
+    return out
 
 
 def consecutive_pairs(episode: np.ndarray) -> np.ndarray:

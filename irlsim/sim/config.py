@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 from irlsim.config import require
 
-MAX_VEHICLES = 15  # the scenario's cap on background vehicles (DESIGN.md section 3)
+MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/DESIGN.md section 3)
 
 
 @dataclass(frozen=True)

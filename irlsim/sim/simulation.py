@@ -84,6 +84,8 @@ class Simulation:
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
         self._sumo_wall = 0.0
+        #: called as f(sim) after every bookkept simulation step (the scorecard records its per-step facts)
+        self.step_listeners: list[Any] = []
 
     # ------------------------------------------------------------------ process
     def command(self, seed: int) -> list[str]:
@@ -302,6 +304,9 @@ class Simulation:
             self.odometry.append(state)
             self._steps += 1
         self._wall += time.perf_counter() - t0
+        if bookkeeping:
+            for f in self.step_listeners:
+                f(self)
 
     def _read_vehicles(self) -> VehicleStates:
         v_api = self._api.vehicle

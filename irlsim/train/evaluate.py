@@ -1,6 +1,6 @@
 """Evaluation: Table I of the paper (model, trainable parameters, EVD, ED, OPD, DEMO) and plots.
 
-Protocol (DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
+Protocol (docs/DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
 t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
 temporal mixture over the H-cycle history ending at t. PTACNN's H is fixed by its weights (one softmax
 weight per history entry), so every row uses that H; asking for another is refused. Metrics are
@@ -18,6 +18,7 @@ gets OPD / ED per situation label and its reward stability (irlsim.irl.breakdown
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -249,7 +250,9 @@ def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
     if not hasattr(dataset, "read_cycles"):
         return None
     horizon = float(((dataset.manifest.get("config") or {}).get("planner") or {}).get("horizon", 5.0))
-    return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon)
+    from irlsim.data.situations import SITUATION_NAMES
+
+    return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon, SITUATION_NAMES)
 
 
 def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> list[dict[str, Any]]:
@@ -275,36 +278,27 @@ def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> li
         row = _row(name, "15 per cycle" if name.startswith("oracle") else "0", [0], metrics)
         if ctx is not None:
             row.update(row_breakdown(metrics, data, ctx, **extra))
+            if name.startswith("oracle"):  # each cycle's fit has its own scale: a relative change is noise
+                row["stability"].update(theta_change=float("nan"), theta_change_switch=float("nan"))
         rows.append(row)
     return rows
 
 
 def temporal_outputs(
-    name: str, weights: np.ndarray, data: Any, ctx: CycleContext | None, out_dir: Path
+    name: str,
+    weights: np.ndarray,
+    data: Any,
+    ctx: CycleContext | None,
+    strips: Callable[..., dict[str, str]] | None = None,
 ) -> dict[str, Any]:
-    """A temporal model's weight summary (irlsim.irl.stability.temporal_weight_summary) and its strips
-    over the split's first stop-line approach and first lane change (``temporal_<model>_<situation>.png``)."""
-    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
-    from irlsim.viz.temporal import onset_window, save_temporal_strip
-
+    """A temporal model's weight summary (irlsim.irl.stability.temporal_weight_summary), plus what
+    ``strips(name, weights [C, H], situation [C], t [C], episode [C])`` returns (the pipeline draws the
+    strips with irlsim.viz.temporal; train does not import viz)."""
     episode = np.asarray(data.episode)
     sit = ctx.situation if ctx is not None and (ctx.situation >= 0).all() else None
     out: dict[str, Any] = temporal_weight_summary(weights, sit, episode)
-    if sit is None or ctx is None:
-        return out
-    for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
-        win = onset_window(sit, episode, code)
-        if win is None:
-            continue
-        path = out_dir / f"temporal_{name.replace('+', 'p')}_{label}.png"
-        save_temporal_strip(
-            path,
-            weights[win],
-            sit[win],
-            ctx.t[win],
-            title=f"{name}: temporal attention, {label.replace('_', ' ')}",
-        )
-        out[f"strip_{label}"] = path.name
+    if sit is not None and ctx is not None and strips is not None:
+        out.update(strips(name, weights, sit, ctx.t, episode))
     return out
 
 
@@ -316,6 +310,7 @@ def evaluate_models(
     split: str = "test",
     threads: int = 2,
     references: bool = True,
+    strips: Callable[..., dict[str, str]] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate every trained model in ``runs_dir`` on ``split``.
 
@@ -327,7 +322,7 @@ def evaluate_models(
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
     provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
     then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)' (unless not
-    ``references``) and 'random policy'.
+    ``references``) and 'random policy'. ``strips``: see :func:`temporal_outputs`.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -364,7 +359,7 @@ def evaluate_models(
             if ctx is not None:
                 row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
             if weights is not None:
-                row["temporal"] = temporal_outputs(name, weights, data, ctx, out_dir)
+                row["temporal"] = temporal_outputs(name, weights, data, ctx, strips)
             rows.append(row)
             opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
         rows += reference_rows(data, ctx, references)

@@ -56,9 +56,9 @@ class LoadedModel:
 
 
 def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
-    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference: eval mode, on the
-    current device (irlsim.devices); read onto the CPU first, so a checkpoint written on any device loads
-    on any other.
+    """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference: eval mode, on
+    the current device (irlsim.devices); read onto the CPU first, so a checkpoint written on any device
+    loads on any other.
 
     Refused (one line) when it is not the model (and stage) of the folder it was found in
     (:func:`expected_identity`), has non-finite weights, or, with ``dataset`` (the dataset object it will

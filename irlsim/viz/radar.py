@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from irlsim import FEATURE_NAMES
+from irlsim.viz.figure import new_figure, save_figure
 
 
 def radar_radius(
@@ -103,8 +104,6 @@ def save_radar(
     dpi: int = 100,
 ) -> Path:
     """Write a radar chart PNG (5 x 5 in at ``dpi``) atomically; returns the path."""
-    from irlsim.viz.figure import new_figure, save_figure
-
     fig = new_figure((5.0, 5.0))
     ax = fig.add_subplot(111, projection="polar")
     draw_radar(ax, theta, names, reference, decades, title)

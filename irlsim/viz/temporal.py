@@ -91,3 +91,27 @@ def save_temporal_strip(
     line.legend(loc="lower right", fontsize=FONT["legend"], frameon=False)
     line.tick_params(labelsize=FONT["tick"])
     return save_figure(fig, path, dpi)
+
+
+def save_situation_strips(
+    out_dir: str | Path,
+    name: str,
+    weights: np.ndarray,
+    situation: np.ndarray,
+    t: np.ndarray,
+    episode: np.ndarray,
+) -> dict[str, str]:
+    """``temporal_<model>_<situation>.png`` strips of a temporal model over the split's first stop-line
+    approach and first lane change; returns {'strip_<situation>': file name} of those drawn."""
+    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
+
+    out = {}
+    for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
+        win = onset_window(situation, episode, code)
+        if win is None:
+            continue
+        path = Path(out_dir) / f"temporal_{name.replace('+', 'p')}_{label}.png"
+        title = f"{name}: temporal attention, {label.replace('_', ' ')}"
+        save_temporal_strip(path, weights[win], situation[win], t[win], title=title)
+        out[f"strip_{label}"] = path.name
+    return out

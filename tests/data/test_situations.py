@@ -11,10 +11,9 @@ from irlsim.data.situations import (
     LANE_CHANGE,
     STOP_APPROACH,
     STOP_QUEUE,
-    near_switch,
     situation_label,
-    situation_switches,
 )
+from irlsim.irl.stability import near_switch, situation_switches
 
 L = 2000.0
 

@@ -45,6 +45,12 @@ def test_short_expert_run_reports_every_figure(road, tmp_path):
     cycle = int(names[0][len("cycle_") : -len(".png")])
     assert names[1:] == [f"radar_{cycle:04d}.png", f"temporal_{cycle:04d}.png"]
     assert cycle % 2 == 0 and cycle < 56
+    # the scorecard: recorded on every simulation step (reset state included), the expert against itself
+    t, s = rec["_progress"]
+    assert len(t) == rec["sim/steps"] + 1 == 121
+    assert s[-1] - s[0] == pytest.approx(rec["drive/distance_m"], abs=1e-3)
+    assert rec["score/progress"] == 1.0 and rec["score/no_collision"] == 1.0
+    assert 0.0 < rec["score/score"] <= 100.0 and 0.0 <= rec["score/comfort"] <= 1.0
 
 
 def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):

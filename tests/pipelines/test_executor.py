@@ -213,13 +213,24 @@ def test_ray_default_starts_a_local_ray_with_the_same_bytes(tiny_dataset, tmp_pa
     assert _sha256(out) == _sha256(tiny_dataset)
 
 
-def _ray_task_pids() -> list[int]:
-    """Ray worker processes running a task of the executor (Ray titles them 'ray::_ray_call')."""
+def _ray_task_pids(cluster: Any) -> list[int]:
+    """Worker processes of ``cluster`` (children of its raylets; not a lingering worker of another test's
+    Ray) running a task of the executor (Ray titles them 'ray::_ray_call')."""
+    raylets = {
+        p.process.pid for node in cluster.list_all_nodes() for p in node.all_processes.get("raylet", [])
+    }
     return [
-        int(p.name)
-        for p in Path("/proc").iterdir()
-        if p.name.isdigit() and _cmdline(int(p.name)).startswith("ray::_ray_call")
+        pid
+        for pid in (int(p.name) for p in Path("/proc").iterdir() if p.name.isdigit())
+        if _cmdline(pid).startswith("ray::_ray_call") and _parent(pid) in raylets
     ]
+
+
+def _parent(pid: int) -> int:
+    try:
+        return int(Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    except (OSError, IndexError, ValueError):
+        return -1
 
 
 def test_two_node_cluster_same_bytes_and_a_killed_task_is_retried(
@@ -233,7 +244,7 @@ def test_two_node_cluster_same_bytes_and_a_killed_task_is_retried(
     runner.start()
     try:
         deadline = time.time() + 120
-        while time.time() < deadline and not (pids := _ray_task_pids()):
+        while time.time() < deadline and not (pids := _ray_task_pids(ray_cluster)):
             time.sleep(0.05)
         assert pids, "no Ray task seen running"
         os.kill(pids[0], signal.SIGKILL)
