@@ -30,6 +30,7 @@ from irlsim.data.schema import (
     TABLE_CYCLES,
     TABLE_POLICIES,
     cycles_name,
+    cycles_schema,
     policies_name,
 )
 from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
@@ -230,8 +231,6 @@ class Dataset:
             tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
             self._check_policy_count(path, tables[-1])
         if not tables:
-            from irlsim.data.schema import cycles_schema
-
             return cycles_schema().empty_table()
         table = pa.concat_tables(tables)
         self._check_cycles(split, table)
