@@ -83,7 +83,7 @@ class DriveModel:
 
 
 def model_names() -> tuple[str, ...]:
-    from irlsim.models.registry import MODEL_NAMES  # lazy: torch (~1.5 s), not needed to drive the expert
+    from irlsim.models.registry import MODEL_NAMES  # lazy: pulls torch (~1.5 s); the expert drives without it
 
     return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
 
