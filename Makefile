@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive bench lint clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench lint clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -52,6 +52,10 @@ evaluate: setup
 
 drive: setup
 	$(IRLSIM) drive --runs $(RUNS) --model expert,expert-theta,LIRL,PACNN+S,PTACNN+S --episodes 3 --laps 1 --seed 100 --config configs/collect/default.toml --out $(RUNS)/drive
+
+# DAgger rounds on top of $(RUNS)'s PACNN+S (trained on $(DATA)): $(RUNS)/dagger/round_<r>/{data,runs}
+dagger: setup
+	$(IRLSIM) dagger --config configs/dagger/$(PRESET).toml --data $(DATA) --runs $(RUNS) --out $(RUNS)/dagger
 
 bench: setup
 	$(IRLSIM) bench --out bench

@@ -9,6 +9,7 @@ import dataclasses
 import statistics
 import tempfile
 import time
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -70,7 +71,8 @@ def _time_inference(
 ) -> dict[str, Any]:
     """PACNN + PTACNN of sizes ``cfg`` at initial weights: parameters and per-cycle inference [ms] of the
     online predictor (one thread) on one random cycle of ``n_policies`` policies."""
-    # lazy: torch (about 1.5 s to import); 'irlsim bench --collect' never needs it
+    # lazy: these pull torch (about 1.5 s to import); 'irlsim bench --collect' and its spawned workers
+    # (which import this module for _collect_one) never need it
     from irlsim.models.registry import build_model, count_parameters
     from irlsim.train.loading import LoadedModel
     from irlsim.train.predictor import RewardPredictor
@@ -104,7 +106,8 @@ def bench_infer(
     """PACNN + PTACNN inference per cycle (one thread), for the default (small) sizes and for the near-paper
     sizes of ``ModelConfig.paper()`` (keys ``paper_*``), and stage-1 training throughput (cycles/s) of
     the default sizes."""
-    import torch  # lazy, as in _time_inference
+    # lazy: torch and the modules that pull it, as in _time_inference
+    import torch
 
     from irlsim.irl.objectives import nll
     from irlsim.models.registry import ModelConfig, build_model
@@ -157,6 +160,7 @@ def bench_infer(
 
 
 def _make_env(n_policies: int) -> Any:
+    # lazy: gymnasium is the optional extra 'gym'; only 'irlsim bench --env' needs it
     import gymnasium as gym
 
     import irlsim.envs  # noqa: F401  (registers the ids)
@@ -170,11 +174,7 @@ def bench_env(steps: int = 200, n_policies: int = 500, n_envs: int = 2, seed: in
     (one libsumo per subprocess, spawned). Resets are outside the single env's timing; the vectorised
     figure counts every step of every env over the wall time of ``steps`` vector steps (autoresets
     included)."""
-    from functools import partial
-
-    from gymnasium.vector import AsyncVectorEnv
-
-    from irlsim.road.network import build_net
+    from gymnasium.vector import AsyncVectorEnv  # lazy: the optional extra 'gym'
 
     build_net()
     env = _make_env(n_policies)

@@ -12,13 +12,16 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.benchmarks import _collect_one
+from irlsim.errors import IrlsimError
+from irlsim.executor import Job, run_jobs
+from irlsim.road.network import build_net
+
 #: episodes of each timed collection (two per worker with 2 workers)
 EPISODES = 4
 
 
 def _collect_job(args: tuple[str, int, int, int]) -> dict[str, Any]:  # top level: picklable
-    from irlsim.benchmarks import _collect_one
-
     return _collect_one(args)
 
 
@@ -26,8 +29,6 @@ def _timed_collection(
     executor: str, workers: int, root: str, seed: int, cycles: int, n_policies: int, episodes: int
 ) -> dict[str, Any]:
     """Wall time of ``episodes`` collection episodes through irlsim.executor (workers' start included)."""
-    from irlsim.executor import Job, run_jobs
-
     jobs = [Job(str(i), (root, seed + i, cycles, n_policies)) for i in range(episodes)]
     t0 = time.perf_counter()
     res = run_jobs(_collect_job, jobs, executor=executor, workers=workers)
@@ -46,9 +47,7 @@ def _timed_collection(
 def bench_executors(cycles: int, n_policies: int, seed: int, workers: int = 2) -> dict[str, Any]:
     """The same episodes with the local pool and with Ray (a local Ray of ``workers`` CPUs, started before
     the clock: its start-up is reported apart), each end to end, workers' start included."""
-    import ray
-
-    from irlsim.road.network import build_net
+    import ray  # lazy: the optional extra 'ray' (bench_scale checks it is there)
 
     build_net()
     out: dict[str, Any] = {"workers": workers, "n_policies": n_policies, "cycles_per_episode": cycles}
@@ -69,6 +68,7 @@ def bench_executors(cycles: int, n_policies: int, seed: int, workers: int = 2) -
 
 def bench_cluster_scaling(cycles: int, n_policies: int, seed: int) -> dict[str, Any]:
     """Two episodes on a simulated two-node cluster (1 CPU per node): one task at a time, then two."""
+    # lazy: the optional extra 'ray'
     import ray
     from ray.cluster_utils import Cluster
 
@@ -94,6 +94,7 @@ def bench_cluster_scaling(cycles: int, n_policies: int, seed: int) -> dict[str, 
 
 def _train_step(model: Any, opt: Any, mb: dict[str, Any]) -> None:
     """One stage-1 PACNN+S optimizer step as the training loop takes it (irlsim.train.stage1)."""
+    # lazy: torch; the spawned collection workers import this module for _collect_job and never need it
     from irlsim import devices
     from irlsim.irl.objectives import attention_loss, attention_target, cycle_metrics
 
@@ -113,6 +114,7 @@ def bench_training(
 ) -> dict[str, Any]:
     """Stage-1 PACNN+S training steps (forward, NLL + attention loss, backward, Adam) in cycles/s, per
     available device and precision, default network sizes, synthetic cycles of ``n_policies`` policies."""
+    # lazy: torch and the modules that pull it, as in _train_step
     import torch
 
     from irlsim import devices
@@ -164,10 +166,8 @@ def bench_training(
 
 def bench_scale(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> dict[str, Any]:
     try:
-        import ray  # noqa: F401
+        import ray  # noqa: F401  (lazy: the optional extra 'ray')
     except ImportError:
-        from irlsim.errors import IrlsimError
-
         raise IrlsimError("bench --scale needs Ray: pip install -e '.[ray]'") from None
     executors = bench_executors(cycles, n_policies, seed)
     scaling = bench_cluster_scaling(cycles, n_policies, seed + 100)

@@ -25,14 +25,18 @@ write their own outputs (atomically), so a run started with one executor resumes
 from __future__ import annotations
 
 import logging
+import multiprocessing as mp
 import os
 import signal
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from multiprocessing.connection import wait
 from typing import Any
 
+from irlsim import THREAD_VARS
 from irlsim.errors import IrlsimError
+from irlsim.utils import die_with_parent
 
 EXECUTORS = ("local", "ray")
 #: attempts after the first for a job that raises or whose worker dies
@@ -76,7 +80,7 @@ def check_executor(executor: str, workers: int, address: str | None = None) -> N
 
 def _import_ray() -> Any:
     try:
-        import ray
+        import ray  # lazy: the optional extra 'ray', and slow to import; only --executor ray needs it
     except ImportError:
         raise IrlsimError(
             f"--executor ray needs Ray, which is not installed: {RAY_EXTRA} (or use --executor local)"
@@ -161,8 +165,6 @@ def _run_inline(fn: Callable[[Any], Any], state: _State) -> None:
 
 
 def _worker_main(conn: Any, parent_pid: int) -> None:  # top level: the spawn target
-    from irlsim.utils import die_with_parent
-
     die_with_parent(parent_pid)
     while True:
         try:
@@ -221,8 +223,6 @@ def _start_workers(ctx: Any, n: int) -> list[_Worker]:
     """``n`` workers with single-threaded BLAS/OpenMP (read by the children at start-up; this process's
     values are restored), started while this process ignores SIGINT: the children inherit that until
     their own set-up, so a Ctrl-C during their start-up prints no traceback from them."""
-    from irlsim import THREAD_VARS
-
     try:
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     except ValueError:  # not the main thread: signals are not ours to change
@@ -242,9 +242,6 @@ def _start_workers(ctx: Any, n: int) -> list[_Worker]:
 
 
 def _run_local(fn: Callable[[Any], Any], state: _State, n: int) -> None:
-    import multiprocessing as mp
-    from multiprocessing.connection import wait
-
     ctx = mp.get_context("spawn")
     pool = _start_workers(ctx, n)
     clean = False
@@ -305,8 +302,6 @@ def _ray_call(fn: Callable[[Any], Any], arg: Any) -> Any:  # top level: the task
 
 def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str | None) -> None:
     ray = _import_ray()
-    from irlsim import THREAD_VARS
-
     started = False
     if not ray.is_initialized():
         kwargs: dict[str, Any] = {

@@ -27,7 +27,9 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 from irlsim.benchmarks import bench_collect as run_collect  # noqa: E402
+from irlsim.benchmarks import bench_env as run_env  # noqa: E402
 from irlsim.benchmarks import bench_infer as run_infer  # noqa: E402
+from irlsim.benchmarks_scale import bench_scale as run_scale  # noqa: E402
 from irlsim.config import MAX_SEED, int_in  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
 from irlsim.outputs import check_output_dir  # noqa: E402
@@ -183,14 +185,10 @@ def bench_infer(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def bench_env(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks import bench_env as run_env
-
     return run_env(steps=max(args.env_steps, 1), n_policies=500, n_envs=2, seed=args.seed)
 
 
 def bench_scale(args: argparse.Namespace) -> dict[str, Any]:
-    from irlsim.benchmarks_scale import bench_scale as run_scale
-
     return run_scale(cycles=args.collect_cycles, n_policies=2500, seed=args.seed)
 
 

@@ -14,6 +14,7 @@ again. The manifest says ``"complete": false`` until the last episode is on disk
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import sys
 import time
@@ -39,6 +40,8 @@ from irlsim.data.layout import (
     write_manifest,
 )
 from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.drive.closed_loop import EXPERT, EXPERT_THETA, load_drive_model
+from irlsim.drive.dagger import dagger_driver_factory
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
@@ -56,6 +59,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--seed", type=int_in(0, MAX_SEED), default=None, help="base seed (overrides the config)")
     add_executor_arguments(p)
+    p.add_argument(
+        "--driver",
+        default=None,
+        metavar="MODEL|CHECKPOINT",
+        help="DAgger: this learned reward drives (a model name found in --runs, or a checkpoint path; "
+        "argmax of its reward, as 'irlsim drive' without --safety) and the expert labels every cycle with "
+        "its own choice on the same policy set (demo_source 'expert'); default: the expert drives",
+    )
+    p.add_argument("--runs", type=Path, default=None, help="with --driver MODEL: the runs folder holding it")
+    p.add_argument(
+        "--round",
+        type=int,
+        default=None,
+        help="with --driver: the DAgger round r >= 1 (default 1); its episode seeds are seed * 1e6 + "
+        "300,000 + 30,000 (r - 1) + 10,000 x split index + i, disjoint from every expert dataset's",
+    )
     p.add_argument(
         "--set",
         action="append",
@@ -86,8 +105,30 @@ LOCK_NAME = ".lock"
 
 
 def _run_job(job):  # top level: picklable for spawn workers and Ray tasks
+    if job.driver is None:
+        return collect_episode(job)
+    return collect_episode(job, dagger_driver_factory(job.driver, job.config.planner.n_policies))
 
-    return collect_episode(job)
+
+def driver_identity(spec: str, runs: Path | None, n_policies: int) -> dict[str, Any]:
+    """Resolve ``--driver`` (refused in one line when it is no learned model, not found or built for
+    another policy count) and say what identifies it in the manifest: model, checkpoint path and sha256,
+    and the identity of the dataset it was trained on."""
+    if spec in (EXPERT, EXPERT_THETA):
+        raise IrlsimError(
+            f"--driver {spec}: DAgger needs a trained model (a name in --runs or a checkpoint path); the "
+            "expert's own data is 'irlsim collect' without --driver"
+        )
+    model = load_drive_model(spec, runs, n_policies)
+    assert model.checkpoint is not None and model.predictor is not None
+    path = model.checkpoint.resolve()
+    ck = model.predictor.loaded.checkpoint  # type: ignore[attr-defined]
+    return {
+        "model": model.name,
+        "checkpoint": str(path),
+        "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+        "trained_on": ck.get("dataset"),
+    }
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,21 +141,36 @@ def run(args: argparse.Namespace) -> int:
     if args.seed is not None:
         check_non_negative("seed", args.seed)
         overrides["seed"] = args.seed
+    if args.driver is None and (args.round is not None or args.runs is not None):
+        raise IrlsimError("--round and --runs belong to a DAgger collection: add --driver MODEL|CHECKPOINT")
+    if args.driver is not None:
+        if args.round is not None and args.round < 1:
+            raise IrlsimError(f"--round must be >= 1 (the DAgger round), got {args.round}")
+        overrides["dagger_round"] = args.round if args.round is not None else 1
     cfg = load_config(CollectConfig, args.config, overrides)
+    if cfg.dagger_round and args.driver is None:
+        raise IrlsimError(
+            f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"
+        )
+    driver = (
+        driver_identity(args.driver, args.runs, cfg.planner.n_policies) if args.driver is not None else None
+    )
     check_executor(args.executor, cfg.workers, args.address)
     out: Path = args.out
     # before any work: a folder that takes files, with disk for the dataset (irlsim.outputs)
     check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
-            return _collect(cfg, out, args.executor, args.address)
+            return _collect(cfg, out, args.executor, args.address, driver)
     except LockBusy as busy:
         raise IrlsimError(
             f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
         ) from None
 
 
-def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
+def _check_resumable(
+    manifest_path: Path, config: dict[str, Any], driver: dict[str, Any] | None = None
+) -> None:
     """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
 
     out = manifest_path.parent
@@ -133,6 +189,12 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
     if old.get("feature_names") != list(FEATURE_NAMES):
         raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
     diff = first_difference(data_config(old["config"]), config)
+    if diff is None and old.get("driver") != driver:
+        was, now = (
+            d["checkpoint"] + " " + d["sha256"][:12] if d else "the expert"
+            for d in (old.get("driver"), driver)
+        )
+        diff = ("driver", was, now)
     if diff is not None:
         key, was, now = diff
         raise IrlsimError(
@@ -140,7 +202,7 @@ def _check_resumable(manifest_path: Path, config: dict[str, Any]) -> None:
         )
 
 
-def _pending_jobs(cfg: Any, out: Path) -> tuple[list[Any], dict[str, list[int]]]:
+def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[Any], dict[str, list[int]]]:
     """The episodes still to collect (executor jobs) and every split's seeds; a finished episode whose
     files fail the check is deleted and collected again."""
     jobs: list[Any] = []
@@ -164,7 +226,8 @@ def _pending_jobs(cfg: Any, out: Path) -> tuple[list[Any], dict[str, list[int]]]
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
-            jobs.append(Job(f"{split}/{episode}", EpisodeJob(str(out.resolve()), split, episode, seed, cfg)))
+            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt)  # ckpt: DAgger's driver
+            jobs.append(Job(f"{split}/{episode}", job))
     return jobs, seeds
 
 
@@ -175,13 +238,22 @@ def _report_failures(
     seeds: dict[str, list[int]],
     failed: dict[str, str],
     total: int,
+    ident: dict[str, Any] | None = None,
 ) -> int:
     """Episodes that failed twice: the manifest lists the finished ones and the failed ones and stays
     incomplete (readers refuse it); one line names them; the same command collects just those, as it
     resumes any other incomplete collection. Returns the exit status 1."""
     done = {s: [e for e, _ in cfg.episodes(s) if episode_done(out, s, e)] for s in SPLITS}
     write_manifest(
-        out, {"config": config, "seeds": seeds, "splits": done, "complete": False, "failed": failed}
+        out,
+        {
+            "config": config,
+            **(ident or {}),
+            "seeds": seeds,
+            "splits": done,
+            "complete": False,
+            "failed": failed,
+        },
     )
     print(
         f"irlsim: error: collect: {len(failed)} of {total} episodes failed twice: "
@@ -192,25 +264,35 @@ def _report_failures(
     return 1
 
 
-def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None = None) -> int:
-    """The collection itself, run while this process holds ``<out>/.lock``."""
+def _collect(
+    cfg: Any,
+    out: Path,
+    executor: str = "local",
+    address: str | None = None,
+    driver: dict[str, Any] | None = None,
+) -> int:
+    """The collection itself, run while this process holds ``<out>/.lock``. ``driver``: the learned
+    driver's identity (:func:`driver_identity`) for a DAgger collection, recorded in the manifest."""
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)
     if manifest_path.is_file():
-        _check_resumable(manifest_path, config)
+        _check_resumable(manifest_path, config, driver)
     build_net()  # once, before the workers start (they only read it)
 
-    jobs, seeds = _pending_jobs(cfg, out)
+    jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
     total = sum(len(v) for v in seeds.values())
     where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
+    if driver is not None:
+        where += f", {driver['model']} drives and the expert labels (DAgger round {cfg.dagger_round})"
+    ident = {"driver": driver} if driver is not None else {}
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for
         # a small one; it lists the config, so a re-run with another config is refused
         write_manifest(
             out,
-            {"config": config, "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
+            {"config": config, **ident, "seeds": seeds, "splits": {s: [] for s in SPLITS}, "complete": False},
         )
 
     t0 = time.perf_counter()
@@ -241,9 +323,11 @@ def _collect(cfg: Any, out: Path, executor: str = "local", address: str | None =
     for split in SPLITS:  # what a killed worker left behind (no job runs now)
         remove_partial(out, split)
     if result.failed:
-        return _report_failures(cfg, out, config, seeds, result.failed, total)
+        return _report_failures(cfg, out, config, seeds, result.failed, total, ident)
     splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
-    manifest = write_manifest(out, {"config": config, "seeds": seeds, "splits": splits, "complete": True})
+    manifest = write_manifest(
+        out, {"config": config, **ident, "seeds": seeds, "splits": splits, "complete": True}
+    )
     wall = time.perf_counter() - t0
     if jobs:
         print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")

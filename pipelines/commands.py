@@ -26,6 +26,7 @@ COMMANDS: dict[str, str] = {
     "train": "pipelines.train",
     "evaluate": "pipelines.evaluate",
     "drive": "pipelines.drive",
+    "dagger": "pipelines.dagger",
     "bench": "pipelines.bench",
     "demo": "pipelines.demo",
 }

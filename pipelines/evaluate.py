@@ -9,7 +9,7 @@ from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import int_in
-from irlsim.data.reader import open_dataset
+from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.train.evaluate import evaluate_models
@@ -19,7 +19,14 @@ HELP = "evaluate every trained model on the sequential test split: Table I (Mark
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--data", type=Path, required=True, help="dataset folder")
+    p.add_argument(
+        "--data",
+        type=Path,
+        nargs="+",
+        required=True,
+        help="dataset folder; several: the aggregate the models were trained on (DAgger rounds add no test "
+        "episodes, so its test split is the first folder's)",
+    )
     p.add_argument(
         "--runs",
         type=Path,
@@ -58,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
     with devices.use(device, args.precision):
         evaluate_models(
-            open_dataset(args.data),
+            open_datasets(args.data),
             args.runs,
             out,
             H=args.history,

@@ -15,7 +15,7 @@ from typing import Any, cast
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides, to_dict
-from irlsim.data.reader import open_dataset
+from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE, format_parameters
 from irlsim.outputs import check_output_dir
@@ -34,7 +34,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--stage", type=int, choices=(1, 2), required=True, help="1: per-cycle models, 2: temporal"
     )
     p.add_argument("--config", type=Path, default=None, help="TOML config (default: built-in defaults)")
-    p.add_argument("--data", type=Path, required=True, help="dataset folder written by 'irlsim collect'")
+    p.add_argument(
+        "--data",
+        type=Path,
+        nargs="+",
+        required=True,
+        help="dataset folder written by 'irlsim collect'; several folders are aggregated (DAgger: the "
+        "expert's data and the rounds' expert-labelled data; irlsim.data.aggregate)",
+    )
     p.add_argument(
         "--out",
         type=Path,
@@ -92,7 +99,7 @@ def _run(args: argparse.Namespace) -> int:
         hint = "pass --base" if args.base is not None else f"run 'irlsim train --stage 1 --out {args.out}'"
         raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
     check_output_dir(args.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
-    dataset = open_dataset(args.data)
+    dataset = open_datasets(args.data)
     out = stage_dir(args.out, args.stage)
     try:  # one training at a time per runs folder (both stages: stage 2 reads stage 1's checkpoints)
         with exclusive_lock(args.out / LOCK_NAME):
@@ -112,7 +119,7 @@ def _run(args: argparse.Namespace) -> int:
                 out / SUMMARY_NAME,
                 {
                     "config": to_dict(cfg),
-                    "data": str(args.data),
+                    "data": str(args.data[0]) if len(args.data) == 1 else [str(p) for p in args.data],
                     "dataset": dataset_identity(dataset),
                     **extra,
                     "models": summary,

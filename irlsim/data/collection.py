@@ -4,33 +4,47 @@ One episode runs in one process (one libsumo per process). Each cycle the expert
 executes its chosen policy for one planning cycle; the odometry of what it actually drove is projected
 onto each cycle's policy set once the horizon has been driven (``DemoProjector``), and the episode is
 written as a pair of Parquet files (``EpisodeWriter``). The episode's content depends only on its seed.
+
+DAgger (``irlsim collect --driver``): a learned reward drives instead, and every cycle's demonstration is
+the expert's own selection in the same policy set at the learner's state (``demo_source`` 'expert'); the
+driver is made above this layer (``irlsim.drive.dagger``) and handed in as a factory.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
-from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector
-from irlsim.data.schema import stats_name
+from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
+from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
-from irlsim.road import load_road
-from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, ObserverBase
+from irlsim.planner.policy_set import PolicySet
+from irlsim.road import Road, load_road
+from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.simulation import Simulation
-from irlsim.sim.types import Observation
+from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import seed_everything, write_json
 
 SPLITS = ("train", "validation", "test")
 #: episode seeds: seed * SEED_STRIDE + SPLIT_OFFSET[split] + i, so splits never share a seed
 SEED_STRIDE = 1_000_000
 SPLIT_OFFSET = {"train": 0, "validation": 100_000, "test": 200_000}
+#: DAgger rounds (``dagger_round`` r >= 1) take seeds from the part of each base seed's stride the
+#: expert's splits never use: seed * SEED_STRIDE + DAGGER_OFFSET + (r - 1) * DAGGER_ROUND_STRIDE
+#: + split index * DAGGER_SPLIT_STRIDE + i; so a round's seeds are disjoint from every odometry dataset's
+#: (any base seed) and from every other round's
+DAGGER_OFFSET = 300_000
+DAGGER_SPLIT_STRIDE = 10_000
+DAGGER_ROUND_STRIDE = len(SPLITS) * DAGGER_SPLIT_STRIDE
+MAX_DAGGER_ROUND = (SEED_STRIDE - DAGGER_OFFSET) // DAGGER_ROUND_STRIDE
 
 
 @dataclass(frozen=True)
@@ -67,6 +81,10 @@ class CollectConfig:
     """episodes of the test split (sequential playback)"""
     max_cycles: int = 0
     """stop an episode after this many planning cycles (0 = until laps, collision, exit or time-out)"""
+    dagger_round: int = 0
+    """0: the expert drives, its projected odometry is the demonstration; r >= 1: DAgger round r
+    (``irlsim collect --driver``): a learned reward drives, the expert labels, and the episode seeds move
+    to round r's window (see ``episodes``)"""
     scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
     """traffic, clocks and episode limits (irlsim.sim.config.ScenarioConfig)"""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
@@ -76,9 +94,25 @@ class CollectConfig:
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        for s in SPLITS:
+            n = getattr(self, f"{s}_episodes")
+            require(0 <= n < 100_000, f"{s}_episodes must be in 0..99999, got {n}")
+        require(
+            0 <= self.dagger_round <= MAX_DAGGER_ROUND,
+            f"dagger_round must be in 0..{MAX_DAGGER_ROUND}, got {self.dagger_round}",
+        )
+        if self.dagger_round:
+            for s in SPLITS:
+                n = getattr(self, f"{s}_episodes")
+                require(
+                    n <= DAGGER_SPLIT_STRIDE,
+                    f"{s}_episodes must be <= {DAGGER_SPLIT_STRIDE} in a DAgger round, got {n}",
+                )
         # episode seeds are seed * 1e6 + split offset + i and go to SUMO, which takes at most MAX_SEED: the
         # derivation is kept (it decides the bytes of every existing dataset), the base seed is bounded
-        last = max(SPLIT_OFFSET[s] + getattr(self, f"{s}_episodes") - 1 for s in SPLITS)
+        last = max(
+            (seed - self.seed * SEED_STRIDE for s in SPLITS for _, seed in self.episodes(s)[-1:]), default=0
+        )
         max_base = (MAX_SEED - last) // SEED_STRIDE
         require(
             self.seed <= max_base,
@@ -86,9 +120,6 @@ class CollectConfig:
             f"episode and SUMO takes at most {MAX_SEED}), got {self.seed}",
         )
         require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
-        for s in SPLITS:
-            n = getattr(self, f"{s}_episodes")
-            require(0 <= n < 100_000, f"{s}_episodes must be in 0..99999, got {n}")
         require(self.train_episodes >= 1, "train_episodes must be >= 1")
         require(self.max_cycles >= 0, f"max_cycles must be >= 0, got {self.max_cycles}")
         require(abs(self.planner.dt - self.scenario.step) < 1e-9, "planner.dt must equal scenario.step")
@@ -107,9 +138,19 @@ class CollectConfig:
         )
 
     def episodes(self, split: str) -> list[tuple[int, int]]:
-        """(episode id, seed) of every episode of ``split``."""
+        """(episode id, seed) of every episode of ``split``: seed * 1e6 + split offset + i for the
+        expert's data; seed * 1e6 + 300,000 + (round - 1) * 30,000 + split index * 10,000 + i for DAgger
+        round ``dagger_round`` (offsets 300,000 and up, which the expert's splits never reach)."""
         n = getattr(self, f"{split}_episodes")
-        return [(i, self.seed * SEED_STRIDE + SPLIT_OFFSET[split] + i) for i in range(n)]
+        if self.dagger_round:
+            off = (
+                DAGGER_OFFSET
+                + (self.dagger_round - 1) * DAGGER_ROUND_STRIDE
+                + SPLITS.index(split) * DAGGER_SPLIT_STRIDE
+            )
+        else:
+            off = SPLIT_OFFSET[split]
+        return [(i, self.seed * SEED_STRIDE + off + i) for i in range(n)]
 
 
 #: CollectConfig fields that do not change a byte of the data (workers=1 and workers=2 write the same
@@ -132,7 +173,8 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
     types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
     d = cfg if isinstance(cfg, dict) else to_dict(cfg)
-    return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS}
+    # dagger_round 0 is left out: an expert dataset's manifest keeps its bytes (and identity) of before
+    return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS and (k, v) != ("dagger_round", 0)}
 
 
 class _Missing:
@@ -163,15 +205,40 @@ class EpisodeJob:
     episode: int
     seed: int
     config: CollectConfig
+    driver: str | None = None
+    """None: the expert drives (odometry demonstrations); a checkpoint path: that learned reward drives
+    and the expert labels every cycle (DAgger, ``irlsim collect --driver``)"""
+
+
+@runtime_checkable
+class LabelledDriver(Protocol):
+    """A driver whose every cycle also carries the expert's selection on the very policy set it chose
+    from (DAgger): ``last_policy_set`` / ``last_index`` describe what was executed, ``expert_index`` the
+    expert's choice in that set. Built in ``irlsim.drive.dagger`` (the learned driver lives above the
+    data layer); collection only records it."""
+
+    last_policy_set: PolicySet | None
+    last_index: int
+    expert_index: int
+
+    def plan(self, obs: Observation) -> Trajectory: ...
 
 
 class CycleRecorder(ObserverBase):
     """The recording observer of collection: every cycle's policy set and executed index go to the
-    ``EpisodeWriter``, the odometry of what was actually driven to the ``DemoProjector``, whose
-    demonstrations follow once each cycle's horizon has been driven."""
+    ``EpisodeWriter``. The demonstration is either the odometry of what was actually driven, projected by
+    the ``DemoProjector`` once each cycle's horizon has been driven (``labeller`` None), or, with a
+    ``labeller`` (a :class:`LabelledDriver`), the expert's own selection in the same policy set, at once
+    (:func:`irlsim.data.demos.expert_projection`)."""
 
-    def __init__(self, writer: EpisodeWriter, projector: DemoProjector):
-        self.writer, self.projector = writer, projector
+    def __init__(
+        self,
+        writer: EpisodeWriter,
+        projector: DemoProjector,
+        labeller: LabelledDriver | None = None,
+    ):
+        self.writer, self.projector, self.labeller = writer, projector, labeller
+        self.agree = 0  # cycles whose executed policy is the expert's selection (DAgger)
 
     def on_reset(self, sim: Simulation, obs: Observation) -> None:
         e = obs.ego
@@ -179,9 +246,8 @@ class CycleRecorder(ObserverBase):
 
     def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
         ps, obs, traj = cycle.policy_set, cycle.obs, cycle.trajectory
-        assert ps is not None, "collection records drivers that choose from a policy set (the expert)"
+        assert ps is not None, "collection records drivers that choose from a policy set"
         e = obs.ego
-        self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
         ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
         self.writer.add_cycle(
             cycle.index,
@@ -191,6 +257,18 @@ class CycleRecorder(ObserverBase):
             target_checkpoint=obs.target_checkpoint,
             situation=situation_of(obs, sim.road),
         )
+        if self.labeller is not None:
+            assert self.labeller.last_policy_set is ps, "the label belongs to the executed policy set"
+            k = self.labeller.expert_index
+            self.agree += int(k == cycle.chosen)
+            p = self.projector
+            self.writer.add_demo(
+                expert_projection(
+                    cycle.index, ps.s, ps.d, ps.yaw, k, alpha=p.alpha, w_yaw=p.w_yaw, lap_length=p.lap_length
+                )
+            )
+            return
+        self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
         # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
         # time-out) must not complete a demonstration window with states that were never driven
         for j in range(1, cycle.driven + 1):
@@ -199,11 +277,23 @@ class CycleRecorder(ObserverBase):
         self.writer.add_demos(self.projector.pop_ready())
 
     def on_end(self, sim: Simulation, result: EpisodeResult) -> None:
-        self.writer.add_demos(self.projector.finish())
+        if self.labeller is None:
+            self.writer.add_demos(self.projector.finish())
 
 
-def collect_episode(job: EpisodeJob) -> dict[str, Any]:
-    """Drive one expert episode and write its two Parquet files (and its driving figures as JSON).
+#: makes the driver of a DAgger episode: (road, collect config) -> a LabelledDriver
+DriverFactory = Callable[[Road, CollectConfig], LabelledDriver]
+
+
+def collect_episode(
+    job: EpisodeJob, make_driver: DriverFactory | None = None, observers: Sequence[Observer] = ()
+) -> dict[str, Any]:
+    """Drive one episode and write its two Parquet files (and its driving figures as JSON).
+
+    ``make_driver`` None: the expert drives and its projected odometry is the demonstration
+    (``demo_source`` 'odometry'); otherwise the driver it makes (a :class:`LabelledDriver`: a learned
+    reward driving, the expert labelling) drives and the expert's selections are the demonstrations
+    (``demo_source`` 'expert'). ``observers``: extra observers after the recorder (tests).
 
     Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``). ``collect/wall_s`` and
     ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),
@@ -213,7 +303,8 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
     cfg = job.config
     seed_everything(job.seed)
     road = load_road()
-    driver = ExpertDriver(road, cfg.planner)
+    driver: Any = ExpertDriver(road, cfg.planner) if make_driver is None else make_driver(road, cfg)
+    labeller = driver if make_driver is not None else None
     projector = DemoProjector(
         lap_length=road.lap_length,
         horizon=cfg.planner.horizon,
@@ -230,10 +321,14 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
             nonlocal setup
             setup = time.perf_counter() - t_start
 
+    source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
     with Simulation(road, cfg.scenario) as sim:
-        with EpisodeWriter(out, job.split, job.episode) as writer:
-            observers = [_SetupClock(), CycleRecorder(writer, projector)]
-            result = EpisodeRunner(sim, observers=observers, max_cycles=cfg.max_cycles).run(driver, job.seed)
+        with EpisodeWriter(out, job.split, job.episode, demo_source=source) as writer:
+            recorder = CycleRecorder(writer, projector, labeller)
+            runner = EpisodeRunner(
+                sim, observers=[_SetupClock(), recorder, *observers], max_cycles=cfg.max_cycles
+            )
+            result = runner.run(driver, job.seed)
     n_cycles = result.cycles
     stats = dict(result.stats)
     # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
@@ -247,8 +342,11 @@ def collect_episode(job: EpisodeJob) -> dict[str, Any]:
             "collect/setup_s": round(setup, 3),
             "collect/wall_s": round(wall, 3),
             "collect/cycles_per_s": round(n_cycles / max(wall, 1e-9), 2),
+            "collect/demo_source": source,
         }
     )
+    if labeller is not None:  # how often the learned driver already chose what the expert would
+        stats["collect/expert_agreement"] = round(recorder.agree / max(n_cycles, 1), 4)
     # informational, written after the episode's files (which alone make the episode complete): an
     # episode killed just before this line is complete and lacks only its figures
     write_json(out / job.split / stats_name(job.episode), stats)

@@ -248,3 +248,44 @@ class DemoProjector:
     def n_pending(self) -> int:
         """Number of buffered cycles whose window is not complete yet."""
         return len(self._pending)
+
+
+def expert_projection(
+    cycle_index: int,
+    s: np.ndarray,
+    d: np.ndarray,
+    yaw: np.ndarray,
+    expert_index: int,
+    *,
+    alpha: float = ALPHA,
+    w_yaw: float = W_YAW,
+    lap_length: float | None,
+) -> Projection:
+    """The demonstration of a DAgger cycle: the expert's own selection ``expert_index`` in the cycle's
+    policy set (s, d, yaw: [N, T] route frame), not projected odometry.
+
+    ``distances`` are d(pi^E, pi) of every policy to the expert's policy with the odometry projection's
+    metric (:func:`policy_distance`), so the stored per-policy distances keep their meaning ('how far from
+    the demonstration'); ``demo_distance`` is 0 by construction (the demonstration is in the set). Unlike
+    an odometry window it is complete at once, also in an episode's last cycles.
+    """
+    s = np.asarray(s, dtype=np.float64)
+    n = s.shape[0]
+    if not 0 <= expert_index < n:
+        raise ValueError(f"cycle {cycle_index}: expert index {expert_index} outside 0..{n - 1}")
+    s_ref = float(s[0, 0])
+    rel = (s - s_ref).astype(np.float32)
+    d32, yaw32 = np.asarray(d, np.float32), np.asarray(yaw, np.float32)
+    dist = policy_distance(
+        rel,
+        d32,
+        yaw32,
+        rel[expert_index],
+        d32[expert_index],
+        yaw32[expert_index],
+        alpha=alpha,
+        w_yaw=w_yaw,
+        lap_length=lap_length,
+    )
+    dist[expert_index] = 0.0  # exactly: float rounding of (a - a) is 0 already; stated, not relied on
+    return Projection(int(cycle_index), dist, int(expert_index), 0.0)

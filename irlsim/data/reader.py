@@ -24,13 +24,18 @@ import pyarrow.parquet as pq
 
 from irlsim import N_FEATURES
 from irlsim.data.schema import (
+    DEMO_EXPERT,
+    DEMO_SOURCES,
     META_TABLE,
     META_VERSION,
     SCHEMA_VERSION,
     TABLE_CYCLES,
     TABLE_POLICIES,
     cycles_name,
+    cycles_schema,
+    demo_source_codes,
     policies_name,
+    with_demo_source,
 )
 from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
 from irlsim.errors import IrlsimError
@@ -40,7 +45,7 @@ from irlsim.utils import atomic_path, write_json
 
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
-CACHE_VERSION = 1
+CACHE_VERSION = 2
 
 
 @dataclass(frozen=True)
@@ -58,6 +63,7 @@ class SplitTensors:
         cycle:          [C] int32
         executed_index: [C] int32           index of the policy the driver executed
         labels:         [C, N, 3] bool      collision, offroad, exit (LABEL_NAMES)
+        demo_source:    [C] int8            index into DEMO_SOURCES: 0 odometry (projected), 1 expert (DAgger)
     """
 
     features: np.ndarray
@@ -70,9 +76,12 @@ class SplitTensors:
     cycle: np.ndarray
     executed_index: np.ndarray
     labels: np.ndarray
+    demo_source: np.ndarray = None  # type: ignore[assignment]  # None: all odometry (code 0)
 
     def __post_init__(self) -> None:
         c, n = self.distances.shape
+        if self.demo_source is None:
+            object.__setattr__(self, "demo_source", np.zeros(c, np.int8))
         k = self.control_points.shape[2] if self.control_points.ndim == 4 else -1
         expected = {
             "features": ((c, n, N_FEATURES), np.float32),
@@ -85,6 +94,7 @@ class SplitTensors:
             "cycle": ((c,), np.int32),
             "executed_index": ((c,), np.int32),
             "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
+            "demo_source": ((c,), np.int8),
         }
         for name, (shape, dtype) in expected.items():
             arr = getattr(self, name)
@@ -103,6 +113,11 @@ class SplitTensors:
         return int(self.distances.shape[1])
 
     @property
+    def expert_labelled(self) -> np.ndarray:
+        """[C] bool: cycles whose demonstration is the expert's selection (DAgger), not projected odometry."""
+        return np.asarray(self.demo_source == DEMO_SOURCES.index(DEMO_EXPERT))
+
+    @property
     def has_demo(self) -> np.ndarray:
         """[C] bool: cycles that have a demonstration (the ones to train and evaluate on)."""
         return np.asarray(self.demo_index >= 0)
@@ -113,6 +128,14 @@ class SplitTensors:
 
 
 _ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
+#: per-cycle arrays read straight from the cycles table's column of the same name
+_SMALL_COLUMNS: tuple[tuple[str, Any], ...] = (
+    ("demo_index", np.int64),
+    ("demo_distance", np.float32),
+    ("episode", np.int32),
+    ("cycle", np.int32),
+    ("executed_index", np.int32),
+)
 
 
 def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
@@ -227,11 +250,9 @@ class Dataset:
         tables = []
         for ep in self.episodes(split):
             path = self.cycles_path(split, ep)
-            tables.append(read_parquet(open_parquet(path, TABLE_CYCLES), path))
+            tables.append(with_demo_source(read_parquet(open_parquet(path, TABLE_CYCLES), path)))
             self._check_policy_count(path, tables[-1])
         if not tables:
-            from irlsim.data.schema import cycles_schema
-
             return cycles_schema().empty_table()
         table = pa.concat_tables(tables)
         self._check_cycles(split, table)
@@ -323,13 +344,8 @@ class Dataset:
             "distances": ((c, n), np.float32),
             "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
         }
-        small = {
-            "demo_index": cycles.column("demo_index").to_numpy().astype(np.int64),
-            "demo_distance": cycles.column("demo_distance").to_numpy().astype(np.float32),
-            "episode": cycles.column("episode").to_numpy().astype(np.int32),
-            "cycle": cycles.column("cycle").to_numpy().astype(np.int32),
-            "executed_index": cycles.column("executed_index").to_numpy().astype(np.int32),
-        }
+        small = {name: cycles.column(name).to_numpy().astype(dtype) for name, dtype in _SMALL_COLUMNS}
+        small["demo_source"] = demo_source_codes(cycles.column("demo_source"))
         with _AtomicNpys(folder, specs) as big:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):

@@ -25,9 +25,12 @@ cycles of row group i of the policies file.
 
 from __future__ import annotations
 
+import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 
 from irlsim import N_FEATURES
+from irlsim.errors import IrlsimError
 
 #: bump when a column is added, removed or changes meaning; readers refuse other versions
 SCHEMA_VERSION = 2
@@ -49,6 +52,13 @@ META_VERSION = b"irlsim.schema_version"
 META_TABLE = b"irlsim.table"
 TABLE_CYCLES = "cycles"
 TABLE_POLICIES = "policies"
+
+#: where a cycle's demonstration comes from (cycles column ``demo_source``, since version 2):
+#: ``odometry``: what the driver drove, projected onto the policy set (DemoProjector; expert collection);
+#: ``expert``: the expert's own selection on the same policy set at the learner's state (DAgger labels,
+#: ``irlsim collect --driver``)
+DEMO_SOURCES: tuple[str, ...] = ("odometry", "expert")
+DEMO_ODOMETRY, DEMO_EXPERT = DEMO_SOURCES
 
 #: ego-state keys the writer expects, with their column names in the cycles table
 EGO_KEYS: tuple[str, ...] = ("x", "y", "yaw", "v", "s", "d", "lane")
@@ -84,6 +94,8 @@ def cycles_schema() -> pa.Schema:
             pa.field("executed_index", pa.int32(), nullable=False),
             # situation code (irlsim.data.situations.SITUATION_NAMES), -1 = not labelled; since version 2
             pa.field("situation", pa.int8(), nullable=False),
+            # DEMO_SOURCES: 'odometry' (projected) or 'expert' (DAgger label); since version 2
+            pa.field("demo_source", pa.string(), nullable=False),
         ],
         metadata=_metadata(TABLE_CYCLES),
     )
@@ -129,3 +141,25 @@ def policies_name(episode: int) -> str:
 def stats_name(episode: int) -> str:
     """The episode's driving figures (JSON), written beside its two tables."""
     return f"{episode_stem(episode)}.stats.json"
+
+
+def with_demo_source(table: pa.Table) -> pa.Table:
+    """A cycles table with its ``demo_source`` column; a version-2 file written before the column existed
+    (its demonstrations were all projected odometry, the only source then) gets 'odometry' rows."""
+    if "demo_source" in table.column_names:
+        return table
+    return table.append_column(
+        cycles_schema().field("demo_source"), pa.array([DEMO_ODOMETRY] * table.num_rows, pa.string())
+    )
+
+
+def demo_source_codes(column: pa.ChunkedArray | pa.Array) -> np.ndarray:
+    """[C] int8 indices into DEMO_SOURCES of a ``demo_source`` column; an unknown value is refused."""
+    idx = pc.index_in(column, value_set=pa.array(DEMO_SOURCES, pa.string()))
+    if idx.null_count:
+        bad = pc.filter(column, pc.is_null(idx))[0].as_py()
+        raise IrlsimError(
+            f"demo_source {bad!r} is none of {', '.join(DEMO_SOURCES)}: delete the file and re-run irlsim "
+            "collect to regenerate it"
+        )
+    return np.asarray(idx.to_numpy(zero_copy_only=False), dtype=np.int8)

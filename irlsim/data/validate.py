@@ -42,6 +42,9 @@ def check_columns(schema: pa.Schema, path: Path, table: str, n_control_points: i
     else:
         expected = cycles_schema()
     names = list(schema.names)
+    if table != TABLE_POLICIES and names == expected.names[:-1] and expected.names[-1] == "demo_source":
+        # a version-2 cycles file written before demo_source was added: the reader reads it as 'odometry'
+        expected = pa.schema(list(expected)[:-1])
     if names != expected.names:
         missing = [n for n in expected.names if n not in names]
         extra = [n for n in names if n not in expected.names]

@@ -41,6 +41,8 @@ from irlsim.data.schema import (
     COMPRESSION,
     COMPRESSION_LEVEL,
     CYCLES_PER_ROW_GROUP,
+    DEMO_ODOMETRY,
+    DEMO_SOURCES,
     EGO_KEYS,
     N_CONTROL_POINTS,
     POLICIES_DICTIONARY_COLUMNS,
@@ -96,9 +98,13 @@ class EpisodeWriter:
         episode: int,
         *,
         cycles_per_row_group: int = CYCLES_PER_ROW_GROUP,
+        demo_source: str = DEMO_ODOMETRY,
     ) -> None:
         if cycles_per_row_group < 1:
             raise ValueError(f"cycles_per_row_group must be >= 1, got {cycles_per_row_group}")
+        if demo_source not in DEMO_SOURCES:
+            raise ValueError(f"demo_source must be one of {DEMO_SOURCES}, got {demo_source!r}")
+        self.demo_source = demo_source
         self.episode = int(episode)
         self.cycles_path, self.policies_path = episode_paths(dataset_dir, split, episode)
         self.cycles_per_row_group = int(cycles_per_row_group)
@@ -254,7 +260,7 @@ class EpisodeWriter:
                 self._pol_writer = self._stack.enter_context(
                     _policies_writer(self._pol_tmp, policies_schema(self._k or N_CONTROL_POINTS))
                 )
-            table = build_cycles_table(self.episode, self._rows, self._n or 0)
+            table = build_cycles_table(self.episode, self._rows, self._n or 0, self.demo_source)
             self._stack.close()  # closes the Parquet writer, then renames the policies file
             policies_renamed = True
             with atomic_path(self.cycles_path) as tmp:
@@ -352,9 +358,11 @@ def build_policies_table(
     return pa.Table.from_arrays(columns, schema=policies_schema(k))
 
 
-def build_cycles_table(episode: int, rows: list[tuple[Any, ...]], n_policies: int) -> pa.Table:
+def build_cycles_table(
+    episode: int, rows: list[tuple[Any, ...]], n_policies: int, demo_source: str = DEMO_ODOMETRY
+) -> pa.Table:
     """Cycles rows from (cycle, t, x, y, yaw, v, s, d, lane, target, demo_index, demo_distance, executed,
-    situation)."""
+    situation); every row's ``demo_source`` is ``demo_source`` (one episode has one source)."""
     schema = cycles_schema()
     if rows:
         a = np.array(rows, dtype=np.float64)  # [C, 14]; every value is exactly representable
@@ -376,5 +384,6 @@ def build_cycles_table(episode: int, rows: list[tuple[Any, ...]], n_policies: in
         demo_index >= 0,
         a[:, 12].astype(np.int32),
         a[:, 13].astype(np.int8),
+        np.full(c, demo_source, dtype=object),
     ]
     return pa.Table.from_arrays([pa.array(col) for col in columns], schema=schema)

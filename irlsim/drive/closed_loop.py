@@ -83,7 +83,7 @@ class DriveModel:
 
 
 def model_names() -> tuple[str, ...]:
-    from irlsim.models.registry import MODEL_NAMES  # lazy: torch (~1.5 s), not needed to drive the expert
+    from irlsim.models.registry import MODEL_NAMES  # lazy: pulls torch (~1.5 s); the expert drives without it
 
     return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
 
@@ -243,7 +243,11 @@ class _Decider:
     ``last_policy_set``, ``last_index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the
     cycle (a :class:`~irlsim.rollout.PolicyDriver`)."""
 
-    def __init__(self, model: DriveModel, road: Road, cfg: CollectConfig, safety: bool):
+    def __init__(
+        self, model: DriveModel, road: Road, cfg: CollectConfig, safety: bool, planner: Planner | None = None
+    ):
+        """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
+        expert's, so the expert labels the very set the learner chose from); default: its own."""
         self.model = model
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
@@ -256,7 +260,7 @@ class _Decider:
             self.driver = ExpertDriver(road, cfg.planner)
             self.planner = self.driver.planner
         else:
-            self.planner = Planner(road, cfg.planner)
+            self.planner = planner if planner is not None else Planner(road, cfg.planner)
             self.driver = ThetaDriver(self.planner, self._theta, safe=safety)
 
     def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:

@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.drive.scorecard import summarize_scores
+
 #: the keys every episode record has (besides the simulator's ``sim/...``)
 EPISODE_KEYS: tuple[str, ...] = (
     "drive/model",
@@ -169,8 +171,6 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
         if len(inference_ms)
         else max(e["drive/inference_ms_p90"] for e in episodes)
     )
-    from irlsim.drive.scorecard import summarize_scores
-
     return {
         "drive/model": episodes[0]["drive/model"],
         "drive/episodes": len(episodes),

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.drive import scorecard as sc
+from irlsim.road import HALF_ROAD
 
 
 class ScorecardObserver:
@@ -71,8 +72,6 @@ class ScorecardObserver:
 
     def scorecard(self, stats: dict[str, Any], expert: tuple[Any, Any] | None = None) -> dict[str, Any]:
         """The episode's ``score/`` record from the recording and the simulator's ``sim/`` counts."""
-        from irlsim.road import HALF_ROAD
-
         ego, veh = self.arrays()
         cfg = self.sim.cfg
         return sc.episode_scorecard(
@@ -101,8 +100,6 @@ class ScorecardObserver:
         within the horizon), ``ttc_ok`` (share of those steps with TTC >= 0.95 s), ``overspeed`` [m/s] (max),
         ``intrusion_m`` (max box intrusion beyond the loop's edge, exit ramps exempt), ``comfort_ok`` (share
         of those steps within all comfort bounds; derivatives over the last steps recorded)."""
-        from irlsim.road import HALF_ROAD
-
         steps = max(int(steps), 1)
         start = max(len(self.ego) - steps, 0)
         ego, veh = self.arrays(start)

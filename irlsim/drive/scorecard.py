@@ -49,6 +49,8 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.sim.collision import box_centers, obb_collide
+
 #: nuPlan's comfort bounds: quantity -> (low, high)
 COMFORT_BOUNDS: dict[str, tuple[float, float]] = {
     "lon_acc": (-4.05, 2.40),  # [m/s^2]
@@ -124,8 +126,6 @@ def time_to_collision(
     [S]: the first tau on the grid {0, dt, ..., horizon} at which the constant-velocity boxes overlap, over
     the vehicles ahead of the ego; ``inf`` when none does within the horizon or the ego stands.
     """
-    from irlsim.sim.collision import box_centers, obb_collide
-
     ego = np.asarray(ego, dtype=np.float64)
     veh = np.asarray(vehicles, dtype=np.float64)
     s_steps = ego.shape[0]

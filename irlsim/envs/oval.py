@@ -58,7 +58,20 @@ import numpy as np
 from gymnasium import spaces
 
 from irlsim import N_FEATURES
+from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig
+from irlsim.drive.closed_loop import EXPERT, load_drive_model
+from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
+from irlsim.planner.expert import ExpertDriver
+from irlsim.planner.planner import Planner
+from irlsim.road import LANE_WIDTH, load_road
+from irlsim.rollout.runner import EpisodeRunner
+from irlsim.sim.simulation import MAX_SEED, Simulation
+from irlsim.utils import seed_everything
+from irlsim.viz.figure import new_figure
+from irlsim.viz.frames import cycle_axes, cycle_figure_size, draw_cycle
+from irlsim.viz.scene import cycle_window, make_frame
 
 NO_STOP_LINE = 1e4  # [m] mission[3] when no stop line is active
 LAT_RANGE = 8.0  # [m] of the continuous action's lateral target
@@ -76,8 +89,6 @@ def normalised_value(value: np.ndarray, index: int) -> float:
 
 def continuous_to_index(action: np.ndarray, actions: np.ndarray, control_points: np.ndarray) -> int:
     """The policy nearest to (target acceleration, lateral target): see the module docstring."""
-    from irlsim.road import LANE_WIDTH
-
     a = np.asarray(action, dtype=np.float64).reshape(-1)
     acc = actions[:, 0, 0].astype(np.float64)
     lat = control_points[:, -1, 0].astype(np.float64)
@@ -89,8 +100,6 @@ def _resolve_reward(reward: Any, runs: Any, n_policies: int) -> tuple[str, Any]:
     """(name, theta_fn(policy_set, obs) -> theta, with reset()) from the ``reward`` argument."""
     if callable(reward) and not isinstance(reward, (str, Path)):
         return getattr(reward, "__name__", "callable"), _CallableReward(reward)
-    from irlsim.drive.closed_loop import EXPERT, load_drive_model
-
     spec = str(reward)
     if spec == EXPERT:
         raise IrlsimError(
@@ -155,14 +164,6 @@ class OvalEnv(gym.Env):
         continuous: bool = False,
         render_mode: str | None = None,
     ):
-        from irlsim.config import load_config
-        from irlsim.data.collection import CollectConfig
-        from irlsim.drive.recorder import ScorecardObserver
-        from irlsim.planner.planner import Planner
-        from irlsim.road import load_road
-        from irlsim.rollout.runner import EpisodeRunner
-        from irlsim.sim.simulation import Simulation
-
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise IrlsimError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if max_cycles < 0:
@@ -218,9 +219,6 @@ class OvalEnv(gym.Env):
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[dict, dict]:
-        from irlsim.sim.simulation import MAX_SEED
-        from irlsim.utils import seed_everything
-
         super().reset(seed=seed)
         ep_seed = int(seed) if seed is not None else int(self.np_random.integers(0, MAX_SEED))
         seed_everything(ep_seed)
@@ -274,8 +272,6 @@ class OvalEnv(gym.Env):
     def expert_action(self) -> int:
         """The index the expert (hand-tuned theta plus its model-based selection) picks in this cycle;
         stepping it every cycle drives the episode ``irlsim sim --driver expert`` drives."""
-        from irlsim.planner.expert import ExpertDriver
-
         if self.policy_set is None:
             raise RuntimeError("no cycle to choose in: call reset()")
         if self._expert is None:
@@ -335,10 +331,6 @@ def cycle_picture(
     road: Any, name: str, obs: Any, ps: Any, index: int, theta: np.ndarray, scenario: Any
 ) -> np.ndarray:
     """The cycle picture of the drive stage as a [H, W, 3] uint8 array."""
-    from irlsim.viz.figure import new_figure
-    from irlsim.viz.frames import cycle_axes, cycle_figure_size, draw_cycle
-    from irlsim.viz.scene import cycle_window, make_frame
-
     frame = make_frame(road, name, 0, obs, ps, index, theta, {}, (scenario.ego_length, scenario.ego_width))
     win = cycle_window(frame)
     fig = new_figure(cycle_figure_size(win, width=6.0))

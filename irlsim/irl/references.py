@@ -22,6 +22,7 @@ import torch
 
 from irlsim import N_FEATURES
 from irlsim.irl.objectives import evaluate_thetas
+from irlsim.planner.expert import THETA_EXPERT
 
 #: the oracle's optimiser: Adam steps, learning rate, L2 weight (in per-cycle standardised feature units)
 ORACLE_STEPS = 200
@@ -32,8 +33,6 @@ ORACLE_L2 = 1e-3
 def expert_theta_metrics(split: Any, theta: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Per-cycle metrics of one fixed theta [15] (default: the expert's ``THETA_EXPERT``)."""
     if theta is None:
-        from irlsim.planner.expert import THETA_EXPERT
-
         theta = THETA_EXPERT
     theta = np.asarray(theta, dtype=np.float64).reshape(N_FEATURES)
     return evaluate_thetas(np.tile(theta, (split.features.shape[0], 1)), split)

@@ -273,6 +273,12 @@ class ExpertDriver:
         self._heading_lane = int(final_lane[idx])
         return idx
 
+    def follow(self, ps: PolicySet, index: int) -> None:
+        """Another driver executed policy ``index`` of ``ps`` (DAgger: a learned reward drives, the expert
+        labels): the lane the car now heads to is that policy's final lane, so the expert's hysteresis
+        (``keep_bonus``) applies to where the car is going, not to where the expert's label went."""
+        self._heading_lane = int(ps.lane[index, -1])
+
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
         idx = self.select(ps, obs)

@@ -10,16 +10,16 @@ import torch
 from torch import nn
 
 from irlsim import FEATURE_NAMES
+from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.devices import forward, to_device, to_numpy
 from irlsim.errors import IrlsimError
+from irlsim.utils import progress
 
 
 def as_dataset(dataset: Any) -> Any:
     """A dataset object (anything with ``split_tensors(name)``), or a path opened with the data reader."""
     if isinstance(dataset, (str, Path)):
-        from irlsim.data.reader import open_dataset  # lazy: the data layer is optional for the math
-
         return open_dataset(dataset)
     return dataset
 
@@ -94,8 +94,6 @@ def predict_split(
 
     -> {'theta': [C, 15] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}.
     """
-    from irlsim.utils import progress
-
     model.eval()
     n, n_policies = split.features.shape[:2]
     built_for = getattr(model, "n_policies", n_policies)

@@ -12,6 +12,7 @@ from typing import Any
 import torch
 
 from irlsim import FEATURE_NAMES
+from irlsim.config import from_dict
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import MODEL_NAMES, ModelConfig
@@ -146,8 +147,6 @@ def expected_identity(path: str | Path) -> tuple[str | None, int | None]:
 
 
 def model_config_from(d: dict[str, Any]) -> ModelConfig:
-    from irlsim.config import from_dict
-
     return from_dict(ModelConfig, d)
 
 

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim.data.situations import SITUATION_NAMES
 from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.irl.breakdown import CycleContext, breakdown_markdown, row_breakdown
@@ -33,6 +34,7 @@ from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle
 from irlsim.irl.stability import temporal_weight_summary
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
+from irlsim.planner.expert import THETA_EXPERT
 from irlsim.train.batching import as_dataset, check_split_shape, get_split, predict_split
 from irlsim.train.checkpoint import model_config_from
 from irlsim.train.layout import METRICS_NAME, STAGE_FOLDERS, find_checkpoint
@@ -250,16 +252,12 @@ def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
     if not hasattr(dataset, "read_cycles"):
         return None
     horizon = float(((dataset.manifest.get("config") or {}).get("planner") or {}).get("horizon", 5.0))
-    from irlsim.data.situations import SITUATION_NAMES
-
     return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon, SITUATION_NAMES)
 
 
 def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> list[dict[str, Any]]:
     """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``);
     only 'random policy' if not ``full``."""
-    from irlsim.planner.expert import THETA_EXPERT
-
     refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = []
     if full:
         oracle, oracle_thetas = oracle_metrics(data)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from irlsim.data.situations import SITUATION_NAMES
+from irlsim.data.situations import LANE_CHANGE, SITUATION_NAMES, STOP_APPROACH
 from irlsim.viz.figure import new_figure, save_figure
 from irlsim.viz.frames import FONT
 
@@ -103,8 +103,6 @@ def save_situation_strips(
 ) -> dict[str, str]:
     """``temporal_<model>_<situation>.png`` strips of a temporal model over the split's first stop-line
     approach and first lane change; returns {'strip_<situation>': file name} of those drawn."""
-    from irlsim.data.situations import LANE_CHANGE, STOP_APPROACH
-
     out = {}
     for code, label in ((STOP_APPROACH, "stop_approach"), (LANE_CHANGE, "lane_change")):
         win = onset_window(situation, episode, code)

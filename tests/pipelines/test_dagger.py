@@ -1,0 +1,278 @@
+"""DAgger in real SUMO at a tiny size: ``irlsim collect --driver`` (a learned reward drives, the expert
+labels), the ``demo_source`` column, round seeds, aggregation and ``irlsim dagger`` end to end."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from irlsim.cli import main
+from irlsim.config import load_config
+from irlsim.data.collection import (
+    MAX_DAGGER_ROUND,
+    SPLITS,
+    CollectConfig,
+    EpisodeJob,
+    collect_episode,
+)
+from irlsim.data.reader import open_dataset
+from irlsim.drive.dagger import dagger_driver_factory
+from irlsim.errors import IrlsimError
+from irlsim.planner.expert import ExpertDriver
+from irlsim.rollout import ObserverBase
+from irlsim.train.predictor import RewardPredictor
+from tests.conftest import TINY_COLLECT
+
+MODEL = "PACNN+S"
+
+
+def _collect_toml(path: Path) -> Path:
+    """The tiny dataset's collect config as a file (TINY_COLLECT's overrides on configs/collect/tiny.toml)."""
+    sets = dict(TINY_COLLECT[i + 1].split("=", 1) for i in range(0, len(TINY_COLLECT), 2))
+    top = "\n".join(f"{k} = {v}" for k, v in sets.items() if "." not in k)
+    text = (
+        f"{top}\n[scenario]\nn_vehicles = {sets['scenario.n_vehicles']}\nlaps = 1\nmax_time = 120.0\n"
+        f"[planner]\nn_policies = {sets['planner.n_policies']}\n"
+    )
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def learner(tiny_dataset, tmp_path_factory):
+    """(collect config path, runs folder) of a tiny PACNN+S trained on the expert's tiny dataset."""
+    root = tmp_path_factory.mktemp("dagger")
+    runs = root / "runs"
+    rc = main(
+        ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", str(tiny_dataset)]
+        + ["--out", str(runs), "--set", f"models=['{MODEL}']"]
+    )
+    assert rc == 0
+    return _collect_toml(root / "collect.toml"), runs
+
+
+@pytest.fixture(scope="module")
+def dagger_run(tiny_dataset, learner, tmp_path_factory):
+    """(out folder, stdout) of one tiny DAgger round: drive, label, aggregate, retrain."""
+    collect_cfg, runs = learner
+    out = tmp_path_factory.mktemp("dagger_rounds") / "dagger"
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = main(
+            [
+                "dagger",
+                "--config",
+                "configs/dagger/tiny.toml",
+                "--data",
+                str(tiny_dataset),
+                "--runs",
+                str(runs),
+            ]
+            + ["--out", str(out), "--set", f"collect_config='{collect_cfg}'"]
+        )
+    assert rc == 0, buf.getvalue()[-3000:]
+    return out, buf.getvalue()
+
+
+def _cycles(folder: Path) -> pd.DataFrame:
+    return pd.concat([pd.read_parquet(p) for p in sorted(folder.glob("*/*.cycles.parquet"))])
+
+
+def test_dagger_round_end_to_end(tiny_dataset, learner, dagger_run):
+    out, stdout = dagger_run
+    data, runs = out / "round_1" / "data", out / "round_1" / "runs"
+    manifest = json.loads((data / "manifest.json").read_text())
+    assert manifest["complete"] and manifest["config"]["dagger_round"] == 1
+    ckpt = learner[1] / "stage1" / MODEL / "checkpoint.pt"
+    assert manifest["driver"]["model"] == MODEL
+    assert manifest["driver"]["checkpoint"] == str(ckpt.resolve())
+    import hashlib
+
+    assert manifest["driver"]["sha256"] == hashlib.sha256(ckpt.read_bytes()).hexdigest()
+    # labelled by the expert, never mixed up with the projected odometry of the expert's own data
+    assert set(_cycles(data)["demo_source"]) == {"expert"}
+    assert set(_cycles(tiny_dataset)["demo_source"]) == {"odometry"}
+    # retrained on the aggregate of both folders: the checkpoint names both datasets
+    new = runs / "stage1" / MODEL / "checkpoint.pt"
+    assert new.is_file()
+    summary = json.loads((runs / "stage1" / "summary.json").read_text())
+    assert summary["data"] == [str(tiny_dataset), str(data)]
+    record = json.loads((out / "round_1" / "round.json").read_text())
+    assert record["trained_on"] == [str(tiny_dataset), str(data)]
+    assert f"dagger: round 1 wrote {data}" in stdout
+    # the training reader exposes demo_source: the aggregate's train split holds both kinds, in order
+    from irlsim.data.aggregate import open_datasets
+
+    agg = open_datasets([tiny_dataset, data])
+    tr = agg.split_tensors("train")
+    n_odo = open_dataset(tiny_dataset).split_tensors("train").n_cycles
+    assert (tr.demo_source[:n_odo] == 0).all() and (tr.demo_source[n_odo:] == 1).all()
+    assert tr.expert_labelled.sum() == tr.n_cycles - n_odo > 0
+    assert len(set(tr.episode[:n_odo]) & set(tr.episode[n_odo:])) == 0  # histories never span folders
+    # evaluated on the aggregate it was trained on (its test split is the expert data's)
+    ev = out / "eval"
+    assert (
+        main(["evaluate", "--data", str(tiny_dataset), str(data), "--runs", str(runs), "--out", str(ev)]) == 0
+    )
+    assert (ev / "results.json").is_file()
+    # finished rounds are skipped: nothing is collected or trained again
+    mtime = new.stat().st_mtime_ns
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        rc = main(
+            ["dagger", "--config", "configs/dagger/tiny.toml", "--data", str(tiny_dataset), "--runs"]
+            + [str(learner[1]), "--out", str(out), "--set", f"collect_config='{learner[0]}'"]
+        )
+    assert rc == 0 and "round 1 finished before" in buf.getvalue()
+    assert new.stat().st_mtime_ns == mtime
+
+
+def test_round_seeds_are_disjoint_from_the_expert_data(tiny_dataset, dagger_run):
+    out, _ = dagger_run
+    expert = json.loads((tiny_dataset / "manifest.json").read_text())["seeds"]
+    dagger = json.loads((out / "round_1" / "data" / "manifest.json").read_text())["seeds"]
+    used = {s for v in expert.values() for s in v}
+    new = {s for v in dagger.values() for s in v}
+    assert new and not (used & new)
+    # the rule at its limits: any base seed, every round, the largest episode counts
+    big = {f"{s}_episodes": 10_000 for s in SPLITS}
+    seen: dict[int, tuple[int, int]] = {}
+    for base in (0, 1):
+        for r in (0, 1, 2, MAX_DAGGER_ROUND):
+            cfg = CollectConfig(seed=base, dagger_round=r, **big)
+            cfg.validate()
+            for s in SPLITS:
+                for _, seed in cfg.episodes(s):
+                    assert seen.setdefault(seed, (base, r)) == (base, r), seed
+    with pytest.raises(IrlsimError, match="dagger_round"):
+        CollectConfig(dagger_round=MAX_DAGGER_ROUND + 1).validate()
+
+
+class _Observations(ObserverBase):
+    def __init__(self):
+        self.obs = []
+
+    def on_cycle(self, sim, cycle):
+        self.obs.append(cycle.obs)
+
+
+def test_labels_come_from_the_expert_at_the_learners_states(learner, road, tmp_path):
+    collect_cfg, runs = learner
+    cfg = load_config(CollectConfig, collect_cfg, {"dagger_round": 1})
+    ckpt = str((runs / "stage1" / MODEL / "checkpoint.pt").resolve())
+    seen = _Observations()
+    job = EpisodeJob(str(tmp_path), "train", 0, 300_000, cfg, ckpt)
+    stats = collect_episode(job, dagger_driver_factory(ckpt, cfg.planner.n_policies), observers=[seen])
+    cyc = pd.read_parquet(tmp_path / "train" / "episode_00000.cycles.parquet")
+    pol = pd.read_parquet(tmp_path / "train" / "episode_00000.policies.parquet")
+    n = cfg.planner.n_policies
+    assert len(cyc) == len(seen.obs) == stats["collect/cycles"] > 10
+    feats = np.stack(pol["features"].to_numpy()).reshape(len(cyc), n, -1)
+    dist = pol["distance"].to_numpy().reshape(len(cyc), n)
+    # computed again, independently: a fresh expert and a fresh model on each recorded state
+    expert = ExpertDriver(road, cfg.planner)
+    model = RewardPredictor(ckpt)
+    differs = 0
+    for k, obs in enumerate(seen.obs):
+        ps = expert.planner.plan(obs)
+        np.testing.assert_allclose(feats[k], ps.features.astype(np.float32), rtol=1e-6)  # the same set
+        theta, _ = model.predict(ps.features, ps.control_points, ps.actions)
+        learned = int(np.argmax(ps.value(theta)))
+        label = expert.select(ps, obs)
+        assert cyc["executed_index"].iloc[k] == learned  # the learned reward drove
+        assert cyc["demo_index"].iloc[k] == label  # the expert labelled, on the same set and state
+        assert cyc["demo_distance"].iloc[k] == 0.0 and dist[k, label] == 0.0
+        differs += int(label != learned)
+        expert.follow(ps, learned)
+        if k + 1 < len(seen.obs):  # the next state is where the learner's policy led, not the expert's
+            st = expert.planner.trajectory(learned).state(cfg.scenario.steps_per_cycle)
+            assert seen.obs[k + 1].ego.s == pytest.approx(st.s, abs=1e-6)
+            assert cyc["ego_s"].iloc[k + 1] == pytest.approx(st.s, rel=1e-6)
+    assert differs > 0  # else this test could not tell the labels from the executed policies
+    assert set(cyc["demo_source"]) == {"expert"}
+    assert stats["collect/expert_agreement"] == pytest.approx(1 - differs / len(cyc), abs=1e-4)
+
+
+def test_dagger_collection_same_seed_same_bytes(learner, tmp_path):
+    collect_cfg, runs = learner
+    args = ["collect", "--config", str(collect_cfg), "--driver", MODEL, "--runs", str(runs)]
+    args += ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0"]
+    for name in ("a", "b"):
+        assert main([*args, "--out", str(tmp_path / name)]) == 0
+    for f in sorted((tmp_path / "a" / "train").glob("*.parquet")):
+        assert f.read_bytes() == (tmp_path / "b" / "train" / f.name).read_bytes(), f.name
+
+
+def test_dagger_collection_bad_input_is_one_line(learner, dagger_run, tmp_path, capsys):
+    collect_cfg, runs = learner
+    base = ["collect", "--config", str(collect_cfg), "--out", str(tmp_path / "x")]
+    cases = [
+        (["--round", "2"], "--driver"),
+        (["--driver", "expert"], "trained model"),
+        (["--driver", MODEL], "--runs"),
+        (["--driver", MODEL, "--runs", str(runs), "--round", "0"], "--round must be >= 1"),
+        (["--set", "dagger_round=1"], "needs a learned driver"),
+    ]
+    for extra, needle in cases:
+        capsys.readouterr()
+        assert main([*base, *extra]) == 2, extra
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and needle in err, err
+    assert not (tmp_path / "x").exists()
+    # resuming a round's folder with another driver is refused (its labels would be mixed)
+    other = tmp_path / "other" / MODEL
+    other.mkdir(parents=True)
+    shutil.copy(runs / "stage1" / MODEL / "checkpoint.pt", other / "checkpoint.pt")
+    out, _ = dagger_run
+    data = out / "round_1" / "data"
+    before = sorted(p.stat().st_mtime_ns for p in data.rglob("*.parquet"))
+    rc = main(
+        [
+            "collect",
+            "--config",
+            str(collect_cfg),
+            "--out",
+            str(data),
+            "--driver",
+            str(other / "checkpoint.pt"),
+        ]
+        + ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0"]
+    )
+    err = capsys.readouterr().err
+    assert rc == 2 and "driver" in err, err
+    assert sorted(p.stat().st_mtime_ns for p in data.rglob("*.parquet")) == before
+
+
+def test_reader_without_or_with_a_bad_demo_source(tiny_dataset, tmp_path):
+    """A version-2 cycles file written before the column reads as 'odometry'; an unknown value is refused."""
+    ds = tmp_path / "old"
+    shutil.copytree(tiny_dataset, ds, ignore=shutil.ignore_patterns(".cache", ".lock"))
+    files = sorted(ds.glob("*/*.cycles.parquet"))
+    for f in files:
+        t = pq.read_table(f)
+        pq.write_table(t.drop_columns(["demo_source"]).replace_schema_metadata(t.schema.metadata), f)
+    d = open_dataset(ds)
+    assert set(d.read_cycles("train")["demo_source"]) == {"odometry"}
+    assert (d.split_tensors("train").demo_source == 0).all()
+    t = pq.read_table(files[0])
+    bad = t.append_column("demo_source", pa.array(["teacher"] * t.num_rows, pa.string()))
+    pq.write_table(bad.replace_schema_metadata(t.schema.metadata), files[0])
+    split = files[0].parent.name
+    with pytest.raises(IrlsimError, match="demo_source 'teacher'"):
+        open_dataset(ds).split_tensors(split)
+
+
+def test_aggregate_refuses_the_same_folder_twice(tiny_dataset):
+    from irlsim.data.aggregate import open_datasets
+
+    with pytest.raises(IrlsimError, match="given twice"):
+        open_datasets([tiny_dataset, tiny_dataset])
