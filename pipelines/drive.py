@@ -281,6 +281,7 @@ def _run(args: argparse.Namespace, device: str) -> int:
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
     models = [load_drive_model(s, args.runs, cfg.planner.n_policies, args.threads) for s in specs]
+    _check_seeds_unseen(models, args.seed, args.episodes)
     runs = str(args.runs.resolve()) if args.runs else None
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
@@ -303,6 +304,24 @@ def _run(args: argparse.Namespace, device: str) -> int:
 
     _write_outputs(args, specs, cfg, out, summaries, episodes, device)
     return 0
+
+
+def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:
+    """Refuse (one line) episode seeds seed..seed+episodes-1 that are seeds of the dataset a learned model
+    was trained on (any split: train, validation or test), read from its checkpoint's ``dataset_seeds``.
+    Checkpoints without them (trained on an in-memory dataset) are not checked."""
+    asked = set(range(seed, seed + episodes))
+    for model in models:
+        loaded = getattr(model.predictor, "loaded", None)
+        trained = set(loaded.checkpoint.get("dataset_seeds") or ()) if loaded is not None else set()
+        overlap = sorted(asked & trained)
+        if overlap:
+            shown = ", ".join(map(str, sorted(trained)[:8])) + (", ..." if len(trained) > 8 else "")
+            raise IrlsimError(
+                f"--seed {seed} --episodes {episodes}: episode seed(s) {', '.join(map(str, overlap[:5]))} "
+                f"are seeds of the data {model.name} was trained on ({shown}): evaluate on unseen seeds, "
+                "choose another --seed"
+            )
 
 
 def _drive_jobs(args: argparse.Namespace, jobs: list[Any], out: Path) -> dict[str, Any] | None:

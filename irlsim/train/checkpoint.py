@@ -35,6 +35,17 @@ def dataset_identity(dataset: Any) -> str | None:
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
+def dataset_seeds(dataset: Any) -> list[int] | None:
+    """Every episode seed of a dataset, all splits (from its manifest), sorted; None without a manifest.
+    Stored in checkpoints so that ``irlsim drive`` can refuse evaluation seeds the model was trained,
+    validated or tested on."""
+    manifest = getattr(dataset, "manifest", None)
+    seeds = manifest.get("seeds") if isinstance(manifest, dict) else None
+    if not isinstance(seeds, dict):
+        return None
+    return sorted({int(x) for split in seeds.values() if isinstance(split, list) for x in split})
+
+
 def save_checkpoint(path: Path, payload: dict[str, Any]) -> None:
     """torch.save ``payload`` atomically (temporary file, then rename).
 

@@ -116,9 +116,11 @@ class TrainingRun:
         ckpt: dict[str, Any] | None,
         build: Callable[[], nn.Module],
         dataset: str | None = None,
+        seeds: list[int] | None = None,
     ) -> None:
         self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
         self.dataset = dataset
+        self.seeds = seeds  # every episode seed of the training dataset (drive refuses them)
         self.resumes: list[dict[str, Any]] = list(ckpt.get("resumes") or []) if ckpt else []
         self.ckpt_path = run_dir / CHECKPOINT_NAME
         torch.manual_seed(cfg.seed)
@@ -149,6 +151,7 @@ class TrainingRun:
         out = stage_payload(epochs_done)
         out["metrics"] = [{k: v for k, v in r.items() if not k.startswith("time/")} for r in out["metrics"]]
         out["dataset"] = self.dataset
+        out["dataset_seeds"] = self.seeds
         out["resumes"] = self.resumes
         return out
 

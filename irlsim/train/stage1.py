@@ -33,7 +33,7 @@ from irlsim.models.networks import PACNN
 from irlsim.models.normalization import FeatureStats, compute_feature_stats
 from irlsim.models.registry import SEMI_SUPERVISED, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, gather_batch, get_split, predict_split
-from irlsim.train.checkpoint import dataset_identity, read_checkpoint
+from irlsim.train.checkpoint import dataset_identity, dataset_seeds, read_checkpoint
 from irlsim.train.config import Stage1Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loop import TrainingRun
@@ -85,7 +85,14 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
     stats = FeatureStats.from_dict(ckpt["feature_stats"]) if ckpt else compute_feature_stats(train, n_cycles)
     ident = dataset_identity(dataset)
     run = TrainingRun(
-        name, 1, cfg, run_dir, ckpt, lambda: build_model(name, cfg.model, n_policies, stats), ident
+        name,
+        1,
+        cfg,
+        run_dir,
+        ckpt,
+        lambda: build_model(name, cfg.model, n_policies, stats),
+        ident,
+        dataset_seeds(dataset),
     )
     model = run.model
     semi = name in SEMI_SUPERVISED

@@ -29,7 +29,13 @@ from irlsim.models.networks import PTACNN
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, get_split, predict_split, to_tensor
-from irlsim.train.checkpoint import dataset_identity, expected_identity, inference_state, read_checkpoint
+from irlsim.train.checkpoint import (
+    dataset_identity,
+    dataset_seeds,
+    expected_identity,
+    inference_state,
+    read_checkpoint,
+)
 from irlsim.train.config import Stage2Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loading import rebuild_stage1
@@ -148,7 +154,14 @@ def _train_one_stage2(
         )
     fstats = FeatureStats.from_dict(base_ckpt["feature_stats"])
     run = TrainingRun(
-        name, 2, cfg, out_dir / name, ckpt, lambda: build_model(name, model_cfg, 1, fstats), ident
+        name,
+        2,
+        cfg,
+        out_dir / name,
+        ckpt,
+        lambda: build_model(name, model_cfg, 1, fstats),
+        ident,
+        dataset_seeds(dataset),
     )
     model = run.model
 

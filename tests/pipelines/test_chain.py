@@ -155,3 +155,24 @@ def test_stage_errors_are_one_line(demo, tmp_path, capsys):
     _fails_with_one_line(
         capsys, ["evaluate", "--data", str(data), "--runs", str(tmp_path / "runs")], "corrupt"
     )
+
+
+def test_drive_refuses_seeds_of_the_training_data(demo, tmp_path, capsys):
+    """Every checkpoint stores the episode seeds of its dataset (all splits, from the manifest), and
+    `irlsim drive` refuses evaluation seeds among them, for stage 1 and stage 2 models alike."""
+    import torch
+
+    data, runs, _ = demo
+    manifest = json.loads((data / "manifest.json").read_text())
+    seeds = sorted({s for split in manifest["seeds"].values() for s in split})
+    for stage, name in ((1, "LIRL"), (2, "PTACNN+S")):
+        ckpt = torch.load(runs / f"stage{stage}" / name / "checkpoint.pt", weights_only=True)
+        assert ckpt["dataset_seeds"] == seeds
+        drive = ["drive", "--runs", str(runs), "--model", name, "--config", "configs/collect/tiny.toml"]
+        _fails_with_one_line(
+            capsys,
+            [*drive, "--seed", str(seeds[0]), "--episodes", "1", "--out", str(tmp_path / "d")],
+            f"episode seed(s) {seeds[0]} ",
+            f"{name} was trained on",
+        )
+        assert not (tmp_path / "d" / "drive.json").exists()
