@@ -53,3 +53,25 @@ def tiny_dataset(tmp_path_factory):
     out = tmp_path_factory.mktemp("data") / "tiny"
     assert main(["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT]) == 0
     return out
+
+
+def train_synthetic_runs(dataset, runs):
+    """The layout 'irlsim train --out RUNS' writes, from an in-memory dataset: RUNS/stage1/{LIRL,PACNN}/
+    and RUNS/stage2/PTACNN/, one epoch each (smoke configs)."""
+    import dataclasses
+
+    from irlsim.train import Stage1Config, Stage2Config, train_stage1, train_stage2
+    from irlsim.train.layout import stage_dir
+
+    cfg1 = dataclasses.replace(Stage1Config.smoke(), models=("LIRL", "PACNN"), epochs=1)
+    train_stage1(dataset, cfg1, stage_dir(runs, 1))
+    cfg2 = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1)
+    train_stage2(dataset, cfg2, stage_dir(runs, 2), stage_dir(runs, 1))
+    return runs
+
+
+def one_line(e) -> str:
+    """The message of a raised IrlsimError (pytest.ExceptionInfo), asserted to be one non-empty line."""
+    msg = str(e.value)
+    assert msg and "\n" not in msg
+    return msg

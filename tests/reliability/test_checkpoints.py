@@ -14,6 +14,7 @@ from irlsim.outputs import os_error_message
 from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
 from irlsim.train.layout import stage_dir
 from irlsim.train.synthetic import make_synthetic_dataset
+from tests.conftest import one_line, train_synthetic_runs
 
 
 @pytest.fixture(scope="module")
@@ -23,18 +24,7 @@ def dataset():
 
 @pytest.fixture(scope="module")
 def runs(dataset, tmp_path_factory):
-    runs = tmp_path_factory.mktemp("runs")
-    cfg1 = dataclasses.replace(Stage1Config.smoke(), models=("LIRL", "PACNN"), epochs=1)
-    train_stage1(dataset, cfg1, stage_dir(runs, 1))
-    cfg2 = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1)
-    train_stage2(dataset, cfg2, stage_dir(runs, 2), stage_dir(runs, 1))
-    return runs
-
-
-def _one_line(e: pytest.ExceptionInfo) -> str:
-    msg = str(e.value)
-    assert msg and "\n" not in msg
-    return msg
+    return train_synthetic_runs(dataset, tmp_path_factory.mktemp("runs"))
 
 
 def _copy(runs: Path, tmp_path: Path) -> Path:
@@ -55,7 +45,7 @@ def test_evaluate_refuses_a_checkpoint_in_another_models_folder(runs, dataset, t
     shutil.copy(r / src / "checkpoint.pt", r / dst / "checkpoint.pt")
     with pytest.raises(IrlsimError) as e:
         evaluate_models(dataset, r, tmp_path / "eval")
-    assert needle in _one_line(e) and str(r / dst / "checkpoint.pt") in str(e.value)
+    assert needle in one_line(e) and str(r / dst / "checkpoint.pt") in str(e.value)
     assert not (tmp_path / "eval").exists()
 
 
@@ -65,7 +55,7 @@ def test_a_stage_folder_holds_its_stage(runs, tmp_path):
     shutil.copy(r / "stage2" / "PTACNN" / "checkpoint.pt", r / "stage1" / "PTACNN" / "checkpoint.pt")
     with pytest.raises(IrlsimError) as e:
         load_model(r / "stage1" / "PTACNN" / "checkpoint.pt")
-    assert "stage-2 checkpoint in a stage-1 folder" in _one_line(e)
+    assert "stage-2 checkpoint in a stage-1 folder" in one_line(e)
 
 
 def test_drive_refuses_a_copied_checkpoint(runs, tmp_path):
@@ -75,7 +65,7 @@ def test_drive_refuses_a_copied_checkpoint(runs, tmp_path):
     shutil.copy(r / "stage1" / "LIRL" / "checkpoint.pt", r / "stage1" / "PACNN" / "checkpoint.pt")
     with pytest.raises(IrlsimError) as e:
         load_drive_model("PACNN", r)
-    assert "holds LIRL, not PACNN" in _one_line(e)
+    assert "holds LIRL, not PACNN" in one_line(e)
     assert load_drive_model("LIRL", r).name == "LIRL"  # the right one still loads
 
 
@@ -84,7 +74,7 @@ def test_stage2_refuses_a_base_trained_on_another_dataset(runs, tmp_path):
     cfg2 = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1)
     with pytest.raises(IrlsimError) as e:
         train_stage2(other, cfg2, tmp_path / "s2", stage_dir(runs, 1))
-    assert "was trained on another dataset" in _one_line(e)
+    assert "was trained on another dataset" in one_line(e)
     assert not (tmp_path / "s2" / "PTACNN").exists()
 
 
@@ -99,27 +89,27 @@ def test_non_finite_weights_are_refused_on_load(runs, tmp_path, key):
     torch.save(ckpt, path)
     with pytest.raises(IrlsimError) as e:
         load_model(path)
-    assert "non-finite weights" in _one_line(e) and name in str(e.value)
+    assert "non-finite weights" in one_line(e) and name in str(e.value)
 
 
-def test_a_checkpoint_that_is_a_folder_is_one_line(runs, dataset, tmp_path):
+def test_a_checkpoint_that_is_a_folder_isone_line(runs, dataset, tmp_path):
     r = _copy(runs, tmp_path)
     (r / "stage1" / "PACNN" / "checkpoint.pt").unlink()
     (r / "stage1" / "PACNN" / "checkpoint.pt").mkdir()
     with pytest.raises(IrlsimError) as e:  # not silently left out of Table I
         evaluate_models(dataset, r, tmp_path / "eval")
-    assert "is a folder, not a file" in _one_line(e)
+    assert "is a folder, not a file" in one_line(e)
 
 
 @pytest.mark.parametrize("chop", [0.5, 0.0])
-def test_truncated_or_foreign_checkpoint_is_one_line(runs, tmp_path, chop):
+def test_truncated_or_foreign_checkpoint_isone_line(runs, tmp_path, chop):
     data = (runs / "stage1" / "LIRL" / "checkpoint.pt").read_bytes()
     path = tmp_path / "LIRL" / "checkpoint.pt"
     path.parent.mkdir()
     path.write_bytes(data[: int(len(data) * chop)] if chop else b"PK\x03\x04 not a checkpoint")
     with pytest.raises(IrlsimError) as e:
         load_model(path)
-    assert "corrupt or unreadable" in _one_line(e)
+    assert "corrupt or unreadable" in one_line(e)
 
 
 def test_identical_runs_give_identical_checkpoint_bytes(dataset, tmp_path):
@@ -164,7 +154,7 @@ def test_resume_refuses_what_it_cannot_change(dataset, tmp_path, change, needle)
     before = (tmp_path / "LIRL" / "checkpoint.pt").read_bytes()
     with pytest.raises(IrlsimError) as e:
         _train(dataset, tmp_path, epochs=2, **change)
-    assert needle in _one_line(e)
+    assert needle in one_line(e)
     assert (tmp_path / "LIRL" / "checkpoint.pt").read_bytes() == before  # nothing lost or changed
 
 
@@ -173,7 +163,7 @@ def test_resume_refuses_another_dataset(dataset, tmp_path):
     other = make_synthetic_dataset(n_train=32, n_eval=16, n_policies=16, seed=9)
     with pytest.raises(IrlsimError) as e:
         _train(other, tmp_path, epochs=2)
-    assert "was trained on another dataset" in _one_line(e)
+    assert "was trained on another dataset" in one_line(e)
 
 
 def test_a_disk_full_checkpoint_write_keeps_the_old_one_and_leaves_no_temporary(

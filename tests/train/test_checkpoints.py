@@ -10,10 +10,11 @@ import torch
 from irlsim import FEATURE_NAMES
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
-from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
+from irlsim.train import Stage1Config, evaluate_models, load_model, train_stage1
 from irlsim.train.evaluate import REFERENCE_ROWS
 from irlsim.train.layout import find_checkpoint, stage_dir
 from irlsim.train.synthetic import make_synthetic_dataset
+from tests.conftest import one_line, train_synthetic_runs
 
 H = 4  # Stage2Config.smoke()'s history
 
@@ -26,18 +27,7 @@ def dataset():
 @pytest.fixture(scope="module")
 def runs(dataset, tmp_path_factory):
     """The layout 'irlsim train --out RUNS' writes: RUNS/stage1/<model>/, RUNS/stage2/<model>/."""
-    runs = tmp_path_factory.mktemp("runs")
-    cfg1 = dataclasses.replace(Stage1Config.smoke(), models=("LIRL", "PACNN"), epochs=1)
-    train_stage1(dataset, cfg1, stage_dir(runs, 1))
-    cfg2 = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1)
-    train_stage2(dataset, cfg2, stage_dir(runs, 2), stage_dir(runs, 1))
-    return runs
-
-
-def _one_line(e: pytest.ExceptionInfo) -> str:
-    msg = str(e.value)
-    assert "\n" not in msg and msg
-    return msg
+    return train_synthetic_runs(dataset, tmp_path_factory.mktemp("runs"))
 
 
 def test_each_stage_has_its_own_folder(runs):
@@ -85,7 +75,7 @@ def test_evaluate_finds_both_stages_and_uses_the_temporal_models_history(dataset
 def test_evaluate_refuses_another_history_for_ptacnn(dataset, runs, tmp_path):
     with pytest.raises(IrlsimError) as e:
         evaluate_models(dataset, runs, tmp_path / "eval", H=H + 2)
-    msg = _one_line(e)
+    msg = one_line(e)
     assert f"PTACNN was trained with a history of H={H} cycles and cannot use --history {H + 2}" in msg
     assert not (tmp_path / "eval").exists()  # refused before anything was written
     rows = evaluate_models(dataset, runs, tmp_path / "eval", H=H)  # its own H is fine
@@ -96,11 +86,11 @@ def test_evaluate_refuses_another_number_of_policies(runs, dataset, tmp_path):
     other = make_synthetic_dataset(n_train=8, n_eval=16, n_policies=24, seed=1)
     with pytest.raises(IrlsimError) as e:  # another dataset: refused by its identity ...
         evaluate_models(other, runs, tmp_path / "eval")
-    assert "was trained on another dataset" in _one_line(e)
+    assert "was trained on another dataset" in one_line(e)
     other.manifest = dict(dataset.manifest)  # ... and by the shapes, were the identity the same
     with pytest.raises(IrlsimError) as e:
         evaluate_models(other, runs, tmp_path / "eval")
-    assert "LIRL was trained on N=32 policies per cycle, the test split has 24" in _one_line(e)
+    assert "LIRL was trained on N=32 policies per cycle, the test split has 24" in one_line(e)
     assert not (tmp_path / "eval").exists()
 
 
@@ -108,7 +98,7 @@ def test_evaluate_without_checkpoints_is_an_error(dataset, tmp_path):
     (tmp_path / "runs" / "stage1").mkdir(parents=True)
     with pytest.raises(IrlsimError) as e:
         evaluate_models(dataset, tmp_path / "runs", tmp_path / "eval")
-    assert "no trained model in" in _one_line(e)
+    assert "no trained model in" in one_line(e)
     assert not (tmp_path / "eval").exists()
 
 
@@ -130,7 +120,7 @@ def test_load_refuses_another_feature_set_or_schema(runs, tmp_path, change, expe
         torch.save(ckpt, path)
         with pytest.raises(IrlsimError) as e:
             load_model(path)
-        assert expected in _one_line(e) and str(path) in str(e.value)
+        assert expected in one_line(e) and str(path) in str(e.value)
 
 
 def test_training_refuses_a_dataset_of_another_schema(tmp_path):
