@@ -5,12 +5,13 @@
 under ``<dataset>/.cache/<split>/``: built once, one episode and one row group at a time (bounded memory),
 each file written under a temporary name and renamed, ``meta.json`` last. The cache is reused while
 ``meta.json`` records the same Parquet files (name, size, mtime) and is newer than all of them; otherwise
-it is rebuilt. Deleting ``.cache`` is always safe.
+it is rebuilt. Deleting ``.cache`` is always safe. :mod:`irlsim.data.aggregate` writes its caches alike.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Iterator
 from contextlib import ExitStack
 from dataclasses import dataclass, fields
@@ -127,7 +128,8 @@ class SplitTensors:
         return SplitTensors(**{f.name: getattr(self, f.name)[:n] for f in fields(self)})
 
 
-_ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
+#: the arrays of a SplitTensors, one cache file each (<name>.npy)
+ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 #: per-cycle arrays read straight from the cycles table's column of the same name
 _SMALL_COLUMNS: tuple[tuple[str, Any], ...] = (
     ("demo_index", np.int64),
@@ -136,6 +138,8 @@ _SMALL_COLUMNS: tuple[tuple[str, Any], ...] = (
     ("cycle", np.int32),
     ("executed_index", np.int32),
 )
+#: the policies-table columns the cache is built from (with the LABEL_NAMES)
+_POLICY_COLUMNS = ["episode", "cycle", "policy", "features", "control_points", "actions", "distance"]
 
 
 def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
@@ -304,28 +308,17 @@ class Dataset:
         return self.path / CACHE_DIR / split
 
     def _cache_valid(self, split: str, sources: list[list[Any]]) -> bool:
-        meta_path = self.cache_dir(split) / "meta.json"
-        try:
-            meta = json.loads(meta_path.read_text())
-            meta_mtime = meta_path.stat().st_mtime_ns
-        except (OSError, ValueError):
+        found = read_cache_meta(self.cache_dir(split))
+        if found is None or found[0].get("sources") != sources:
             return False
-        if meta.get("cache_version") != CACHE_VERSION or meta.get("schema_version") != SCHEMA_VERSION:
-            return False
-        if meta.get("sources") != sources:
-            return False
-        newest = max((s[2] for s in sources), default=0)
-        files_ok = all((self.cache_dir(split) / f"{n}.npy").is_file() for n in _ARRAY_NAMES)
-        return files_ok and meta_mtime >= newest
+        return found[1].st_mtime_ns >= max((s[2] for s in sources), default=0)
 
     def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
         """A split as memory-mapped arrays (``SplitTensors``); only the first ``max_cycles`` if given."""
         sources = self._sources(split)
         if not self._cache_valid(split, sources):
             self._build_cache(split, sources)
-        folder = self.cache_dir(split)
-        arrays = {n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in _ARRAY_NAMES}
-        tensors = SplitTensors(**arrays)
+        tensors = open_cache(self.cache_dir(split))
         return tensors if max_cycles is None else tensors.head(max_cycles)
 
     def _build_cache(self, split: str, sources: list[list[Any]]) -> None:
@@ -335,8 +328,7 @@ class Dataset:
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
         self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)))
-        folder.mkdir(parents=True, exist_ok=True)
-        (folder / "meta.json").unlink(missing_ok=True)  # invalid while rebuilding
+        invalidate_cache(folder)
         specs: dict[str, tuple[tuple[int, ...], Any]] = {
             "features": ((c, n, N_FEATURES), np.float32),
             "control_points": ((c, n, k, 3), np.float32),
@@ -346,22 +338,12 @@ class Dataset:
         }
         small = {name: cycles.column(name).to_numpy().astype(dtype) for name, dtype in _SMALL_COLUMNS}
         small["demo_source"] = demo_source_codes(cycles.column("demo_source"))
-        with _AtomicNpys(folder, specs) as big:
+        with AtomicNpys(folder, specs) as big:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):
                 path = self.policies_path(split, ep)
                 pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
-                cols = [
-                    "episode",
-                    "cycle",
-                    "policy",
-                    "features",
-                    "control_points",
-                    "actions",
-                    "distance",
-                    *LABEL_NAMES,
-                ]
-                for group in iter_policy_groups(pf, path, cols):
+                for group in iter_policy_groups(pf, path, [*_POLICY_COLUMNS, *LABEL_NAMES]):
                     if group.num_rows % max(n, 1):
                         raise IrlsimError(
                             f"{path}: a row group of {group.num_rows} rows is not whole cycles of "
@@ -392,17 +374,7 @@ class Dataset:
         for name, arr in small.items():
             with atomic_path(folder / f"{name}.npy") as tmp, open(tmp, "wb") as fh:
                 np.save(fh, arr)
-        write_json(
-            folder / "meta.json",
-            {
-                "cache_version": CACHE_VERSION,
-                "schema_version": SCHEMA_VERSION,
-                "cycles": c,
-                "policies": n,
-                "control_points": k,
-                "sources": sources,
-            },
-        )
+        write_cache_meta(folder, {"cycles": c, "policies": n, "control_points": k, "sources": sources})
 
     def _check_cache_place(self, folder: Path, nbytes: int) -> None:
         """Before any array is written: the cache folder takes files and its disk has ``nbytes``."""
@@ -445,7 +417,39 @@ def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: n
         )
 
 
-class _AtomicNpys:
+def read_cache_meta(folder: Path) -> tuple[dict[str, Any], os.stat_result] | None:
+    """(meta.json, its stat) of a cache folder of this irlsim's cache and schema versions whose array files
+    are all there; None otherwise (the caller then rebuilds it). The caller compares what it records."""
+    meta_path = folder / "meta.json"
+    try:
+        meta, st = json.loads(meta_path.read_text()), meta_path.stat()
+    except (OSError, ValueError):
+        return None
+    versions = (CACHE_VERSION, SCHEMA_VERSION)
+    if not isinstance(meta, dict) or (meta.get("cache_version"), meta.get("schema_version")) != versions:
+        return None
+    return (meta, st) if all((folder / f"{n}.npy").is_file() for n in ARRAY_NAMES) else None
+
+
+def invalidate_cache(folder: Path) -> None:
+    """Before a cache folder is (re)built: it exists and has no meta.json (invalid while rebuilding)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "meta.json").unlink(missing_ok=True)
+
+
+def write_cache_meta(folder: Path, record: dict[str, Any]) -> None:
+    """The last write of a cache build: meta.json with the versions and what the cache was built from."""
+    write_json(
+        folder / "meta.json", {"cache_version": CACHE_VERSION, "schema_version": SCHEMA_VERSION, **record}
+    )
+
+
+def open_cache(folder: Path) -> SplitTensors:
+    """A valid cache folder's arrays as read-only memory maps."""
+    return SplitTensors(**{n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in ARRAY_NAMES})
+
+
+class AtomicNpys:
     """Memory-mapped .npy files opened under unique temporary names (``atomic_path``), renamed into place
     on success and removed on failure, so two processes building the same cache never share a file."""
 
