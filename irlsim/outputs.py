@@ -18,6 +18,7 @@ from irlsim.errors import IrlsimError
 
 #: headroom [bytes] every output check asks for besides what the command estimates (logs, JSON, pictures)
 MIN_FREE_BYTES = 1 << 20
+_SPACE_FIX = "free disk space or choose another place"
 
 
 def _nearest_existing(path: Path) -> Path:
@@ -37,7 +38,9 @@ def free_bytes(folder: Path) -> int:
     return int(shutil.disk_usage(folder).free)
 
 
-def _check_place(path: Path, option: str, folder: Path, need_bytes: int, fix: str) -> None:
+def _check_place(
+    path: Path, option: str, folder: Path, need_bytes: int, fix: str, space_fix: str = _SPACE_FIX
+) -> None:
     try:
         _probe(folder)
     except OSError as e:
@@ -48,24 +51,28 @@ def _check_place(path: Path, option: str, folder: Path, need_bytes: int, fix: st
     have = free_bytes(folder)
     if have < need:
         raise IrlsimError(
-            f"{option} {path}: {folder} has {_size(have)} free, this needs about {_size(need)}: free disk "
-            "space or choose another place"
+            f"{option} {path}: {folder} has {_size(have)} free, this needs about {_size(need)}: {space_fix}"
         )
 
 
 def check_output_dir(
-    path: str | Path, option: str, need_bytes: int = 0, fix: str = "choose a writable place"
+    path: str | Path,
+    option: str,
+    need_bytes: int = 0,
+    fix: str = "choose a writable place",
+    space_fix: str = _SPACE_FIX,
 ) -> None:
     """A one-line IrlsimError now, before any work, when folder ``path`` cannot take the outputs: it is a
     file, a folder on its way is a file, the folder (or its nearest existing parent, for a new one) takes
-    no new file, or its disk has less than ``need_bytes`` (+1 MiB) free. Missing folders are fine."""
+    no new file (``fix`` says what to do), or its disk has less than ``need_bytes`` (+1 MiB) free
+    (``space_fix``). Missing folders are fine."""
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise IrlsimError(f"{option} {path} is a file, not a folder: choose a folder")
     folder = _nearest_existing(path)
     if not folder.is_dir():
         raise IrlsimError(f"{option} {path}: {folder} is a file, not a folder: choose another path")
-    _check_place(path, option, folder, need_bytes, fix)
+    _check_place(path, option, folder, need_bytes, fix, space_fix)
 
 
 def check_output_file(path: str | Path, option: str, example: str, need_bytes: int = 0) -> None:
