@@ -1,11 +1,20 @@
 """DAgger's aggregation: several dataset folders read as one (``irlsim train --data A B ...``).
 
-The simplest honest design: nothing is copied or rewritten. Each folder stays a complete dataset of its
-own (its manifest, seeds, ``demo_source``), and :class:`AggregateDataset` concatenates, per split, their
-arrays in the order given. Episode ids are made unique by adding ``EPISODE_OFFSET`` x (the folder's
-position) to each folder's ids (a split holds fewer than 100,000 episodes), so a temporal model's
-histories never run across two folders. The arrays are held in memory (the sum of the folders' split
-sizes, checked against the free memory before reading); a single folder keeps the reader's memory maps.
+Each folder stays a complete dataset of its own (its manifest, seeds, ``demo_source``, its reader cache),
+and :class:`AggregateDataset` concatenates, per split, their arrays in the order given. Episode ids are
+made unique by adding ``EPISODE_OFFSET`` x (the folder's position) to each folder's ids (a split holds
+fewer than 100,000 episodes), so a temporal model's histories never run across two folders.
+
+The concatenation is an on-disk cache of memory-mapped ``.npy`` files like a single folder's (the paper's
+train split alone is 11 GB): ``<first folder>/.cache/aggregate-<key>/<split>/``, the key a hash of the
+folders' manifest identities in order. It is written once, part after part in chunks of
+``CHUNK_CYCLES`` cycles from the folders' own memory-mapped caches (bounded memory), each file under a
+temporary name renamed into place, ``meta.json`` last (the reader's ``AtomicNpys`` and cache helpers).
+It is reused while ``meta.json`` records the same folders (resolved paths, manifest identities) and the
+same reader caches (their ``meta.json``: inode, size, mtime), so a re-collected or re-cached folder
+rebuilds it; deleting it (or ``.cache``) is always safe. Old aggregates (earlier DAgger rounds) are not
+removed: ``.cache/aggregate-*`` of the first folder can be deleted to free disk. A split only the first
+folder has (the expert data's test split) is that folder's cache itself, nothing is copied.
 
 The aggregate's identity (what a checkpoint records as the dataset it was trained on) is the list of the
 folders' manifest hashes in order; the folders must share the schema, the features and the planner
@@ -16,19 +25,34 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from irlsim.config import require_memory
-from irlsim.data.reader import Dataset, SplitTensors, open_dataset
+from irlsim.data.reader import (
+    ARRAY_NAMES,
+    CACHE_DIR,
+    AtomicNpys,
+    Dataset,
+    SplitTensors,
+    invalidate_cache,
+    open_cache,
+    open_dataset,
+    read_cache_meta,
+    write_cache_meta,
+)
 from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
 
 #: episode ids of the i-th folder become i * EPISODE_OFFSET + id
 EPISODE_OFFSET = 100_000
+#: cycles copied at a time into an aggregate's cache (memory: one chunk of one array, ~80 MB at the paper's
+#: 2,500 policies x 10 control points)
+CHUNK_CYCLES = 256
+
+_Part = tuple[int, Dataset, SplitTensors]  # (folder position, folder, its split's tensors)
 
 
 def manifest_identity(manifest: dict[str, Any]) -> str:
@@ -54,6 +78,7 @@ class AggregateDataset:
                     "aggregate only datasets of one planner (same policies and features)"
                 )
         self.datasets = datasets
+        self.identities = [manifest_identity(d.manifest) for d in datasets]
         self.path = first.path
         self.paths = [d.path for d in datasets]
         splits = sorted({s for d in datasets for s in d.splits})
@@ -61,7 +86,10 @@ class AggregateDataset:
             "schema_version": first.manifest["schema_version"],
             "feature_names": first.manifest["feature_names"],
             "config": first.manifest.get("config"),
-            "aggregate": [{"path": str(d.path), "identity": manifest_identity(d.manifest)} for d in datasets],
+            "aggregate": [
+                {"path": str(d.path), "identity": ident}
+                for d, ident in zip(datasets, self.identities, strict=True)
+            ],
             "splits": {s: self._ids(s) for s in splits},
             "complete": True,
         }
@@ -89,31 +117,78 @@ class AggregateDataset:
             self.episodes(split)  # the one-line error for an unknown split
         return parts
 
+    def cache_dir(self, split: str) -> Path:
+        """The folder of the split's cache: in the first folder's ``.cache``, keyed by the identities."""
+        key = hashlib.sha256(json.dumps(self.identities).encode()).hexdigest()[:16]
+        return self.path / CACHE_DIR / f"aggregate-{key}" / split
+
     def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
-        """The folders' splits concatenated in order (episode ids offset, see the module docstring)."""
-        parts = [(i, d.split_tensors(split)) for i, d in self._parts(split)]
+        """The folders' splits concatenated in order (episode ids offset), memory-mapped from the aggregate's
+        cache (see the module docstring); only the first ``max_cycles`` if given."""
+        parts = [(i, d, d.split_tensors(split)) for i, d in self._parts(split)]
         if not parts:
-            return self.datasets[0].split_tensors(split)
-        shapes = {t.features.shape[1:] + t.control_points.shape[2:] for _, t in parts}
+            return self.datasets[0].split_tensors(split, max_cycles)
+        shapes = {t.features.shape[1:] + t.control_points.shape[2:] for _, _, t in parts}
         if len(shapes) > 1:
             raise IrlsimError(
                 f"split {split} has policies of other shapes in {', '.join(map(str, self.paths))}: "
                 "aggregate datasets of one planner config"
             )
-        need = sum(sum(a.nbytes for a in (getattr(t, f.name) for f in fields(t))) for _, t in parts)
-        require_memory(
-            f"aggregating the {split} split of {len(parts)} datasets", need, "aggregate fewer datasets"
-        )
-        arrays: dict[str, np.ndarray] = {}
-        for f in fields(SplitTensors):
-            cols = [np.asarray(getattr(t, f.name)) for _, t in parts]
-            if f.name == "episode":
-                cols = [
-                    (c + i * EPISODE_OFFSET).astype(np.int32) for (i, _), c in zip(parts, cols, strict=True)
-                ]
-            arrays[f.name] = np.concatenate(cols)
-        tensors = SplitTensors(**arrays)
+        if len(parts) == 1 and parts[0][0] == 0:  # the first folder's own split: its ids stay, no copy
+            tensors = parts[0][2]
+        else:
+            tensors = self._cached(split, parts)
         return tensors if max_cycles is None else tensors.head(max_cycles)
+
+    def _cached(self, split: str, parts: list[_Part]) -> SplitTensors:
+        """The concatenation's cache, (re)built unless its meta.json records these parts."""
+        folder = self.cache_dir(split)
+        record = {
+            "split": split,
+            "cycles": sum(t.n_cycles for _, _, t in parts),
+            "parts": [self._part_record(i, d, split) for i, d, _ in parts],
+        }
+        found = read_cache_meta(folder)
+        if found is None or {k: found[0].get(k) for k in record} != record:
+            self._build_cache(folder, parts, record)
+        return open_cache(folder)
+
+    def _part_record(self, i: int, d: Dataset, split: str) -> dict[str, Any]:
+        """What the aggregate's cache was built from: the folder and its reader cache (a rebuild of that
+        cache, e.g. after a re-collection, rewrites its meta.json: another inode and mtime)."""
+        st = (d.cache_dir(split) / "meta.json").stat()
+        return {
+            "position": i,
+            "path": str(d.path.resolve()),
+            "identity": self.identities[i],
+            "cache": [st.st_ino, st.st_size, st.st_mtime_ns],
+        }
+
+    def _build_cache(self, folder: Path, parts: list[_Part], record: dict[str, Any]) -> None:
+        """Copy the parts' memory maps into new ones, chunk by chunk, meta.json last."""
+        check_output_dir(
+            folder,
+            f"the {record['split']} split of the aggregate of {len(self.paths)} datasets: its cache",
+            sum(getattr(t, n).nbytes for _, _, t in parts for n in ARRAY_NAMES),
+            fix=f"make {self.path} writable (the aggregate's memory-mapped arrays live in its {CACHE_DIR})",
+            space_fix=f"free disk space (older aggregates in {self.path / CACHE_DIR}/aggregate-* can be "
+            "deleted) or aggregate fewer datasets",
+        )
+        invalidate_cache(folder)
+        c, first = record["cycles"], parts[0][2]
+        specs = {n: ((c, *getattr(first, n).shape[1:]), getattr(first, n).dtype) for n in ARRAY_NAMES}
+        with AtomicNpys(folder, specs) as out:
+            row = 0  # first row of the part
+            for i, _, t in parts:
+                for name, dst in out.items():
+                    src = getattr(t, name)
+                    for a in range(0, t.n_cycles, CHUNK_CYCLES):
+                        chunk = src[a : a + CHUNK_CYCLES]
+                        if name == "episode":
+                            chunk = (chunk + i * EPISODE_OFFSET).astype(np.int32)
+                        dst[row + a : row + a + len(chunk)] = chunk
+                row += t.n_cycles
+        write_cache_meta(folder, record)
 
     def read_cycles(self, split: str) -> pd.DataFrame:
         """The folders' cycles rows concatenated in order (episode ids offset)."""
