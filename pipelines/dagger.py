@@ -5,8 +5,9 @@ Round r (1..N), into ``OUT/round_<r>/``:
 1. **drive + label**: ``irlsim collect --driver <model> --round r`` into ``OUT/round_<r>/data``: the model
    of the previous round (round 1: the one in ``--runs``, trained on ``--data``) drives, the expert labels
    every cycle (``demo_source`` 'expert'); seeds in round r's window, disjoint from ``--data``'s;
-2. **aggregate**: nothing is copied: training reads ``--data`` and every round's data folder so far
-   (``irlsim train --data D R1 .. Rr``, :mod:`irlsim.data.aggregate`);
+2. **aggregate**: the folders stay as they are: training reads ``--data`` and every round's data folder so
+   far (``irlsim train --data D R1 .. Rr``, :mod:`irlsim.data.aggregate`: their splits concatenated into a
+   memory-mapped cache in ``--data``'s ``.cache``);
 3. **retrain** from scratch: ``irlsim train --stage 1`` (and ``--stage 2`` for a temporal driver) into
    ``OUT/round_<r>/runs``.
 
