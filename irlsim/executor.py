@@ -3,7 +3,8 @@
 ``run_jobs(fn, jobs, ...)`` calls the top-level (picklable) function ``fn(job.arg)`` for every job and
 reports each result to ``on_result`` as it arrives, in completion order. Two executors:
 
-- ``local``: ``workers`` spawned processes of our own (``workers == 1``: in this process). Each worker is
+- ``local``: ``workers`` spawned processes of our own (``workers == 1`` or a single job, without a
+  ``timeout``: in this process). Each worker is
   one single-threaded process (``THREAD_VARS`` = 1) that ignores Ctrl-C and dies with its parent
   (:func:`irlsim.utils.die_with_parent`) and runs one job at a time, so one libsumo per process. The
   parent watches every worker's pipe *and* its process sentinel: a worker that dies (``kill -9``, the
@@ -20,6 +21,16 @@ Failures are handled the same way by both: a job that raises or whose worker die
 (``retries``); a job that fails again is reported in ``RunResult.failed`` with a one-line reason, and the
 other jobs run to the end. Nothing here hangs on a dead process, and nothing is written here: the jobs
 write their own outputs (atomically), so a run started with one executor resumes with the other.
+
+``timeout`` (seconds, None: no limit) bounds each attempt's wall-clock time, so a worker that hangs
+without dying (stopped, deadlocked in libsumo) does not hang the run: a local worker that has not
+answered ``timeout`` seconds after its job was sent is terminated (SIGTERM, then SIGKILL after
+``KILL_GRACE_S``) and replaced, and a Ray task not finished ``timeout`` seconds after its submission is
+cancelled with ``ray.cancel(force=True)`` (which kills its worker process); either way the attempt fails
+like a dead worker's (retried once, then in ``failed``). The job running in this process cannot be
+stopped safely, so a ``timeout`` always runs the jobs in worker processes, even one job with
+``workers == 1``. With Ray the clock starts at submission: a task that waits for a free CPU of a busy
+cluster (``workers`` above its free CPUs) spends its limit waiting too.
 """
 
 from __future__ import annotations
@@ -28,6 +39,7 @@ import logging
 import multiprocessing as mp
 import os
 import signal
+import time
 import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -41,6 +53,12 @@ from irlsim.utils import die_with_parent
 EXECUTORS = ("local", "ray")
 #: attempts after the first for a job that raises or whose worker dies
 RETRIES = 1
+#: seconds a timed-out local worker gets between SIGTERM and SIGKILL (a stopped process ignores SIGTERM)
+KILL_GRACE_S = 2.0
+#: seconds to wait for a cancelled Ray task's worker to be gone before its job is tried again
+RAY_CANCEL_WAIT_S = 30.0
+#: the longest single wait of the scheduling loops (a longer timeout is waited for in several)
+_MAX_WAIT_S = 3600.0
 RAY_EXTRA = "pip install -e '.[ray]'"
 
 
@@ -98,21 +116,41 @@ def run_jobs(
     retries: int = RETRIES,
     on_result: Callable[[Job, Any], None] | None = None,
     on_retry: Callable[[Job, str], None] | None = None,
+    timeout: float | None = None,
 ) -> RunResult:
-    """Run ``fn(job.arg)`` for every job (see the module docstring); never raises for a failed job."""
+    """Run ``fn(job.arg)`` for every job (see the module docstring); never raises for a failed job.
+    ``timeout``: seconds an attempt may take (None: no limit; then ``workers == 1`` runs in this process)."""
     check_executor(executor, workers, address)
     if len({j.key for j in jobs}) != len(jobs):
         raise ValueError("job keys must be unique")
+    if timeout is not None and not timeout > 0:  # also refuses nan
+        raise ValueError(f"timeout must be > 0 seconds, got {timeout}")
     state = _State(list(jobs), retries, on_result, on_retry)
     if not jobs:
         return state.result
     if executor == "ray":
-        _run_ray(fn, state, workers, address)
-    elif workers == 1 or len(jobs) == 1:
+        _run_ray(fn, state, workers, address, timeout)
+    elif timeout is None and (workers == 1 or len(jobs) == 1):
         _run_inline(fn, state)
     else:
-        _run_local(fn, state, min(workers, len(jobs)))
+        _run_local(fn, state, min(workers, len(jobs)), timeout)
     return state.result
+
+
+#: how the reason of an attempt that ran out of time begins
+TIMED_OUT = "no result within "
+
+
+def timed_out(timeout: float, what: str) -> str:
+    """The one-line reason of an attempt that ran out of time (``what``: what was done about it)."""
+    return f"{TIMED_OUT}{timeout:g} s: {what}"
+
+
+def _wait_s(deadlines: list[float]) -> float | None:
+    """Seconds until the earliest deadline (never negative, at most ``_MAX_WAIT_S``); None: no deadline."""
+    if not deadlines:
+        return None
+    return min(max(0.0, min(deadlines) - time.monotonic()), _MAX_WAIT_S)
 
 
 class _State:
@@ -192,6 +230,15 @@ class _Worker:
         self.process.start()
         child.close()
         self.job: Job | None = None
+        self.deadline: float | None = None  # time.monotonic() by which the job's answer is due
+
+    def terminate(self) -> None:
+        """End a worker that does not answer: SIGTERM, then SIGKILL after ``KILL_GRACE_S`` (a stopped
+        process keeps SIGTERM pending; SIGKILL ends it too). Returns once the process is gone."""
+        if self.process.is_alive():
+            self.process.terminate()
+            self.process.join(timeout=KILL_GRACE_S)
+        self.stop(kill=True)
 
     def stop(self, kill: bool) -> None:
         if kill and self.process.is_alive():
@@ -241,16 +288,19 @@ def _start_workers(ctx: Any, n: int) -> list[_Worker]:
             signal.signal(signal.SIGINT, previous)
 
 
-def _run_local(fn: Callable[[Any], Any], state: _State, n: int) -> None:
+def _run_local(fn: Callable[[Any], Any], state: _State, n: int, timeout: float | None = None) -> None:
     ctx = mp.get_context("spawn")
     pool = _start_workers(ctx, n)
     clean = False
     try:
         for w in pool:
-            _assign(w, fn, state)
+            _assign(w, fn, state, timeout)
         while any(w.job is not None for w in pool):
             busy = [w for w in pool if w.job is not None]
-            ready = wait([w.conn for w in busy] + [w.process.sentinel for w in busy])
+            ready = wait(
+                [w.conn for w in busy] + [w.process.sentinel for w in busy],
+                timeout=_wait_s([w.deadline for w in busy if w.deadline is not None]),
+            )
             for i, w in enumerate(pool):
                 if w.job is None:
                     continue
@@ -266,27 +316,35 @@ def _run_local(fn: Callable[[Any], Any], state: _State, n: int) -> None:
                             state.ok(job, reply[1])
                         else:
                             state.fail(job, reply[1])
-                        _assign(w, fn, state)
+                        _assign(w, fn, state, timeout)
                         continue
                 if w.process.sentinel in ready or not w.process.is_alive():
                     w.process.join()
                     reason = _death_reason(w.process)
-                    w.job = None
                     w.stop(kill=True)
-                    state.fail(job, reason)
-                    pool[i] = _start_workers(ctx, 1)[0]
-                    _assign(pool[i], fn, state)
+                elif w.deadline is not None and time.monotonic() >= w.deadline:
+                    # alive but silent past its limit (stopped, deadlocked): a dead worker from here on
+                    assert timeout is not None
+                    w.terminate()
+                    reason = timed_out(timeout, f"worker process {w.process.pid} killed")
+                else:
+                    continue
+                w.job = None
+                state.fail(job, reason)
+                pool[i] = _start_workers(ctx, 1)[0]
+                _assign(pool[i], fn, state, timeout)
         clean = True
     finally:
         for w in pool:
             w.stop(kill=not clean)
 
 
-def _assign(w: _Worker, fn: Callable[[Any], Any], state: _State) -> None:
+def _assign(w: _Worker, fn: Callable[[Any], Any], state: _State, timeout: float | None) -> None:
     job = state.next()
     if job is None:
         return
     w.job = job
+    w.deadline = None if timeout is None else time.monotonic() + timeout
     try:
         w.conn.send((fn, job.arg))
     except (OSError, EOFError):  # dead already: the sentinel reports it in the loop
@@ -300,7 +358,9 @@ def _ray_call(fn: Callable[[Any], Any], arg: Any) -> Any:  # top level: the task
     return fn(arg)
 
 
-def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str | None) -> None:
+def _run_ray(
+    fn: Callable[[Any], Any], state: _State, workers: int, address: str | None, timeout: float | None = None
+) -> None:
     ray = _import_ray()
     started = False
     if not ray.is_initialized():
@@ -329,15 +389,20 @@ def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str
     )(_ray_call)
     fn_ref = ray.put(fn)
     in_flight: dict[Any, Job] = {}
+    deadlines: dict[Any, float] = {}  # ref -> time.monotonic() by which it is due (with a timeout)
     try:
         while True:
             while len(in_flight) < workers and (job := state.next()) is not None:
-                in_flight[task.remote(fn_ref, job.arg)] = job
+                ref = task.remote(fn_ref, job.arg)
+                in_flight[ref] = job
+                if timeout is not None:
+                    deadlines[ref] = time.monotonic() + timeout
             if not in_flight:
                 break
-            done, _ = ray.wait(list(in_flight), num_returns=1)
+            done, _ = ray.wait(list(in_flight), num_returns=1, timeout=_wait_s(list(deadlines.values())))
             for ref in done:
                 job = in_flight.pop(ref)
+                deadlines.pop(ref, None)
                 try:
                     value = ray.get(ref)
                 except ray.exceptions.RayTaskError as exc:  # the job raised
@@ -347,11 +412,30 @@ def _run_ray(fn: Callable[[Any], Any], state: _State, workers: int, address: str
                     state.fail(job, _ray_reason(exc))
                 else:
                     state.ok(job, value)
+            late = [ref for ref, due in deadlines.items() if time.monotonic() >= due]
+            if late:  # one that finished anyway (its result on any node) is taken by the next ray.wait
+                _, late = ray.wait(late, num_returns=len(late), timeout=0, fetch_local=False)
+            for ref in late:  # still running past its limit (stopped, deadlocked): cancelled, then retried
+                job = in_flight.pop(ref)
+                del deadlines[ref]
+                _cancel(ray, ref)
+                assert timeout is not None
+                state.fail(job, timed_out(timeout, "Ray task cancelled, its worker process killed"))
     finally:
         for ref in in_flight:
             ray.cancel(ref, force=True)
         if started:
             ray.shutdown()
+
+
+def _cancel(ray: Any, ref: Any) -> None:
+    """Cancel a running task and kill its worker process; wait (at most ``RAY_CANCEL_WAIT_S``) until it
+    is gone, so that its retry does not run beside it (Ray kills a stopped worker after a few seconds)."""
+    try:
+        ray.cancel(ref, force=True)
+    except Exception as exc:  # finished in the meantime, or its node is gone: nothing left to stop
+        logging.getLogger(__name__).debug("ray.cancel: %s", one_line(exc))
+    ray.wait([ref], num_returns=1, timeout=RAY_CANCEL_WAIT_S)
 
 
 def _ray_reason(exc: BaseException) -> str:

@@ -1,6 +1,7 @@
 """The episode executor (irlsim.executor): the local spawn workers and Ray tasks give the same bytes, a
-worker killed in the middle of an episode is retried, an episode that keeps failing is named and
-collected again by the same command. Real processes, real SUMO, real Parquet, a real Ray: one simulated
+worker killed in the middle of an episode is retried, a worker that hangs (SIGSTOP) is killed after
+--episode-timeout and retried, an episode that keeps failing is named and collected again by the same
+command. Real processes, real SUMO, real Parquet, a real Ray: one simulated
 two-node cluster (ray.cluster_utils.Cluster, 1 CPU per node) shared by this module's Ray tests.
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -20,7 +22,7 @@ from typing import Any
 import pytest
 
 from irlsim.cli import main
-from irlsim.executor import Job, run_jobs
+from irlsim.executor import KILL_GRACE_S, RAY_CANCEL_WAIT_S, Job, run_jobs
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 
@@ -53,6 +55,17 @@ def _die_once(arg: tuple[str, int]) -> int:
     if not os.path.exists(marker):
         Path(marker).write_text("died")
         os.kill(os.getpid(), signal.SIGKILL)
+    return 2 * x
+
+
+def _stops_itself(arg: tuple[int, int]) -> int:
+    """Job 7 stops its own process (SIGSTOP) on every attempt: alive and silent, as a worker deadlocked
+    in libsumo. ``arg[0]`` is the test's pid, which is never stopped (a timeout runs no job in it)."""
+    test_pid, x = arg
+    if x == 7:
+        if os.getpid() == test_pid:
+            raise RuntimeError("a job with a timeout ran in the test's own process")
+        os.kill(os.getpid(), signal.SIGSTOP)
     return 2 * x
 
 
@@ -130,6 +143,45 @@ def test_results_retries_and_failures(executor, tmp_path, request):
     assert died.results == {"a": 2, "b": 4, "c": 6} and not died.failed
     assert set(died.retried) == {"a", "b", "c"}
     assert all("died" in reason for reason in died.retried.values()), died.retried
+
+
+#: a time limit far above a start-up and _stops_itself's return, far below a test's patience
+HANG_TIMEOUT = 5.0
+
+
+@pytest.mark.parametrize("executor", ["inline", "local", "ray"])
+def test_a_hung_worker_is_killed_retried_then_named(executor, request):
+    """A job whose worker stops (SIGSTOP) on every attempt: after the time limit its process is killed
+    (Ray: its task cancelled), the job is tried once more in a fresh worker, then named with a one-line
+    reason; the other jobs finish and the run ends in bounded time. 'inline' (one worker): a timeout runs
+    the jobs in a worker process, never in this one."""
+    if executor == "ray":
+        request.getfixturevalue("ray_cluster")
+    kind, workers = ("local", 1) if executor == "inline" else (executor, 2)
+    me = os.getpid()
+    retried: list[str] = []
+    t0 = time.monotonic()
+    out = run_jobs(
+        _stops_itself,
+        [Job("hung/7", (me, 7)), *(Job(f"ok/{i}", (me, i)) for i in (1, 2, 3))],
+        executor=kind,
+        workers=workers,
+        timeout=HANG_TIMEOUT,
+        on_retry=lambda job, reason: retried.append(job.key),
+    )
+    elapsed = time.monotonic() - t0
+    assert out.results == {"ok/1": 2, "ok/2": 4, "ok/3": 6}
+    assert list(out.failed) == ["hung/7"] and "hung/7" in retried  # an ok job may be retried when slow
+    reasons = [out.retried["hung/7"], out.failed["hung/7"]]
+    assert all(r.startswith("no result within 5 s: ") for r in reasons), reasons
+    # two attempts of the limit, each with its kill (SIGTERM's grace, or Ray's kill of a stopped worker)
+    per_attempt = HANG_TIMEOUT + (KILL_GRACE_S if kind == "local" else 10)
+    assert elapsed < 2 * per_attempt + 30, elapsed
+    assert RAY_CANCEL_WAIT_S >= 10  # Ray kills a stopped worker a few seconds after its cancel
+    if kind == "local":
+        pids = [int(m[1]) for r in reasons if (m := re.search(r"worker process (\d+) killed$", r))]
+        assert len(pids) == 2 and pids[0] != pids[1]  # the retry ran in a fresh worker
+        assert not [p for p in pids if Path(f"/proc/{p}").exists()], "a hung worker is still there"
 
 
 def test_ray_without_the_extra_is_one_line(tmp_path, capsys, monkeypatch):
