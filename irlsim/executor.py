@@ -345,6 +345,8 @@ def _assign(w: _Worker, fn: Callable[[Any], Any], state: _State, timeout: float 
         return
     w.job = job
     w.deadline = None if timeout is None else time.monotonic() + timeout
+    # into the socket's buffer (~176 KiB on Linux; a drive job with the expert's progress curve of a
+    # 900 s episode is ~150 KB): only a larger job sent to a worker hung before it reads would block here
     try:
         w.conn.send((fn, job.arg))
     except (OSError, EOFError):  # dead already: the sentinel reports it in the loop
