@@ -191,16 +191,19 @@ def int_in(lo: int, hi: int | None = None) -> Any:
     return parse
 
 
-def float_in(lo: float, hi: float | None = None) -> Any:
-    """An argparse ``type=``: a finite number in ``[lo, hi]``, else the parser's one-line error."""
+def float_in(lo: float, hi: float | None = None, *, above: bool = False) -> Any:
+    """An argparse ``type=``: a finite number in ``[lo, hi]`` (``above``: in ``(lo, hi]``, e.g. a time
+    limit > 0), else the parser's one-line error."""
 
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
             raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
-        if not math.isfinite(value) or value < lo or (hi is not None and value > hi):
-            bound = f"in [{lo:g}, {hi:g}]" if hi is not None else f">= {lo:g}"
+        low = value <= lo if above else value < lo
+        if not math.isfinite(value) or low or (hi is not None and value > hi):
+            start = f"({lo:g}" if above else f"[{lo:g}"
+            bound = f"in {start}, {hi:g}]" if hi is not None else f"{'>' if above else '>='} {lo:g}"
             raise argparse.ArgumentTypeError(f"must be a finite number {bound}, got {text}")
         return value
 

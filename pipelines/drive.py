@@ -1,8 +1,9 @@
 """``irlsim drive``: closed-loop driving in SUMO with the expert and learned rewards, side by side.
 
 Every model drives the same seeds (episode i uses seed S + i). Episodes run through ``irlsim.executor``
-(``--workers N`` processes, or Ray tasks with ``--executor ray``); results are put back in model and
-episode order, so drive.json is the same for any worker count (wall-clock figures aside).
+(``--workers N`` processes, or Ray tasks with ``--executor ray``; each episode within
+``--episode-timeout``); results are put back in model and episode order, so drive.json is the same for
+any worker count (wall-clock figures aside).
 Writes ``<out>/drive.json`` (every episode
 and a summary per model) and ``<out>/drive.md`` (the side-by-side table), atomically, and for the first
 episode of each model the pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXXX.png``,
@@ -28,7 +29,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.utils import atomic_write_text, write_json
-from pipelines.collect import add_executor_arguments
+from pipelines.collect import add_executor_arguments, episode_timeout, timeout_advice
 
 HELP = (
     "drive the ego in SUMO with the expert and learned rewards: closed-loop table (JSON, Markdown), pictures"
@@ -87,8 +88,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--workers",
         type=int_in(1, 256),
         default=1,
-        help="episodes driven in parallel processes, one libsumo each (default: 1, in this process); "
-        "drive.json is the same for any count",
+        help="episodes driven in parallel processes, one libsumo each (default: 1, in this process, "
+        "without a time limit unless --episode-timeout is given); drive.json is the same for any count",
     )
     add_executor_arguments(p)
     devices.add_arguments(p, "reward inference")
@@ -287,7 +288,8 @@ def _run(args: argparse.Namespace, device: str) -> int:
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
 
     jobs, labels = _episode_jobs(args, models, specs, cfg, out, runs, device)
-    results = _drive_jobs(args, jobs, out)
+    limit = episode_timeout(args.episode_timeout, args.executor, args.workers, cfg.scenario, args.max_cycles)
+    results = _drive_jobs(args, jobs, out, limit)
     if results is None:
         return 1
     # in model and episode order, whatever order they finished in: the same JSON for any --workers
@@ -324,10 +326,13 @@ def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:
             )
 
 
-def _drive_jobs(args: argparse.Namespace, jobs: list[Any], out: Path) -> dict[str, Any] | None:
-    """Run the episode jobs through the executor: the expert's first (their progress curves are the
-    scorecard's reference on each seed), then every other model's with the expert's curve of its seed.
-    Returns key -> episode record, or None (after one line on stderr) when an episode failed twice."""
+def _drive_jobs(
+    args: argparse.Namespace, jobs: list[Any], out: Path, timeout: float | None = None
+) -> dict[str, Any] | None:
+    """Run the episode jobs through the executor (``timeout``: its limit per episode attempt): the
+    expert's first (their progress curves are the scorecard's reference on each seed), then every other
+    model's with the expert's curve of its seed. Returns key -> episode record, or None (after one line
+    on stderr) when an episode failed twice."""
 
     def on_result(job: Any, rec: dict[str, Any]) -> None:
         name, i = job.key.rsplit("/", 1)
@@ -353,11 +358,13 @@ def _drive_jobs(args: argparse.Namespace, jobs: list[Any], out: Path) -> dict[st
             address=args.address,
             on_result=on_result,
             on_retry=on_retry,
+            timeout=timeout,
         )
         if result.failed:
             print(
                 f"irlsim: error: drive: {len(result.failed)} of {len(jobs)} episodes failed twice: "
-                f"{describe_failures(result.failed)}; nothing written to {out}/drive.json",
+                f"{describe_failures(result.failed)}; nothing written to {out}/drive.json"
+                f"{timeout_advice(result.failed)}",
                 file=sys.stderr,
             )
             return None

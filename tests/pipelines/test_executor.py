@@ -22,7 +22,11 @@ from typing import Any
 import pytest
 
 from irlsim.cli import main
+from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig
+from irlsim.data.layout import episode_paths
 from irlsim.executor import KILL_GRACE_S, RAY_CANCEL_WAIT_S, Job, run_jobs
+from pipelines.collect import default_episode_timeout, episode_timeout
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 
@@ -184,6 +188,19 @@ def test_a_hung_worker_is_killed_retried_then_named(executor, request):
         assert not [p for p in pids if Path(f"/proc/{p}").exists()], "a hung worker is still there"
 
 
+def test_default_episode_timeout_follows_the_scenario():
+    """600 s + 2 x the simulated time limit (max_time, or max_cycles x cycle when shorter); none for the
+    local executor's one worker in this process unless asked, and then the asked one."""
+    cfg = load_config(CollectConfig, "configs/collect/default.toml")  # max_cycles 800 of 0.2 s, max_time 600
+    assert default_episode_timeout(cfg.scenario, cfg.max_cycles) == 600 + 2 * 160 == 920
+    assert default_episode_timeout(cfg.scenario, 0) == 600 + 2 * 600  # drive without --max-cycles
+    assert default_episode_timeout(cfg.scenario, 10_000) == 1800  # max_time is the shorter
+    assert episode_timeout(None, "local", 2, cfg.scenario, 800) == 920
+    assert episode_timeout(None, "ray", 1, cfg.scenario, 800) == 920
+    assert episode_timeout(None, "local", 1, cfg.scenario, 800) is None
+    assert episode_timeout(30.0, "local", 1, cfg.scenario, 800) == 30.0
+
+
 def test_ray_without_the_extra_is_one_line(tmp_path, capsys, monkeypatch):
     """Without Ray installed ('ray' not importable), --executor ray is one line naming the extra."""
     monkeypatch.setitem(sys.modules, "ray", None)  # what an environment without the extra sees
@@ -248,6 +265,125 @@ def test_local_workers_killed_worker_is_retried_to_the_same_bytes(tiny_dataset, 
     assert _sha256(out) == _sha256(tiny_dataset)
     assert not list(out.rglob(".*.tmp"))
     assert json.loads((out / "manifest.json").read_text())["complete"] is True
+
+
+def _stop_a_worker_and_its_retry(pid: int, stopped: list[int], done: threading.Event) -> None:
+    """SIGSTOP one of the two spawn workers of ``pid`` once both are up, then the first worker started
+    after that: the replacement of the stopped one once the time limit killed it, which takes its episode
+    first (the retry). Both attempts of one episode hang; every other episode runs."""
+    first: set[int] = set()
+    while not done.is_set() and len(stopped) < 2:
+        workers = [p for p in _live_children(pid) if "spawn_main" in _cmdline(p)]
+        new = [p for p in workers if p not in first]
+        if (len(workers) >= 2 and not stopped) or (stopped and new):
+            os.kill(new[0], signal.SIGSTOP)
+            stopped.append(new[0])
+            first.update(workers)
+        time.sleep(0.005)
+
+
+def _run_with_hung_episode(argv: list[str]) -> tuple[subprocess.CompletedProcess, list[int]]:
+    """Run ``irlsim ARGV`` (two local workers) while one episode's worker and its retry's are stopped."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "irlsim.cli", *argv],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    stopped: list[int] = []
+    done = threading.Event()
+    watcher = threading.Thread(target=_stop_a_worker_and_its_retry, args=(proc.pid, stopped, done))
+    watcher.start()
+    try:
+        out, err = proc.communicate(timeout=180)  # 2 x (10 s + 2 s) and the start-ups: never a hang
+    finally:
+        done.set()
+        watcher.join()
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            for pid in stopped:
+                os.kill(pid, signal.SIGKILL)
+    assert len(stopped) == 2, f"stopped {stopped}; stderr: {err[-2000:]}"
+    assert not [p for p in stopped if Path(f"/proc/{p}").exists()], "a stopped worker was left behind"
+    return subprocess.CompletedProcess(argv, proc.returncode, out, err), stopped
+
+
+def test_a_hung_worker_is_killed_retried_then_named_and_recollected(tiny_dataset, tmp_path):
+    """Two local workers; one episode's worker is stopped (SIGSTOP: alive, silent), and so is the fresh
+    worker of its retry: each is killed after --episode-timeout, the command ends with exit 1 naming that
+    episode (manifest "failed"), the other episodes are the bytes of a normal run, and the same command
+    then collects the hung one to the bytes of an uninterrupted run."""
+    out = tmp_path / "hung"
+    argv = _collect_args(out, "--episode-timeout", "10")
+    t0 = time.monotonic()
+    proc, _ = _run_with_hung_episode(argv)
+    elapsed = time.monotonic() - t0
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["complete"] is False and len(man["failed"]) == 1, man
+    ((key, reason),) = man["failed"].items()
+    assert key in ("train/0", "train/1") and reason.startswith("no result within 10 s: worker process ")
+    err = proc.stderr.strip().splitlines()
+    assert f"collect: episode {key} failed (no result within 10 s: worker process " in proc.stderr
+    assert err[-1].startswith(f"irlsim: error: collect: 1 of 4 episodes failed twice: {key} (no result ")
+    assert err[-1].endswith(
+        "re-run the same command to collect the failed ones (an episode that is only "
+        "slow needs a larger --episode-timeout)"
+    )
+    assert "at most 10 s per episode" in proc.stdout
+    assert elapsed < 120, elapsed
+    split, episode = key.split("/")
+    hung = {str(p.relative_to(out)) for p in episode_paths(out, split, int(episode))}
+    reference = _sha256(tiny_dataset)
+    assert _sha256(out) == {k: v for k, v in reference.items() if k not in hung}
+    assert not list(out.rglob(".*.tmp"))
+
+    rerun = subprocess.run(
+        [sys.executable, "-m", "irlsim.cli", *argv], cwd=ROOT, capture_output=True, text=True, timeout=180
+    )
+    assert rerun.returncode == 0, rerun.stderr[-2000:]
+    assert "4 episodes (3 already done)" in rerun.stdout
+    assert _sha256(out) == reference
+    man = json.loads((out / "manifest.json").read_text())
+    assert man["complete"] is True and "failed" not in man
+
+
+def test_drive_a_hung_worker_is_killed_retried_then_named(tmp_path):
+    """drive with two local workers: the expert episode whose worker and retry's worker are stopped is
+    killed after --episode-timeout each time, and the command ends with exit 1 naming it, no drive.json."""
+    out = tmp_path / "drive"
+    argv = [
+        "drive",
+        "--model",
+        "expert",
+        "--episodes",
+        "2",
+        "--workers",
+        "2",
+        "--max-cycles",
+        "25",
+        "--frames",
+        "0",
+        "--config",
+        "configs/collect/tiny.toml",
+        "--episode-timeout",
+        "10",
+        "--out",
+        str(out),
+    ]
+    proc, _ = _run_with_hung_episode(argv)
+    assert proc.returncode == 1, proc.stderr[-2000:]
+    err = proc.stderr.strip().splitlines()
+    assert re.match(
+        r"irlsim: error: drive: 1 of 2 episodes failed twice: expert/[01] \(no result within "
+        r"10 s: worker process \d+ killed\); nothing written to ",
+        err[-1],
+    ), err
+    assert err[-1].endswith("(an episode that is only slow needs a larger --episode-timeout)")
+    assert sum("trying it once more" in line for line in err) == 1, err
+    assert not (out / "drive.json").exists()
 
 
 def test_ray_default_starts_a_local_ray_with_the_same_bytes(tiny_dataset, tmp_path):

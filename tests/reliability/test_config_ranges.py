@@ -107,6 +107,12 @@ def test_a_config_file_that_is_not_utf8_toml_is_one_line(tmp_path, capsys, conte
         (["evaluate", "--data", "x", "--runs", "y", "--threads", "0"], "argument --threads"),
         (["collect", "--out", "x", "--workers", "1e9"], "must be an integer, got '1e9'"),
         (["sim", "--max-time", "nan"], "must be a finite number >= 0, got nan"),
+        (
+            ["collect", "--out", "x", "--episode-timeout", "0"],
+            "argument --episode-timeout: must be a finite number > 0, got 0",
+        ),
+        (["drive", "--episode-timeout", "inf"], "argument --episode-timeout: must be a finite number > 0"),
+        (["drive", "--episode-timeout", "soon"], "argument --episode-timeout: must be a number, got 'soon'"),
     ],
 )
 def test_numeric_options_are_range_checked_at_parse_time(capsys, argv, needle):

@@ -90,6 +90,12 @@ def test_option_types_accept_exactly_their_range(text):
             continue
         assert v == int(text) and lo <= v and (hi is None or v <= hi)
     try:
+        positive = float_in(0, above=True)(text)  # a time limit (--episode-timeout)
+    except argparse.ArgumentTypeError as e:
+        assert "\n" not in str(e)
+    else:
+        assert math.isfinite(positive) and positive > 0
+    try:
         f = float_in(0)(text)
     except argparse.ArgumentTypeError:
         return
