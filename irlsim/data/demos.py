@@ -30,6 +30,36 @@ DT_DEMO = 0.1
 HORIZON = 5.0
 
 
+def safe_demo_index(
+    demo_index: np.ndarray,
+    distances: np.ndarray,
+    collision: np.ndarray,
+    max_distance: float = MAX_DEMO_DISTANCE,
+) -> np.ndarray:
+    """[C] int64: the demonstrations with every one the planner labels as a predicted collision moved to
+    the closest policy (by the stored distance to the odometry) that is not labelled so; -1 (no
+    demonstration) where no such policy is within ``max_distance`` [m].
+
+    Why (issue 12, docs/RESULTS.md): the demonstrator never collided, but in the closest states to a
+    standing vehicle the odometry's closest policy can carry the collision label of the planner's
+    prediction; such a demonstration tells max-ent IRL that a predicted overlap costs nothing there
+    (its proximity feature, with the overlap term, is far above the set's mean), and the learned
+    proximity weight collapses in exactly the states where it matters.
+
+    ``demo_index`` [C] (-1 = none), ``distances`` [C, N] (NaN = incomplete window), ``collision`` [C, N]
+    bool; only the rows whose demonstration is labelled are read (memory maps stay unread otherwise)."""
+    demo = np.asarray(demo_index, dtype=np.int64).copy()
+    rows = np.flatnonzero(demo >= 0)
+    bad = rows[np.asarray(collision[rows, demo[rows]], dtype=bool)]
+    if len(bad):
+        dist = np.asarray(distances[bad], dtype=np.float64)
+        dist = np.where(np.asarray(collision[bad], dtype=bool) | np.isnan(dist), np.inf, dist)
+        best = np.argmin(dist, axis=1)
+        ok = dist[np.arange(len(bad)), best] <= max_distance
+        demo[bad] = np.where(ok, best, -1)
+    return demo
+
+
 def wrap_to(x: np.ndarray, period: float) -> np.ndarray:
     """Wrap ``x`` into [-period / 2, period / 2) (same shape and dtype as ``x``)."""
     return np.mod(x + 0.5 * period, period) - 0.5 * period

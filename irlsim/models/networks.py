@@ -10,7 +10,10 @@ Stage-1 models map one planning cycle's policy set to linear reward weights thet
 
 Theta is predicted in normalised units (features divided by their train std) and converted to raw
 units by dividing by the per-feature std held in a buffer, so the normalisation travels with the
-checkpoint. Positivity: theta_n = softplus(output).
+checkpoint. Positivity: theta_n = softplus(output). With ``ModelConfig.theta_bound`` = B > 1 the deep
+models predict a bounded deviation from one learned situation-independent theta instead:
+theta_n = softplus(b) * B^tanh(output), b [15] trainable (LIRL's weights, inside the deep model), so a
+cycle's weight lies within a factor B of b's; an out-of-distribution state cannot switch a feature off.
 
 The policy encoder treats the progress-sorted policy set as a 1-D sequence (length N, D = 15 + 5K
 input channels) and convolves along the policy axis, then average-pools groups of ``pool`` neighbouring
@@ -18,6 +21,8 @@ policies (2500 -> 313; ceil, so no policy is dropped, the paper's figure says 31
 """
 
 from __future__ import annotations
+
+import math
 
 import torch
 from torch import nn
@@ -40,6 +45,14 @@ class RewardModel(nn.Module):
         self.register_buffer("input_mean", torch.as_tensor(stats.mean, dtype=torch.float32))
         self.register_buffer("input_std", torch.as_tensor(stats.std, dtype=torch.float32))
         self.register_buffer("theta_scale", torch.as_tensor(stats.std[:N_FEATURES], dtype=torch.float32))
+        self.theta_bound = 0.0
+
+    def bound_theta(self, bound: float) -> None:
+        """Predict theta as a bounded deviation, within a factor ``bound`` (> 1), from a learned
+        situation-independent theta (module docstring); 0 keeps the unbounded softplus."""
+        if bound > 0:
+            self.theta_bound = float(bound)
+            self.theta_base = nn.Parameter(torch.zeros(N_FEATURES))
 
     @property
     def n_channels(self) -> int:
@@ -58,6 +71,9 @@ class RewardModel(nn.Module):
 
     def to_theta(self, out: torch.Tensor) -> torch.Tensor:
         """Network output [B, 15] (normalised units, unconstrained) -> theta [B, 15] raw units, >= 0."""
+        if self.theta_bound > 0:
+            base = nn.functional.softplus(self.theta_base)
+            return base * torch.exp(math.log(self.theta_bound) * torch.tanh(out)) / self.theta_scale
         return nn.functional.softplus(out) / self.theta_scale
 
 

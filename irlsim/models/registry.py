@@ -9,7 +9,7 @@ from torch import nn
 
 from irlsim.config import require
 from irlsim.errors import IrlsimError
-from irlsim.models.networks import LIRL, PACNN, PTACNN, TAN_INPUTS, Bi1DCNN, Conv1DCNN
+from irlsim.models.networks import LIRL, PACNN, PTACNN, TAN_INPUTS, Bi1DCNN, Conv1DCNN, RewardModel
 from irlsim.models.normalization import FeatureStats
 
 #: stage-1 models (one cycle -> theta), in Table-I order
@@ -53,6 +53,11 @@ class ModelConfig:
     tan_inputs: str = "context+theta"
     """PTACNN per-step LSTM input (TAN_INPUTS): 'context+theta' (the paper: PACNN context vector and
     theta), 'context', 'theta', or 'context+theta+delta' (also theta_h - theta_{h-1}, normalised)"""
+    theta_bound: float = 0.0
+    """deep stage-1 models (1DCNN, Bi1DCNN, PACNN(+S)): 0 = the paper's theta_n = softplus(output), any
+    weight per cycle; B > 1 = theta_n = softplus(b) * B^tanh(output) with a learned situation-independent
+    b [15]: each cycle's weight within a factor B of b's (issue 12: a state the data never showed cannot
+    switch a feature such as proximity off)"""
     drop_newest: float = 0.0
     """PTACNN training only: probability of dropping the newest history entry of a sample (the history
     is shifted one cycle back, the oldest entry repeated), so the net cannot rely on it alone"""
@@ -77,6 +82,10 @@ class ModelConfig:
         require(
             self.tan_inputs in TAN_INPUTS,
             f"model.tan_inputs must be one of {', '.join(TAN_INPUTS)}, got '{self.tan_inputs}'",
+        )
+        require(
+            self.theta_bound == 0.0 or self.theta_bound > 1.0,
+            f"model.theta_bound must be 0 (unbounded) or > 1, got {self.theta_bound}",
         )
         require(0.0 <= self.drop_newest < 1.0, f"model.drop_newest must be in [0, 1), got {self.drop_newest}")
 
@@ -114,12 +123,13 @@ def build_model(
         raise IrlsimError(f"n_policies must be >= 1, got {n_policies}")
     if name == "LIRL":
         return LIRL(stats, n_policies)
+    deep: RewardModel | None = None
     if name == "1DCNN":
-        return Conv1DCNN(
+        deep = Conv1DCNN(
             stats, n_policies, cfg.hidden_channels, cfg.latent, cfg.kernel, cfg.pool, cfg.fc_hidden
         )
-    if name == "Bi1DCNN":
-        return Bi1DCNN(
+    elif name == "Bi1DCNN":
+        deep = Bi1DCNN(
             stats,
             n_policies,
             cfg.hidden_channels,
@@ -129,8 +139,8 @@ def build_model(
             cfg.fc_hidden,
             cfg.bi_cross_layers,
         )
-    if name in ("PACNN", "PACNN+S"):
-        return PACNN(
+    elif name in ("PACNN", "PACNN+S"):
+        deep = PACNN(
             stats,
             n_policies,
             cfg.hidden_channels,
@@ -140,6 +150,9 @@ def build_model(
             cfg.attention_hidden,
             cfg.head_hidden,
         )
+    if deep is not None:
+        deep.bound_theta(cfg.theta_bound)
+        return deep
     theta_scale = torch.as_tensor(stats.std[:15], dtype=torch.float32)
     return PTACNN(
         cfg.latent,

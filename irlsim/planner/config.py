@@ -117,6 +117,12 @@ class PlannerConfig:
     """[m] mission_lane urgency = min(urgency_max, mission_distance / remaining distance)"""
     mission_urgency_max: float = 10.0
     """[-] cap of the mission_lane urgency"""
+    mission_event: float = 0.0
+    """[s] mission_lane's event at the checkpoint: where a policy passes its target checkpoint (step
+    tc) it adds gamma^tc * mission_urgency_max * mission_event * |d_tc - d_req| / LW, the lanes away at the
+    instant the simulator checks the lane (0 = off, the path integral alone). Without it a lane change
+    started 15-20 m before the checkpoint costs almost nothing (urgency is 0 past it) and learned rewards
+    leave the required lane just too early (issue 12, docs/RESULTS.md)"""
     progress_lookahead: float = 200.0
     """[m] progress measures the distance to a goal this far beyond the target checkpoint"""
 
@@ -164,6 +170,7 @@ class PlannerConfig:
         require(self.a_lat_max > 0 and self.max_slip > 0, "planner lateral limits must be > 0")
         require(self.yaw_speed_floor > 0, "planner.yaw_speed_floor must be > 0")
         require(self.ego_length > 0 and self.ego_width > 0, "planner ego size must be > 0")
+        require(self.mission_event >= 0, f"planner.mission_event must be >= 0 s, got {self.mission_event}")
         require(self.proximity_sigma_s > 0 and self.proximity_sigma_d > 0, "proximity sigmas must be > 0")
         require(
             self.proximity_headway >= 0

@@ -20,7 +20,9 @@ width. ``w_t = gamma^t dt`` [s].
 | 9 | road_edge     | relu(m - gap_left)^2 + relu(m - gap_right)^2, gap = distance of the ego's   | m^2 * s     |
 |   |               | side to the drivable edge (ramps included), m = ``edge_margin``              |             |
 | 10| mission_lane  | u(s) |d - d_req| / LW, u = min(u_max, D / remaining distance to the target   | lanes * s   |
-|   |               | checkpoint), 0 once past it; d_req the centre of its required lane           |             |
+|   |               | checkpoint), 0 once past it; d_req the centre of its required lane; with     |             |
+|   |               | ``mission_event`` E > 0 also the event gamma^tc u_max E |d_tc - d_req| / LW   |             |
+|   |               | at the step tc the policy passes the checkpoint                              |             |
 | 11| progress      | max(0, s_goal - s), s_goal = target checkpoint + ``progress_lookahead``; on an | m * s       |
 |   |               | exit ramp (target unreachable) the route distance is capped at lap_length     |             |
 | 12| stop_line     | event: gamma^tc (1 + v_tc) when crossing an active stop line at step tc      | m/s         |
@@ -170,6 +172,12 @@ def lon_features(
     urg = np.where(
         rem > 0, np.minimum(cfg.mission_urgency_max, cfg.mission_distance / np.maximum(rem, 1e-3)), 0.0
     )
+    if cfg.mission_event > 0:
+        # the step a policy passes the checkpoint carries the event: w_tc * extra = gamma^tc * u_max * event
+        passing = (rem <= 0) & (np.arange(rem.shape[1]) >= 1) & (rem[:, :1] > 0)
+        tc = np.argmax(passing, axis=1)
+        hit = passing[np.arange(len(tc)), tc]
+        urg[np.flatnonzero(hit), tc[hit]] += cfg.mission_urgency_max * cfg.mission_event / cfg.dt
     series = LonSeries(c=c.astype(F32), cdot=cdot.astype(F32), urg=urg.astype(F32), prog=prog.astype(F32))
     return F, series
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +11,7 @@ import torch
 from torch import nn
 
 from irlsim import FEATURE_NAMES
+from irlsim.data.demos import safe_demo_index
 from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.devices import forward, to_device, to_numpy
@@ -24,11 +26,16 @@ def as_dataset(dataset: Any) -> Any:
     return dataset
 
 
-def get_split(dataset: Any, name: str) -> Any:
-    """The SplitTensors of split ``name`` (train / validation / test)."""
+def get_split(dataset: Any, name: str, safe_demos: bool = False) -> Any:
+    """The SplitTensors of split ``name`` (train / validation / test); ``safe_demos``: demonstrations
+    labelled as a predicted collision moved to the closest unlabelled policy
+    (:func:`irlsim.data.demos.safe_demo_index`)."""
     split = dataset.split_tensors(name)
     c, n = split.features.shape[:2]
     assert split.distances.shape == (c, n) and split.demo_index.shape == (c,), f"split {name} is inconsistent"
+    if safe_demos:
+        demo = safe_demo_index(split.demo_index, split.distances, split.labels[:, :, 0])
+        split = dataclasses.replace(split, demo_index=demo)
     return split
 
 

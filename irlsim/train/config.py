@@ -46,6 +46,11 @@ class TrainConfig:
     checkpoint's 'provenance')"""
     max_cycles: int = 0
     """use only the first this many cycles of the train split (0 = all)"""
+    safe_demos: bool = False
+    """train on demonstrations that are never labelled as a predicted collision: such a demonstration
+    moves to the closest policy (stored distance to the odometry) without the label, or the cycle is
+    dropped when none is within 1.5 m (irlsim.data.demos.safe_demo_index; issue 12). The train split
+    only: validation and test metrics are distances to the odometry either way"""
     eval_batch: int = 64
     """cycles per forward pass when predicting whole splits (memory bound)"""
     tensorboard: bool = True

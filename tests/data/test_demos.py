@@ -141,3 +141,37 @@ def test_missing_odometry_step_means_incomplete_window() -> None:
             proj.push_odometry(step * DT, 20.0 * step * DT, 0.0, 0.0)
     (p,) = proj.pop_ready()
     assert p.demo_index == -1 and np.isnan(p.distances).all()
+
+
+def test_safe_demo_index_moves_colliding_demonstrations_to_the_closest_safe_policy():
+    """Hand-made cycles: (0) demo labelled collision, a safe policy at 0.4 m -> moved there; (1) demo not
+    labelled -> unchanged; (2) labelled, the only safe policy 2.0 m away (> 1.5 m) -> no demonstration;
+    (3) no demonstration -> stays -1; (4) labelled, the closest safe policy's window is NaN -> the next."""
+    from irlsim.data.demos import safe_demo_index
+
+    demo = np.array([0, 1, 0, -1, 2])
+    dist = np.array(
+        [
+            [0.1, 0.5, 0.4, 0.9],
+            [0.3, 0.1, 0.2, 0.2],
+            [0.1, 2.0, 3.0, 2.5],
+            [0.1, 0.2, 0.3, 0.4],
+            [np.nan, 0.7, 0.2, 1.0],
+        ],
+        dtype=np.float32,
+    )
+    coll = np.array(
+        [
+            [True, True, False, False],
+            [False, False, True, True],
+            [True, False, True, True],
+            [True, True, True, True],
+            [False, False, True, False],
+        ]
+    )
+    out = safe_demo_index(demo, dist, coll)
+    np.testing.assert_array_equal(out, [2, 1, -1, -1, 1])
+    np.testing.assert_array_equal(demo, [0, 1, 0, -1, 2])  # the input is not modified
+    assert out.dtype == np.int64
+    # no labelled demonstration: the same indices
+    np.testing.assert_array_equal(safe_demo_index(demo, dist, np.zeros_like(coll)), demo)

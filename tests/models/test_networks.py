@@ -109,3 +109,29 @@ def test_theta_is_in_raw_units_via_the_stored_scale():
     expected = torch.nn.functional.softplus(torch.zeros(15)) / torch.as_tensor(stats.std[:15]).float()
     torch.testing.assert_close(theta, expected)
     assert set(MODEL_NAMES) >= {"LIRL", "PTACNN"}
+
+
+@pytest.mark.parametrize("name", ["1DCNN", "Bi1DCNN", "PACNN"])
+def test_bounded_theta_stays_within_the_factor_of_the_learned_base(name):
+    """theta_bound B: theta_n = softplus(b) * B^tanh(out); whatever the head outputs, each weight lies
+    within a factor B of softplus(b) (closed form at out = 0 and at saturation)."""
+    import dataclasses
+
+    torch.manual_seed(0)
+    model = build_model(name, dataclasses.replace(CFG, theta_bound=4.0), N, None)
+    base = torch.nn.functional.softplus(model.theta_base.detach())
+    torch.testing.assert_close(model.to_theta(torch.zeros(2, 15)), base.expand(2, 15))
+    huge = model.to_theta(torch.tensor([[1e3] * 15, [-1e3] * 15]))
+    torch.testing.assert_close(huge, torch.stack([base * 4.0, base / 4.0]))
+    theta = model(*_batch())["theta"]
+    assert ((theta >= base / 4.0 - 1e-6) & (theta <= base * 4.0 + 1e-6)).all()
+    theta.sum().backward()
+    assert model.theta_base.grad is not None and model.theta_base.grad.abs().sum() > 0
+    unbounded = build_model(name, CFG, N, None)
+    assert not hasattr(unbounded, "theta_base")
+
+
+@pytest.mark.parametrize("bound", [0.5, 1.0, -2.0])
+def test_theta_bound_must_be_zero_or_above_one(bound):
+    with pytest.raises(IrlsimError, match="theta_bound"):
+        ModelConfig(theta_bound=bound).validate()

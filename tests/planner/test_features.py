@@ -219,3 +219,36 @@ def test_vehicles_queue_before_a_stop_line(road):
     assert out[2] == pytest.approx(20.0 - 0.3)  # alone in the left lane
     assert np.isinf(out[3])  # the line is beyond reach
     assert np.all(np.isinf(predicted_stop_distance(s, d, *size, (), lap)))
+
+
+def test_mission_event_adds_the_lanes_away_where_the_policy_passes_the_checkpoint(road):
+    """planner.mission_event E: a policy that passes its target checkpoint at step tc gains exactly
+    gamma^tc * u_max * E * |d_tc - d_req| / LW in mission_lane (hand-computed from its own states);
+    with E = 0 (the default) the feature is the path integral alone."""
+    import dataclasses
+
+    from irlsim.planner.planner import Planner
+
+    cp = road.checkpoints[1]  # requires lane 0
+    obs = make_obs(road, cp.s - 40.0, LANE_WIDTH, 15.0)
+    base = Planner(road)
+    cfg = dataclasses.replace(base.cfg, mission_event=2.0)
+    ev = Planner(road, cfg)
+    ps0, ps1 = base.plan(obs), ev.plan(obs)
+    np.testing.assert_array_equal(ps0.s, ps1.s)
+    np.testing.assert_array_equal(ps0.d, ps1.d)
+    assert obs.target_checkpoint == 1
+    rem = obs.target_s - ps0.s  # ps.s is the unwrapped route position
+    passing = (rem <= 0) & (np.arange(rem.shape[1]) >= 1)
+    tc = np.argmax(passing, axis=1)
+    hit = passing[np.arange(len(tc)), tc]
+    assert hit.any() and (~hit).any()  # some policies pass it within the horizon, some (braking) do not
+    away = np.abs(ps0.d[np.arange(len(tc)), tc] - road.lane_center(cp.lane)) / LANE_WIDTH
+    expected = np.where(hit, cfg.gamma ** tc * cfg.mission_urgency_max * 2.0 * away, 0.0)
+    diff = ps1.features[:, F["mission_lane"]].astype(np.float64) - ps0.features[:, F["mission_lane"]]
+    # a policy whose front is at the checkpoint to float precision may pass it one step later in float32
+    exact = np.abs(rem[np.arange(len(tc)), tc]) > 1e-3
+    assert exact.mean() > 0.95
+    np.testing.assert_allclose(diff[exact], expected[exact], rtol=1e-4, atol=1e-3)
+    # a policy still one lane away when it passes pays more than one that is back in the lane
+    assert diff[hit & (away > 0.9)].min() > diff[hit & (away < 0.1)].max()
