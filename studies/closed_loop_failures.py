@@ -152,7 +152,7 @@ def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict
                 "same_lane_plan": float(same_plan[m].mean()),
             }
     n_back = int(round(5.0 / cycle_s))
-    for seed, (rows, end) in episodes.items():
+    for seed, (rows, _end) in episodes.items():
         for i, r in enumerate(rows):
             if r["collisions"]:
                 window = rows[max(0, i - n_back) : i + 1]
@@ -219,14 +219,16 @@ def markdown(res: dict[str, Any], model: str, ends: dict[int, str]) -> str:
     for c in res["collisions"]:
         lines += ["", f"## collision seed {c['seed']} t = {c['t']:.1f} s ({c['situation']})", ""]
         lines += [
-            "| t | v | lead gap | lead v | situation | same | share of set labelled collision | learner's labelled | "
-            "theta_prox (expert 30) | prox learner / expert | terms for the learner's choice |",
+            "| t | v | lead gap | lead v | situation | same | share of set labelled collision | "
+            "learner's labelled | theta_prox (expert 30) | prox learner / expert | "
+            "terms for the learner's choice |",
             "|---|---|---|---|---|---|---|---|---|---|---|",
         ]
         for w in c["cycles"]:
             lines.append(
-                f"| {w['t']:.1f} | {w['v']:.1f} | {w['lead_gap']:.1f} | {w['lead_v']:.1f} | {w['situation']} | "
-                f"{'y' if w['same_policy'] else 'n'} | {w['coll_share']:.2f} | {'y' if w['learner_coll'] else 'n'} | "
+                f"| {w['t']:.1f} | {w['v']:.1f} | {w['lead_gap']:.1f} | {w['lead_v']:.1f} | "
+                f"{w['situation']} | {'y' if w['same_policy'] else 'n'} | {w['coll_share']:.2f} | "
+                f"{'y' if w['learner_coll'] else 'n'} | "
                 f"{w['theta_prox']:.2f} | {w['prox_learner']:.2f} / "
                 f"{w['prox_expert']:.2f} | {w['v_learner_end_terms']} |"
             )

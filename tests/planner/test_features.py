@@ -244,7 +244,7 @@ def test_mission_event_adds_the_lanes_away_where_the_policy_passes_the_checkpoin
     hit = passing[np.arange(len(tc)), tc]
     assert hit.any() and (~hit).any()  # some policies pass it within the horizon, some (braking) do not
     away = np.abs(ps0.d[np.arange(len(tc)), tc] - road.lane_center(cp.lane)) / LANE_WIDTH
-    expected = np.where(hit, cfg.gamma ** tc * cfg.mission_urgency_max * 2.0 * away, 0.0)
+    expected = np.where(hit, cfg.gamma**tc * cfg.mission_urgency_max * 2.0 * away, 0.0)
     diff = ps1.features[:, F["mission_lane"]].astype(np.float64) - ps0.features[:, F["mission_lane"]]
     # a policy whose front is at the checkpoint to float precision may pass it one step later in float32
     exact = np.abs(rem[np.arange(len(tc)), tc]) > 1e-3
