@@ -298,6 +298,8 @@ def _run(args: argparse.Namespace, device: str) -> int:
         recs, times = [], []
         for i in range(args.episodes):
             rec = dict(results[f"{label}/{i}"])
+            # a checkpoint path is its own label: two checkpoints of one model never share a row's name
+            rec["drive/model"] = label
             times += rec.pop("_inference_ms")
             rec.pop("_progress")
             recs.append(rec)
@@ -373,9 +375,13 @@ def _drive_jobs(
 
 
 def _folder(name: str) -> str:
-    """A model's picture folder: its registry name, or a checkpoint path's parent folder name."""
+    """A model's picture folder: its registry name, or a checkpoint path as one folder name (its parts
+    joined by '_', e.g. runs_a_stage1_PACNN+S_checkpoint.pt): two checkpoints of one model, or a
+    checkpoint and the registry model of that name, never share a folder."""
     p = Path(name)
-    return p.parent.name if p.suffix == ".pt" else name
+    if p.suffix != ".pt" and "/" not in name:
+        return name
+    return "_".join(part for part in p.parts if part not in ("/", "..", ".")) or p.name
 
 
 def _line(rec: dict) -> str:

@@ -54,7 +54,10 @@ def test_short_expert_run_reports_every_figure(road, tmp_path):
 
 
 def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
+    from pathlib import Path
+
     from irlsim.cli import main
+    from irlsim.train.layout import find_checkpoint
 
     cfg = tmp_path / "tiny.toml"
     cfg.write_text(TINY_TOML)
@@ -65,7 +68,7 @@ def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
             "--runs",
             str(tiny_runs),
             "--model",
-            "LIRL,PTACNN+S",
+            f"LIRL,PTACNN+S,{find_checkpoint(tiny_runs, 'LIRL')}",
             "--episodes",
             "1",
             "--laps",
@@ -86,7 +89,11 @@ def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "| PTACNN+S | 1 |" in printed and f"wrote {out}/drive.json" in printed
     doc = json.loads((out / "drive.json").read_text())
-    assert [s["drive/model"] for s in doc["summary"]] == ["LIRL", "PTACNN+S"]
+    path = str(find_checkpoint(tiny_runs, "LIRL"))
+    # a checkpoint path is its own row and folder, never mixed up with the registry model of that name
+    assert [s["drive/model"] for s in doc["summary"]] == ["LIRL", "PTACNN+S", path]
+    assert [e["drive/model"] for e in doc["episodes"]] == ["LIRL", "PTACNN+S", path]
+    assert {p.name for p in (out / "_".join(Path(path).parts[1:])).iterdir()} >= {"episode.gif"}
     for ep in doc["episodes"]:
         assert set(EPISODE_KEYS) <= set(ep) and ep["drive/seed"] == 7 and ep["drive/cycles"] >= 1
         assert ep["drive/inference_ms_mean"] > 0.0 and "_inference_ms" not in ep
