@@ -317,7 +317,8 @@ def test_mission_lane_in_the_wrong_lane(road, planner, grid):
 
 def test_mission_lane_is_capped_and_ends_at_the_checkpoint(road, planner, grid):
     """20 m before the checkpoint at 15 m/s in the middle lane (1 lane off): the urgency reaches its cap
-    u_max as the remaining distance goes below D / u_max = 30 m ... 0 and is 0 once past (t > 4/3 s)."""
+    u_max as the remaining distance goes below D / u_max = 30 m ... 0 and is 0 once past (t > 4/3 s); the
+    step that passes it adds the event gamma^tc u_max E (planner.mission_event E, 1 lane off)."""
     t, w = grid
     cfg = planner.cfg
     cp = road.checkpoints[1]
@@ -328,7 +329,12 @@ def test_mission_lane_is_capped_and_ends_at_the_checkpoint(road, planner, grid):
         rem > 0, np.minimum(cfg.mission_urgency_max, cfg.mission_distance / np.maximum(rem, 1e-9)), 0.0
     )
     assert (u == cfg.mission_urgency_max).any() and (u == 0).any()
-    check(ps, i, "mission_lane", float((u * 1.0) @ w))
+    # the event where it passes the checkpoint, one lane off: gamma^tc u_max mission_event * 1 lane
+    tc = int(np.argmax((rem <= 0) & (np.arange(len(t)) >= 1)))
+    assert tc == 14  # rem(1.3 s) = 0.5 m, rem(1.4 s) = -1 m
+    event = cfg.gamma**tc * cfg.mission_urgency_max * cfg.mission_event * 1.0
+    assert cfg.mission_event > 0
+    check(ps, i, "mission_lane", float((u * 1.0) @ w) + event)
 
 
 def test_lat_overshoot_of_a_lane_change_entered_fast(road, planner, grid):

@@ -224,15 +224,16 @@ def test_vehicles_queue_before_a_stop_line(road):
 def test_mission_event_adds_the_lanes_away_where_the_policy_passes_the_checkpoint(road):
     """planner.mission_event E: a policy that passes its target checkpoint at step tc gains exactly
     gamma^tc * u_max * E * |d_tc - d_req| / LW in mission_lane (hand-computed from its own states);
-    with E = 0 (the default) the feature is the path integral alone."""
+    with E = 0 the feature is the path integral alone."""
     import dataclasses
 
     from irlsim.planner.planner import Planner
 
     cp = road.checkpoints[1]  # requires lane 0
     obs = make_obs(road, cp.s - 40.0, LANE_WIDTH, 15.0)
-    base = Planner(road)
-    cfg = dataclasses.replace(base.cfg, mission_event=2.0)
+    default = Planner(road).cfg
+    base = Planner(road, dataclasses.replace(default, mission_event=0.0))
+    cfg = dataclasses.replace(default, mission_event=2.0)
     ev = Planner(road, cfg)
     ps0, ps1 = base.plan(obs), ev.plan(obs)
     np.testing.assert_array_equal(ps0.s, ps1.s)
