@@ -48,14 +48,14 @@ from irlsim.utils import seed_everything
 PROX = FEATURE_NAMES.index("proximity")
 
 
-def lead_vehicle(obs: Any, lap: float, ego_len: float) -> tuple[float, float]:
+def lead_vehicle(obs: Any, lap: float, ego_width: float) -> tuple[float, float]:
     """(bumper gap [m], speed [m/s]) of the nearest vehicle ahead in the ego's lane (inf, nan if none)."""
     veh = obs.vehicles
     if veh.count == 0:
         return float("inf"), float("nan")
     ds = (veh.s - obs.ego.s % lap + lap / 2) % lap - lap / 2  # front bumpers, relative
     gap = ds - veh.length  # rear bumper minus the ego's front bumper (the ego's s is its front)
-    same = np.abs(veh.d - obs.ego.d) < (veh.width + 1.9) / 2 + 0.3
+    same = np.abs(veh.d - obs.ego.d) < (veh.width + ego_width) / 2 + 0.3
     ok = same & (gap > -veh.length) & (gap < 200.0)
     if not ok.any():
         return float("inf"), float("nan")
@@ -66,8 +66,8 @@ def lead_vehicle(obs: Any, lap: float, ego_len: float) -> tuple[float, float]:
 class Recorder(ObserverBase):
     """Per-cycle record of the learner's and the expert's choice on the same set."""
 
-    def __init__(self, driver: DaggerDriver, road: Any, ego_len: float):
-        self.driver, self.road, self.ego_len = driver, road, ego_len
+    def __init__(self, driver: DaggerDriver, road: Any, ego_width: float):
+        self.driver, self.road, self.ego_width = driver, road, ego_width
         self.rows: list[dict[str, Any]] = []
 
     def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
@@ -79,7 +79,7 @@ class Recorder(ObserverBase):
         cp = self.road.checkpoints[obs.target_checkpoint]
         final = ps.lane[:, -1].astype(np.int64)
         away = mission_lanes_away(ps, obs.target_s, cp.lane, final)
-        gap, v_lead = lead_vehicle(obs, self.road.lap_length, self.ego_len)
+        gap, v_lead = lead_vehicle(obs, self.road.lap_length, self.ego_width)
         self.rows.append(
             {
                 "t": obs.ego.t,
@@ -115,7 +115,7 @@ def drive(model: Any, road: Any, cfg: CollectConfig, seed: int, laps: int) -> tu
     scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
     seed_everything(seed)
     driver = DaggerDriver(model, road, cfg)
-    rec = Recorder(driver, road, float(scenario.ego_length))
+    rec = Recorder(driver, road, float(scenario.ego_width))
     with Simulation(road, scenario) as sim:
         result = EpisodeRunner(sim, observers=[rec]).run(driver, seed)
     return rec.rows, str(result.end_reason)
