@@ -3,9 +3,11 @@
     .venv/bin/python studies/combine_drives.py runs/default/accept10/drive.json \\
         runs/default/accept10b/drive.json
 
-Per model: episodes, collisions, exits, stops, checkpoints in lane, mean speed (mean of the episodes' mean
-speeds, as ``irlsim drive``'s summary), its ratio to the expert's on the same seeds, the composite score
-(mean ± sample std over the episodes) and the seeds. Refuses runs that share a seed for a model.
+Per model: episodes, collisions, exits, stops and checkpoints in lane (the counts of
+``irlsim.drive.metrics.summarize``, as ``irlsim drive``'s table), mean speed (the plain mean of the
+episodes' mean speeds, where ``irlsim drive`` weights them by steps), its ratio to the expert's on the same
+seeds, the composite score (mean ± sample std over the episodes; ``drive.md`` prints the population std)
+and the seeds. Refuses runs that share a seed for a model.
 """
 
 from __future__ import annotations
@@ -16,13 +18,15 @@ from collections import defaultdict
 
 import numpy as np
 
+from irlsim.drive.metrics import summarize
+
 
 def main(paths: list[str]) -> int:
     eps: dict[str, list[dict]] = defaultdict(list)
     for p in paths:
         for e in json.load(open(p))["episodes"]:
             eps[e["drive/model"]].append(e)
-    speed = {m: {e["drive/seed"]: e["drive/mean_speed_kmh"] for e in es} for m, es in eps.items()}
+    ref = {e["drive/seed"]: e["drive/mean_speed_kmh"] for e in eps.get("expert", [])}  # expert's km/h by seed
     print(
         "| model | episodes | seeds | collisions | exits | stops | checkpoints in lane | km/h | "
         "of the expert's | score (mean ± std) |"
@@ -32,12 +36,8 @@ def main(paths: list[str]) -> int:
         seeds = [e["drive/seed"] for e in es]
         if len(set(seeds)) != len(seeds):
             raise SystemExit(f"{m}: a seed appears twice in {paths}")
-
-        def s(k: str, es: list[dict] = es) -> int:
-            return sum(int(e[k]) for e in es)
-
+        t = summarize(es)
         v = float(np.mean([e["drive/mean_speed_kmh"] for e in es]))
-        ref = speed.get("expert", {})
         ratio = (
             np.mean([e["drive/mean_speed_kmh"] / ref[e["drive/seed"]] for e in es])
             if all(e["drive/seed"] in ref for e in es)
@@ -45,9 +45,9 @@ def main(paths: list[str]) -> int:
         )
         sc = np.array([e["score/score"] for e in es], dtype=float)
         print(
-            f"| {m} | {len(es)} | {min(seeds)}-{max(seeds)} | {s('drive/collisions')} | {s('drive/exits')} | "
-            f"{s('drive/stop_lines_compliant')}/{s('drive/stop_lines_passed')} | "
-            f"{s('drive/checkpoints_in_lane')}/{s('drive/checkpoints_passed')} | {v:.1f} | {ratio:.2f} | "
+            f"| {m} | {len(es)} | {min(seeds)}-{max(seeds)} | {t['drive/collisions']} | {t['drive/exits']} | "
+            f"{t['drive/stop_lines_compliant']}/{t['drive/stop_lines_passed']} | "
+            f"{t['drive/checkpoints_in_lane']}/{t['drive/checkpoints_passed']} | {v:.1f} | {ratio:.2f} | "
             f"{sc.mean():.1f} ± {sc.std(ddof=1) if len(sc) > 1 else 0.0:.1f} |"
         )
     return 0
