@@ -46,6 +46,8 @@ from irlsim.sim.simulation import Simulation
 from irlsim.utils import seed_everything
 
 PROX = FEATURE_NAMES.index("proximity")
+SL = FEATURE_NAMES.index("stop_line")
+STOP_FEATURES = ("velocity", "creep", "stop_line", "proximity")
 
 
 def lead_vehicle(obs: Any, lap: float, ego_width: float) -> tuple[float, float]:
@@ -107,6 +109,11 @@ class Recorder(ObserverBase):
                 "collisions": int(cycle.facts.get("collisions") or 0),
                 "cp_passed": int(cycle.facts.get("checkpoints_passed") or 0),
                 "cp_in_lane": int(cycle.facts.get("checkpoints_in_lane") or 0),
+                "stop_rel": float(obs.stop_s - obs.ego.s) if np.isfinite(obs.stop_s) else float("inf"),
+                "sl_passed": int(cycle.facts.get("stop_lines_passed") or 0),
+                "sl_compliant": int(cycle.facts.get("stop_lines_compliant") or 0),
+                "learner_v_min": float(ps.v[li].min()),
+                "expert_v_min": float(ps.v[ei].min()),
             }
         )
 
@@ -133,7 +140,7 @@ def fmt_terms(t: np.ndarray, k: int = 4) -> str:
 
 
 def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict[str, Any]:
-    out: dict[str, Any] = {"agreement": {}, "collisions": [], "misses": []}
+    out: dict[str, Any] = {"agreement": {}, "collisions": [], "misses": [], "stops": []}
     allrows = [r for rows, _ in episodes.values() for r in rows]
     sit = np.array([r["situation"] for r in allrows])
     same_policy = np.array([r["learner"] == r["expert"] for r in allrows])
@@ -176,6 +183,32 @@ def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict
                                 "prox_learner": float(w["f_learner"][PROX]),
                                 "prox_expert": float(w["f_expert"][PROX]),
                                 "v_learner_end_terms": fmt_terms(tm[j]),
+                            }
+                            for j, w in enumerate(window)
+                        ],
+                    }
+                )
+            if r["sl_passed"] > r["sl_compliant"]:
+                window = rows[max(0, i - 2 * n_back) : i + 1]
+                tm = terms(window)
+                out["stops"].append(
+                    {
+                        "seed": seed,
+                        "t": r["t"],
+                        "cycles": [
+                            {
+                                "t": w["t"],
+                                "v": w["v"],
+                                "stop_rel": w["stop_rel"],
+                                "lead_gap": w["lead_gap"],
+                                "lead_v": w["lead_v"],
+                                "same_policy": w["learner"] == w["expert"],
+                                "v_min": (w["learner_v_min"], w["expert_v_min"]),
+                                "stop_line": (float(w["f_learner"][SL]), float(w["f_expert"][SL])),
+                                "theta": {
+                                    n: float(w["theta"][FEATURE_NAMES.index(n)]) for n in STOP_FEATURES
+                                },
+                                "terms": fmt_terms(tm[j]),
                             }
                             for j, w in enumerate(window)
                         ],
@@ -231,6 +264,23 @@ def markdown(res: dict[str, Any], model: str, ends: dict[int, str]) -> str:
                 f"{'y' if w['learner_coll'] else 'n'} | "
                 f"{w['theta_prox']:.2f} | {w['prox_learner']:.2f} / "
                 f"{w['prox_expert']:.2f} | {w['v_learner_end_terms']} |"
+            )
+    for c in res["stops"]:
+        lines += ["", f"## stop line crossed without a full stop, seed {c['seed']} t = {c['t']:.1f} s", ""]
+        lines += [
+            "| t | v | to line | lead gap | lead v | same | min v over horizon learner / expert | "
+            "stop_line f learner / expert | theta velocity, creep, stop_line, proximity | terms |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        for w in c["cycles"]:
+            th = w["theta"]
+            lines.append(
+                f"| {w['t']:.1f} | {w['v']:.2f} | {w['stop_rel']:.1f} | {w['lead_gap']:.1f} | "
+                f"{w['lead_v']:.1f} | "
+                f"{'y' if w['same_policy'] else 'n'} | {w['v_min'][0]:.2f} / {w['v_min'][1]:.2f} | "
+                f"{w['stop_line'][0]:.2f} / {w['stop_line'][1]:.2f} | "
+                + ", ".join(f"{th[n]:.2f}" for n in STOP_FEATURES)
+                + f" | {w['terms']} |"
             )
     if res["misses"]:
         lines += ["", "## checkpoints missed in their lane", ""]

@@ -33,27 +33,41 @@ HORIZON = 5.0
 def safe_demo_index(
     demo_index: np.ndarray,
     distances: np.ndarray,
-    collision: np.ndarray,
+    collision: np.ndarray | None,
     max_distance: float = MAX_DEMO_DISTANCE,
+    stop_line: np.ndarray | None = None,
 ) -> np.ndarray:
-    """[C] int64: the demonstrations with every one the planner labels as a predicted collision moved to
-    the closest policy (by the stored distance to the odometry) that is not labelled so; -1 (no
-    demonstration) where no such policy is within ``max_distance`` [m].
+    """[C] int64: the demonstrations with every one that breaks a rule the demonstrator kept moved to the
+    closest policy (by the stored distance to the odometry) that breaks none; -1 (no demonstration)
+    where no such policy is within ``max_distance`` [m]. The rules: not labelled as a predicted
+    collision (``collision`` [C, N] bool, None = not checked) and not crossing an active stop line
+    without having stood (``stop_line`` [C, N], the stop_line feature; > 0 breaks it; None = not
+    checked).
 
-    Why (issue 12, docs/RESULTS.md): the demonstrator never collided, but in the closest states to a
-    standing vehicle the odometry's closest policy can carry the collision label of the planner's
-    prediction; such a demonstration tells max-ent IRL that a predicted overlap costs nothing there
-    (its proximity feature, with the overlap term, is far above the set's mean), and the learned
-    proximity weight collapses in exactly the states where it matters.
+    Why (issue 12, docs/RESULTS.md): the demonstrator never collided and stood at every stop line, but
+    the odometry's closest sampled policy need not: near a standing vehicle it can carry the collision
+    label of the planner's prediction, and in the last metres before a stop line, where the expert
+    brakes to a standstill, it can be a policy that creeps over the line at 0.3-3 m/s. Such a
+    demonstration tells max-ent IRL that the broken rule costs nothing there, and the learned weight
+    (proximity, stop_line) collapses in exactly the states where it matters.
 
-    ``demo_index`` [C] (-1 = none), ``distances`` [C, N] (NaN = incomplete window), ``collision`` [C, N]
-    bool; only the rows whose demonstration is labelled are read (memory maps stay unread otherwise)."""
+    ``demo_index`` [C] (-1 = none), ``distances`` [C, N] (NaN = incomplete window); only the rows whose
+    demonstration breaks a rule are read in full (memory maps stay unread otherwise)."""
     demo = np.asarray(demo_index, dtype=np.int64).copy()
     rows = np.flatnonzero(demo >= 0)
-    bad = rows[np.asarray(collision[rows, demo[rows]], dtype=bool)]
+
+    def breaks(r: np.ndarray, cols: np.ndarray | slice) -> np.ndarray:
+        out = np.asarray(collision[r, cols], dtype=bool) if collision is not None else None
+        if stop_line is not None:
+            crossing = np.asarray(stop_line[r, cols]) > 0
+            out = crossing if out is None else out | crossing
+        assert out is not None, "give collision or stop_line"
+        return out
+
+    bad = rows[breaks(rows, demo[rows])]
     if len(bad):
         dist = np.asarray(distances[bad], dtype=np.float64)
-        dist = np.where(np.asarray(collision[bad], dtype=bool) | np.isnan(dist), np.inf, dist)
+        dist = np.where(breaks(bad, slice(None)) | np.isnan(dist), np.inf, dist)
         best = np.argmin(dist, axis=1)
         ok = dist[np.arange(len(bad)), best] <= max_distance
         demo[bad] = np.where(ok, best, -1)

@@ -18,6 +18,8 @@ from irlsim.devices import forward, to_device, to_numpy
 from irlsim.errors import IrlsimError
 from irlsim.utils import progress
 
+STOP_LINE = FEATURE_NAMES.index("stop_line")
+
 
 def as_dataset(dataset: Any) -> Any:
     """A dataset object (anything with ``split_tensors(name)``), or a path opened with the data reader."""
@@ -26,15 +28,22 @@ def as_dataset(dataset: Any) -> Any:
     return dataset
 
 
-def get_split(dataset: Any, name: str, safe_demos: bool = False) -> Any:
+def get_split(dataset: Any, name: str, safe_demos: bool = False, stop_demos: bool = False) -> Any:
     """The SplitTensors of split ``name`` (train / validation / test); ``safe_demos``: demonstrations
-    labelled as a predicted collision moved to the closest unlabelled policy
-    (:func:`irlsim.data.demos.safe_demo_index`)."""
+    labelled as a predicted collision moved to the closest unlabelled policy; ``stop_demos``:
+    demonstrations crossing an active stop line without standing (stop_line feature > 0) moved to the
+    closest policy that does not (both: to the closest that does neither;
+    :func:`irlsim.data.demos.safe_demo_index`)."""
     split = dataset.split_tensors(name)
     c, n = split.features.shape[:2]
     assert split.distances.shape == (c, n) and split.demo_index.shape == (c,), f"split {name} is inconsistent"
-    if safe_demos:
-        demo = safe_demo_index(split.demo_index, split.distances, split.labels[:, :, 0])
+    if safe_demos or stop_demos:
+        demo = safe_demo_index(
+            split.demo_index,
+            split.distances,
+            split.labels[:, :, 0] if safe_demos else None,
+            stop_line=split.features[:, :, STOP_LINE] if stop_demos else None,
+        )
         split = dataclasses.replace(split, demo_index=demo)
     return split
 

@@ -72,7 +72,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
 def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) -> dict[str, Any]:
     meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
     run_dir = out_dir / name
-    train = get_split(dataset, "train", cfg.safe_demos)
+    train = get_split(dataset, "train", cfg.safe_demos, cfg.stop_demos)
     validation = get_split(dataset, "validation")
     n_cycles, n_policies = train.features.shape[:2]
     if cfg.max_cycles:

@@ -128,7 +128,10 @@ def _train_one_stage2(
     H = model_cfg.history
 
     # frozen PACNN outputs for every cycle of the sequential splits
-    train, validation = get_split(dataset, "train", cfg.safe_demos), get_split(dataset, "validation")
+    train, validation = (
+        get_split(dataset, "train", cfg.safe_demos, cfg.stop_demos),
+        get_split(dataset, "validation"),
+    )
     n_cycles = train.features.shape[0] if not cfg.max_cycles else min(cfg.max_cycles, train.features.shape[0])
     tr = predict_split(base, train, cfg.eval_batch, desc=f"{base_name} on train")
     va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation")

@@ -175,3 +175,19 @@ def test_safe_demo_index_moves_colliding_demonstrations_to_the_closest_safe_poli
     assert out.dtype == np.int64
     # no labelled demonstration: the same indices
     np.testing.assert_array_equal(safe_demo_index(demo, dist, np.zeros_like(coll)), demo)
+
+
+def test_safe_demo_index_moves_stop_line_crossings_and_combines_the_rules():
+    """Hand-made cycles with the stop_line feature: (0) demo crosses (f > 0), a policy at 0.3 m does not ->
+    moved there; (1) demo does not cross -> unchanged; (2) crosses, the closest non-crossing policy is
+    labelled collision: with the stop rule alone it goes there (0.2 m), with both rules to the next (0.6 m)."""
+    from irlsim.data.demos import safe_demo_index
+
+    demo = np.array([0, 2, 0])
+    dist = np.array([[0.1, 0.3, 0.9], [0.5, 0.4, 0.1], [0.1, 0.2, 0.6]], dtype=np.float32)
+    stop = np.array([[1.2, 0.0, 0.0], [0.9, 0.0, 0.0], [1.1, 0.0, 0.0]], dtype=np.float32)
+    coll = np.array([[False, False, False], [False, False, False], [False, True, False]])
+    np.testing.assert_array_equal(safe_demo_index(demo, dist, None, stop_line=stop), [1, 2, 1])
+    np.testing.assert_array_equal(safe_demo_index(demo, dist, coll, stop_line=stop), [1, 2, 2])
+    # the collision rule alone leaves every crossing demonstration where it was
+    np.testing.assert_array_equal(safe_demo_index(demo, dist, coll), demo)
