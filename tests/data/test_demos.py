@@ -180,7 +180,7 @@ def test_safe_demo_index_moves_colliding_demonstrations_to_the_closest_safe_poli
 def test_safe_demo_index_moves_stop_line_crossings_and_combines_the_rules():
     """Hand-made cycles with the stop_line feature: (0) demo crosses (f > 0), a policy at 0.3 m does not ->
     moved there; (1) demo does not cross -> unchanged; (2) crosses, the closest non-crossing policy is
-    labelled collision: with the stop rule alone it goes there (0.2 m), with both rules to the next (0.6 m)."""
+    labelled collision: with the stop rule alone it goes there (0.2 m), with both to the next (0.6 m)."""
     from irlsim.data.demos import safe_demo_index
 
     demo = np.array([0, 2, 0])
