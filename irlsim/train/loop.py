@@ -65,10 +65,12 @@ def check_finite(loss: torch.Tensor, model: str, epoch: int, lr: float, stage: s
 #: config fields a resume refuses to change (one line naming the field): they decide what the finished
 #: epochs mean (the seed fixes the initial weights and every epoch's shuffle, max_cycles the train rows and
 #: the feature normalisation, select_by / history what the stored best epoch was selected by, model the
-#: network). Every other field (epochs, lr, weight_decay, grad_clip, batch_size, the attention loss
-#: weights, validate_every, threads, eval_batch, tensorboard, models) may change: the remaining epochs use
-#: the new value and the checkpoint's 'resumes' records {epoch, changed: {field: [old, new]}}.
-REFUSED_ON_RESUME = ("seed", "max_cycles", "select_by", "history", "model")
+#: network, safe_demos / stop_demos the demonstrations trained on). A field a checkpoint written before it
+#: existed does not record is not refused (recorded as changed from None). Every other field (epochs, lr,
+#: weight_decay, grad_clip, batch_size, the attention loss weights, validate_every, threads, eval_batch,
+#: tensorboard, models) may change: the remaining epochs use the new value and the checkpoint's 'resumes'
+#: records {epoch, changed: {field: [old, new]}}.
+REFUSED_ON_RESUME = ("seed", "max_cycles", "select_by", "history", "model", "safe_demos", "stop_demos")
 
 
 def check_resume(
@@ -86,7 +88,7 @@ def check_resume(
     old = ckpt.get("config") or {}
     changed = {k: [old.get(k), v] for k, v in config.items() if old.get(k) != v}
     for key in REFUSED_ON_RESUME:
-        if key in changed:
+        if key in changed and key in old:
             was, now = changed[key]
             what = "model sizes" if key == "model" else key
             raise IrlsimError(
