@@ -1,4 +1,4 @@
-"""Why a learned reward fails in closed loop (issue 12): collisions and checkpoints missed in their lane.
+"""Why a learned reward fails in closed loop (issue 12): collisions, missed stops, checkpoints off lane.
 
 A learned model drives exactly as ``irlsim drive`` without ``--safety`` does (argmax over the sampled set
 of V = -theta^T f); every cycle the expert, planning from the same state on the same policy set, says what
@@ -13,6 +13,9 @@ Reports (``<out>/failures.md``, ``<out>/failures.json``, per-cycle ``<out>/cycle
 - agreement of learner and expert per situation (same lane plan; same policy);
 - every collision: the last 5 s before it (speed, gap and speed of the vehicle ahead in the lane,
   learned theta's proximity weight against the expert's, the per-feature terms of the choice);
+- every stop line crossed without a full stop: the last 10 s before it (speed, distance to the line, the
+  slowest speed the learner's and the expert's policies plan, their stop_line features, the learned
+  velocity / creep / stop_line / proximity weights, the terms of the choice);
 - every checkpoint passed outside its lane: the cycles of its last 300 m in which the expert's label
   passes it in the required lane and the learner's policy does not, and the feature terms there.
 
