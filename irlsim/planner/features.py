@@ -158,7 +158,7 @@ def lon_features(
         any_cross = crossed.any(axis=1)
         tc = np.argmax(crossed, axis=1)
         stood = np.minimum.accumulate(v, axis=1) < cfg.v_stopped
-        stood_before = stood[np.arange(L), tc]
+        stood_before = stood[np.arange(L), np.maximum(tc - 1, 0)]  # strictly before the crossing step
         ev = any_cross & ~stood_before & (ctx.stop_rel >= 0)
         F[:, IDX["stop_line"]] = np.where(ev, cfg.gamma**tc * (1.0 + v[np.arange(L), tc]), 0.0)
     F[:, IDX["velocity"]] = ((v - vref) ** 2) @ w

@@ -6,9 +6,14 @@ import numpy as np
 import pytest
 
 from irlsim import FEATURE_NAMES
+from irlsim.planner.config import PlannerConfig
+from irlsim.planner.features import Context, lon_features
+from irlsim.planner.sampler import LonBank
 from irlsim.road import HALF_ROAD, LANE_WIDTH
 
 from .conftest import make_obs, make_vehicles
+
+F32 = np.float32
 
 F = {n: i for i, n in enumerate(FEATURE_NAMES)}
 STRAIGHT_S = 250.0
@@ -163,6 +168,34 @@ def test_stop_line_costs_crossing_at_speed_not_stopping(road, planner):
     # without an active stop line nothing costs
     ps2 = planner.plan(make_obs(road, line - 30.0, 0.0, 12.0))
     assert np.all(ps2.features[:, F["stop_line"]] == 0)
+
+
+def test_stop_line_counts_a_stand_only_strictly_before_the_crossing_step():
+    """The stand must come before the step that crosses the line, as the episode's stop-line compliance
+    counts it (the pass is counted before the stop at a step). Found in closed loop (issue 12): 0.033 m
+    before the line at 0.164 m/s a policy reached 0.0999 m/s at exactly the step that crossed the line and
+    then accelerated; counted as having stood, it cost nothing and the ego crossed without a full stop.
+    Hand-made profiles, T = 4 steps of 0.1 s, gamma from the default config."""
+    cfg = PlannerConfig()
+    rel = 0.033
+    lon = LonBank(
+        s=np.array([[0.0, 0.015, 0.026, 0.036], [0.0, 0.012, 0.020, 0.034], [0.0, 0.01, 0.02, 0.03]], F32),
+        v=np.array(
+            [[0.164, 0.127, 0.102, 0.0999], [0.164, 0.12, 0.09, 0.11], [0.164, 0.12, 0.09, 0.05]], F32
+        ),
+        a=np.zeros((3, 4), F32),
+        kind=np.zeros(3, np.int8),
+    )
+    ctx = Context(s_ego=0.0, d0=0.0, goal=100.0, target_rel=50.0, req_d=0.0, stop_rel=rel, lap_length=2000.0)
+    w = (cfg.gamma ** np.arange(4) * cfg.dt).astype(F32)
+    w[0] = 0.0
+    f, _ = lon_features(lon, np.zeros((3, 4), F32), ctx, cfg, w)
+    sl = f[:, FEATURE_NAMES.index("stop_line")]
+    # 0: first below 0.1 m/s at the crossing step 3 -> the event gamma^3 (1 + 0.0999)
+    assert sl[0] == pytest.approx(cfg.gamma**3 * (1 + 0.0999), rel=1e-5)
+    # 1: stood at step 2 (0.09 m/s, 0.020 m < 0.033 m), crosses at step 3 -> no event
+    # 2: never reaches the line -> no event
+    assert sl[1] == 0.0 and sl[2] == 0.0
 
 
 def test_taking_an_exit_costs_progress(road, planner):
