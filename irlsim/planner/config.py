@@ -51,6 +51,11 @@ class PlannerConfig:
     """[m/s^2] target accelerations sampled in stage 2 (a 'reach v_target' action is added)"""
     stop_margin: float = 1.0
     """[m] the stop profiles bring the front bumper to rest this far before an active stop line"""
+    stop_line_gap: float = 0.2
+    """[m] when the ego can no longer stand at the stop point comfortably (closer to it than
+    v^2 / (2 stop_decel_comfort), or past it) while the line itself is still ahead, stop profiles also
+    bring the front bumper to rest this far before the line (0 = off). Without them the only standing
+    policies in the last metre brake at the limit, and a policy that creeps over looks smoother (issue 12)"""
     stop_decel_comfort: float = 2.5
     """[m/s^2] braking used by the velocity feature's stop-line reference speed sqrt(2 b dist)"""
     stop_reach: float = 150.0
@@ -171,6 +176,7 @@ class PlannerConfig:
         require(self.a_lat_max > 0 and self.max_slip > 0, "planner lateral limits must be > 0")
         require(self.yaw_speed_floor > 0, "planner.yaw_speed_floor must be > 0")
         require(self.ego_length > 0 and self.ego_width > 0, "planner ego size must be > 0")
+        require(self.stop_line_gap >= 0, f"planner.stop_line_gap must be >= 0 m, got {self.stop_line_gap}")
         require(self.mission_event >= 0, f"planner.mission_event must be >= 0 s, got {self.mission_event}")
         require(self.proximity_sigma_s > 0 and self.proximity_sigma_d > 0, "proximity sigmas must be > 0")
         require(

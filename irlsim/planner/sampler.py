@@ -13,7 +13,9 @@ Longitudinal actions (two stages, [0, split] and [split, horizon]): a target acc
 (``cfg.accels_stage1/2`` plus "reach v_target"), reached from the current acceleration by a cubic
 smoothstep of ``cfg.accel_ramp`` seconds, so a(t) is continuous and starts at the ego's a; v is clamped
 at 0 (a car that stops stands). Plus up to three quintic stop profiles that bring the front bumper to
-rest exactly ``cfg.stop_margin`` before an active stop line (fastest, middle, gentlest feasible).
+rest exactly ``cfg.stop_margin`` before an active stop line (fastest, middle, gentlest feasible), up to
+three more that stand ``cfg.stop_line_gap`` before the line itself once that stop point is closer than a
+comfortable stop (:func:`stop_distances`), and up to three behind the nearest slow vehicle in each lane.
 
 Lateral actions (two stages): a quintic from the ego's (d, d_dot, d_ddot) to a stage-1 target (lane
 centres 0/1/2 with durations ``cfg.lat_durations``, staying at d, or a partial swerve of ``cfg.swerves``
@@ -406,10 +408,15 @@ def select_pairs(feasible: np.ndarray, essential: np.ndarray, n: int) -> np.ndar
 
 def stop_distances(obs: Observation, cfg: PlannerConfig) -> tuple[float, ...]:
     """Distances [m] from the ego's front bumper to where it may have to stand: the active stop line
-    (minus ``stop_margin``) and the tail of the nearest slow (< 2 m/s) vehicle ahead in each lane."""
+    (minus ``stop_margin``), the line itself (minus ``stop_line_gap``) once the ego can no longer stand at
+    that stop point comfortably, and the tail of the nearest slow (< 2 m/s) vehicle ahead in each lane."""
     out = []
     if math.isfinite(obs.stop_s):
-        out.append(float(obs.stop_s - obs.ego.s - cfg.stop_margin))
+        to_line = float(obs.stop_s - obs.ego.s)
+        out.append(to_line - cfg.stop_margin)
+        comfort = obs.ego.v**2 / (2.0 * cfg.stop_decel_comfort)
+        if cfg.stop_line_gap > 0 and to_line > cfg.stop_line_gap and to_line - cfg.stop_margin < comfort:
+            out.append(to_line - cfg.stop_line_gap)
     veh = obs.vehicles
     if veh.count:
         lap = obs.lap_length

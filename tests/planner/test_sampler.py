@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
+from irlsim import FEATURE_NAMES
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.expert import lane_clusters
 from irlsim.planner.planner import Planner
+from irlsim.planner.sampler import stop_distances
 from irlsim.road import LANE_WIDTH
 
 from .conftest import make_obs, make_vehicles
@@ -72,6 +76,38 @@ def test_full_stop_at_an_active_stop_line(road, planner):
     front = ps.s[:, -1]
     exact = stopped & (front <= line) & (front > line - 1.5)
     assert exact.any(), "no policy stands just before the stop line"
+
+
+def test_stop_distances_add_the_line_once_the_stop_point_is_out_of_comfortable_reach(road):
+    cfg = PlannerConfig()  # stop_margin 1.0 m, stop_line_gap 0.2 m, stop_decel_comfort 2.5 m/s^2
+    line = road.stop_lines[0].s
+    # 40 m before the line at 12 m/s: the stop point (39 m) needs 12^2 / 5 = 28.8 m, reachable
+    assert stop_distances(make_obs(road, line - 40.0, 0.0, 12.0, stop_s=line), cfg) == (39.0,)
+    # 3 m before at 4 m/s: the stop point (2 m) needs 16 / 5 = 3.2 m -> also stand 0.2 m before the line
+    far, near = stop_distances(make_obs(road, line - 3.0, 0.0, 4.0, stop_s=line), cfg)
+    assert far == pytest.approx(2.0) and near == pytest.approx(2.8)
+    # past the stop point, 0.7 m before the line, rolling at 1.2 m/s
+    far, near = stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), cfg)
+    assert far == pytest.approx(-0.3) and near == pytest.approx(0.5)
+    # closer to the line than the gap: nothing to add; and stop_line_gap = 0 switches it off
+    assert len(stop_distances(make_obs(road, line - 0.1, 0.0, 1.2, stop_s=line), cfg)) == 1
+    off = dataclasses.replace(cfg, stop_line_gap=0.0)
+    assert len(stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), off)) == 1
+
+
+def test_a_smooth_stop_before_the_line_in_the_last_metre(road, planner):
+    # rolling at 1.2 m/s, braking at 1 m/s^2, 0.7 m before the line: standing there needs ~1 m/s^2, so a
+    # policy that stands before the line must exist without braking at the limit (peak |jerk| << 19 m/s^3,
+    # the only standing profile before the line target existed)
+    line = road.stop_lines[0].s
+    ps = planner.plan(make_obs(road, line - 0.7, 0.0, 1.2, a=-1.0, stop_s=line))
+    stands = (ps.v.min(axis=1) < planner.cfg.v_stopped) & (ps.s.max(axis=1) < line)
+    assert stands.any()
+    dt = planner.cfg.dt
+    jerk = np.abs(np.diff(ps.v, n=2, axis=1)).max(axis=1) / dt**2
+    assert jerk[stands].min() < 5.0
+    # and the stop_line feature does not charge it
+    assert ps.features[stands, FEATURE_NAMES.index("stop_line")].min() == 0.0
 
 
 def test_merges_behind_and_ahead_of_a_slower_vehicle(road, planner):
