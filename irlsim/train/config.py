@@ -46,16 +46,17 @@ class TrainConfig:
     checkpoint's 'provenance')"""
     max_cycles: int = 0
     """use only the first this many cycles of the train split (0 = all)"""
-    safe_demos: bool = False
+    safe_demos: bool = True
     """train on demonstrations that are never labelled as a predicted collision: such a demonstration
     moves to the closest policy (stored distance to the odometry) without the label, or the cycle is
-    dropped when none is within 1.5 m (irlsim.data.demos.safe_demo_index; issue 12). The train split
-    only: validation and test metrics are distances to the odometry either way"""
-    stop_demos: bool = False
+    dropped when none is within 1.5 m (irlsim.data.demos.safe_demo_index; issue 12). On by default;
+    false gives the paper's plain odometry projection. The train split only: validation and test
+    metrics are distances to the odometry either way"""
+    stop_demos: bool = True
     """train on demonstrations that never cross an active stop line without having stood (stop_line
     feature > 0): the demonstrator stood at every line, but the odometry's closest policy can creep over
     it; such a demonstration moves like a safe_demos one (with safe_demos: to the closest policy breaking
-    neither rule; irlsim.data.demos.safe_demo_index; issue 12). The train split only"""
+    neither rule; irlsim.data.demos.safe_demo_index; issue 12). On by default. The train split only"""
     eval_batch: int = 64
     """cycles per forward pass when predicting whole splits (memory bound)"""
     tensorboard: bool = True

@@ -147,7 +147,8 @@ def test_resume_with_a_lower_lr_uses_and_records_it(dataset, tmp_path):
         ({"max_cycles": 10}, "trained with max_cycles 0, asked 10"),
         ({"select_by": "val/ed"}, "trained with select_by 'val/opd', asked 'val/ed'"),
         ({"history": 4}, "trained with history 10, asked 4"),
-        ({"safe_demos": True}, "trained with safe_demos False, asked True"),
+        ({"safe_demos": False}, "trained with safe_demos True, asked False"),
+        ({"stop_demos": False}, "trained with stop_demos True, asked False"),
     ],
 )
 def test_resume_refuses_what_it_cannot_change(dataset, tmp_path, change, needle):
