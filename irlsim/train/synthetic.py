@@ -4,7 +4,8 @@ Each cycle has N policies with random control points / actions; their 15 path-in
 are a fixed non-negative function of them plus noise; the demonstration is *sampled* from
 p(pi | theta_true) = softmax(-theta_true^T f), and a policy's distance to the demonstration is the mean
 Euclidean distance of its control points (lateral offset, progress) to the demonstration's [m], so
-DEMO = 0 and a theta close to theta_true has a low OPD.
+DEMO = 0 and a theta close to theta_true has a low OPD. As in the real data, ``stop_line`` is an event:
+zero for most policies.
 """
 
 from __future__ import annotations
@@ -16,6 +17,8 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.schema import SCHEMA_VERSION
+
+STOP_LINE = FEATURE_NAMES.index("stop_line")
 
 
 @dataclass(frozen=True)
@@ -65,6 +68,10 @@ def make_split(
     )  # [C,N,8]
     mix = np.random.default_rng(1).uniform(0.0, 1.0, (summary.shape[-1], N_FEATURES))
     feats = 0.2 * summary @ mix / summary.shape[-1] + rng.exponential(0.5, (c, n, N_FEATURES))
+    # stop_line is an event (0 for a policy that crosses no active line): non-zero for about a fifth of
+    # the policies, so the default stop_demos rule moves some demonstrations and keeps most cycles
+    event = np.random.default_rng(seed + 7919).uniform(size=(c, n)) < 0.2
+    feats[:, :, STOP_LINE] *= event
     logits = -(feats @ theta_true)
     p = np.exp(logits - logits.max(1, keepdims=True))
     p /= p.sum(1, keepdims=True)
