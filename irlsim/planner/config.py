@@ -57,7 +57,8 @@ class PlannerConfig:
     bring the front bumper to rest this far before the line (0 = off). Without them the only standing
     policies in the last metre brake at the limit, and a policy that creeps over looks smoother (issue 12)"""
     stop_decel_comfort: float = 2.5
-    """[m/s^2] braking used by the velocity feature's stop-line reference speed sqrt(2 b dist)"""
+    """[m/s^2] comfortable braking: the velocity feature's stop-line reference speed sqrt(2 b dist), and
+    the reach below which the sampler adds stops at the line itself (``stop_line_gap``)"""
     stop_reach: float = 150.0
     """[m] an active stop line closer than this gets stop profiles and a zero target speed"""
     v_stopped: float = 0.1
