@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -30,14 +31,12 @@ from irlsim.drive.closed_loop import load_drive_model
 from irlsim.road.geometry import load_road
 
 BANDS = ((0.0, 50.0), (50.0, 110.0), (110.0, 200.0), (200.0, 400.0))
-
-
 ML, VEL, JERK = (FEATURE_NAMES.index(n) for n in ("mission_lane", "velocity", "jerk_lon"))
 
 
-def predict_theta(data: Path, split: str, checkpoint: Path) -> np.ndarray:
-    """[C, 15] the checkpoint's theta on every cycle of the split, in the cycles files' order."""
-    ds = open_dataset(data)
+def predict_theta(ds: Any, split: str, checkpoint: Path) -> np.ndarray:
+    """[C, 15] the checkpoint's theta on every cycle of the split of dataset ``ds``, ordered as its
+    cycles table (episode, cycle)."""
     t = ds.split_tensors(split)
     model = load_drive_model(str(checkpoint), str(checkpoint.parent), int(t.features.shape[1]))
     assert model.predictor is not None, f"{checkpoint} is no learned model"
@@ -62,21 +61,27 @@ def main(argv: list[str] | None = None) -> int:
     cs = np.array([c.s for c in road.checkpoints])
     cl = np.array([c.lane for c in road.checkpoints])
     lanes = sorted(set(cl.tolist()))
+    datasets = []
+    for data in args.data:
+        try:
+            datasets.append(open_dataset(data))
+        except Exception as e:  # a study: say what is wrong in one line
+            raise SystemExit(f"{data}: {e}") from None
+    theta = None if args.model is None else predict_theta(datasets[0], args.split, args.model)
     head = ["data", "required lane", "remaining [m]", "cycles", "off the lane", "off the lane at > 10 m/s"]
     if args.model is not None:
         head += ["theta mission_lane", "theta velocity", "theta jerk_lon", "mission_lane / velocity (median)"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
-    for data in args.data:
+    for data, ds in zip(args.data, datasets, strict=True):
         try:
-            t = open_dataset(data).read_cycles_table(args.split)
-        except Exception as e:  # a study: say what is wrong in one line
+            t = ds.read_cycles_table(args.split)
+        except Exception as e:
             raise SystemExit(f"{data}: {e}") from None
         k = t.column("target_checkpoint").to_numpy().astype(int)
         rem = (cs[k] - t.column("ego_s").to_numpy()) % road.lap_length
         req, lane = cl[k], t.column("ego_lane").to_numpy()
         fast = t.column("ego_v").to_numpy() > 10.0
-        theta = None if args.model is None else predict_theta(data, args.split, args.model)
         for q in lanes:
             for lo, hi in BANDS:
                 m = (rem >= lo) & (rem < hi) & (req == q)
