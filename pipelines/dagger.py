@@ -19,12 +19,13 @@ is finished once ``OUT/round_<r>/round.json`` exists and is then skipped. Config
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import load_config, parse_overrides, require
+from irlsim.config import MAX_SEED, load_config, parse_overrides, require
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import MODEL_NAMES, STAGE2_BASE
 from irlsim.train.layout import find_checkpoint, stage_dir
@@ -45,8 +46,9 @@ class DaggerConfig:
     """DAgger rounds"""
     model: str = "PACNN+S"
     """the learned driver of every round (a stage-2 model also retrains its stage-1 base)"""
-    episodes: int = 4
-    """learner-driven, expert-labelled train episodes per round"""
+    episodes: int | list[int] = 4
+    """learner-driven, expert-labelled train episodes per round: one count for every round, or a list
+    with one count per round (``[6, 20]``; ``--rounds 1`` with it runs round 1 only)"""
     validation_episodes: int = 0
     """learner-driven validation episodes per round (0: model choices stay on --data's validation split)"""
     workers: int = 2
@@ -57,13 +59,47 @@ class DaggerConfig:
     """stage-1 training config (only the driver's stage-1 model is trained)"""
     stage2_config: str = "configs/train/stage2.toml"
     """stage-2 training config (used when ``model`` is a stage-2 model)"""
+    stage2_models: list[str] = dataclasses.field(default_factory=list)
+    """stage-2 models trained on each round's aggregate beside the driver, on its stage-1 base
+    (``["PTACNN+S"]`` next to a PACNN+S driver); they do not drive"""
+    epochs: list[int] = dataclasses.field(default_factory=list)
+    """stage-1 epochs of each round's retraining, one per round (empty: the stage-1 config's ``epochs``
+    in every round)"""
+    seed: int | None = None
+    """training seed of every round's retraining, stage 1 and 2 (None: the stage configs' ``seed``); the
+    learner's episodes keep the collect config's seeds, so two training seeds drive the same scenarios"""
 
     def validate(self) -> None:
         require(1 <= self.rounds <= 23, f"rounds must be in 1..23, got {self.rounds}")
         require(
             self.model in MODEL_NAMES, f"model must be one of {', '.join(MODEL_NAMES)}, got {self.model!r}"
         )
-        require(1 <= self.episodes <= 10_000, f"episodes must be in 1..10000, got {self.episodes}")
+        counts = self.episodes if isinstance(self.episodes, list) else [self.episodes]
+        if isinstance(self.episodes, list):
+            require(
+                len(self.episodes) >= self.rounds,
+                f"episodes has {len(self.episodes)} entries for {self.rounds} round(s): give one count per "
+                "round, or a single number for every round",
+            )
+        for n in counts:
+            require(1 <= n <= 10_000, f"episodes must be in 1..10000, got {n}")
+        if self.epochs:
+            require(
+                len(self.epochs) >= self.rounds,
+                f"epochs has {len(self.epochs)} entries for {self.rounds} round(s): give one per round, or "
+                "leave it empty to use the stage-1 config's epochs",
+            )
+        for n in self.epochs:
+            require(1 <= n <= 100_000, f"epochs must be in 1..100000, got {n}")
+        on_base = [k for k, v in STAGE2_BASE.items() if v == self.stage1_model]
+        for m in self.stage2_models:
+            require(
+                m in on_base,
+                f"stage2_models entry {m!r} must be a stage-2 model on the driver's stage-1 base "
+                f"{self.stage1_model} ({', '.join(on_base) or 'none'})",
+            )
+        if self.seed is not None:
+            require(0 <= self.seed <= MAX_SEED, f"seed must be in 0..{MAX_SEED}, got {self.seed}")
         require(
             0 <= self.validation_episodes <= 10_000,
             f"validation_episodes must be in 0..10000, got {self.validation_episodes}",
@@ -73,6 +109,25 @@ class DaggerConfig:
     @property
     def stage1_model(self) -> str:
         return STAGE2_BASE.get(self.model, self.model)
+
+    @property
+    def trained_stage2(self) -> list[str]:
+        """The stage-2 models each round trains: the driver if it is one, then ``stage2_models``."""
+        first = [self.model] if self.model in STAGE2_BASE else []
+        return first + [m for m in self.stage2_models if m not in first]
+
+    def round_episodes(self, r: int) -> int:
+        """Learner-driven train episodes of round ``r`` (1-based)."""
+        return self.episodes[r - 1] if isinstance(self.episodes, list) else self.episodes
+
+    def round_train_sets(self, r: int, stage: int) -> list[str]:
+        """The ``--set`` arguments of round ``r``'s stage-``stage`` training beyond the model name."""
+        out = []
+        if stage == 1 and self.epochs:
+            out += ["--set", f"epochs={self.epochs[r - 1]}"]
+        if self.seed is not None:
+            out += ["--set", f"seed={self.seed}"]
+        return out
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -108,15 +163,16 @@ def round_commands(cfg: DaggerConfig, args: argparse.Namespace, r: int) -> list[
         + ["--driver", cfg.model, "--runs", str(prev_runs), "--round", str(r)]
         + [
             "--set",
-            f"train_episodes={cfg.episodes}",
+            f"train_episodes={cfg.round_episodes(r)}",
             "--set",
             f"validation_episodes={cfg.validation_episodes}",
         ]
         + ["--set", "test_episodes=0"],
         ["train", "--stage", "1", "--config", cfg.stage1_config, "--data", *data, "--out", str(here / "runs")]
-        + ["--set", f"models=['{cfg.stage1_model}']"],
+        + ["--set", f"models=['{cfg.stage1_model}']", *cfg.round_train_sets(r, 1)],
     ]
-    if cfg.model in STAGE2_BASE:
+    if cfg.trained_stage2:
+        names = ", ".join(f"'{m}'" for m in cfg.trained_stage2)
         cmds.append(
             [
                 "train",
@@ -129,7 +185,7 @@ def round_commands(cfg: DaggerConfig, args: argparse.Namespace, r: int) -> list[
                 "--out",
                 str(here / "runs"),
             ]
-            + ["--set", f"models=['{cfg.model}']"]
+            + ["--set", f"models=[{names}]", *cfg.round_train_sets(r, 2)]
         )
     return cmds
 
