@@ -17,7 +17,11 @@ Reports (``<out>/failures.md``, ``<out>/failures.json``, per-cycle ``<out>/cycle
   slowest speed the learner's and the expert's policies plan, their stop_line features, the learned
   velocity / creep / stop_line / proximity weights, the terms of the choice);
 - every checkpoint passed outside its lane: the cycles of its last 300 m in which the expert's label
-  passes it in the required lane and the learner's policy does not, and the feature terms there.
+  passes it in the required lane and the learner's policy does not, and the feature terms there;
+- every exit taken (the ego left the course on an exit ramp): the last 10 s before it (speed, lateral
+  offset, distance to the target checkpoint, the share of the set labelled exit, whether the learner's and
+  the expert's policies are, their progress features, the learned progress / mission_lane / centerline /
+  road_edge weights, the terms of the choice).
 
 Run on development (validation) seeds only, never on the seeds a result is reported on:
 
@@ -42,6 +46,7 @@ from irlsim.data.collection import CollectConfig
 from irlsim.data.situations import SITUATION_NAMES, situation_of
 from irlsim.drive.closed_loop import load_drive_model
 from irlsim.drive.dagger import DaggerDriver
+from irlsim.planner import LABEL_NAMES
 from irlsim.planner.expert import THETA_EXPERT, mission_lanes_away
 from irlsim.road import load_road
 from irlsim.rollout.runner import Cycle, EpisodeRunner, ObserverBase
@@ -51,6 +56,9 @@ from irlsim.utils import seed_everything
 PROX = FEATURE_NAMES.index("proximity")
 SL = FEATURE_NAMES.index("stop_line")
 STOP_FEATURES = ("velocity", "creep", "stop_line", "proximity")
+EXIT_FEATURES = ("progress", "mission_lane", "centerline", "road_edge")
+PROG = FEATURE_NAMES.index("progress")
+EXIT_LABEL = LABEL_NAMES.index("exit")
 
 
 def lead_vehicle(obs: Any, lap: float, ego_width: float) -> tuple[float, float]:
@@ -107,6 +115,11 @@ class Recorder(ObserverBase):
                 "coll_share": float(ps.labels[:, 0].mean()),
                 "learner_coll": bool(ps.labels[li, 0]),
                 "expert_coll": bool(ps.labels[ei, 0]),
+                "d": obs.ego.d,
+                "exit_share": float(ps.labels[:, EXIT_LABEL].mean()),
+                "learner_exit": bool(ps.labels[li, EXIT_LABEL]),
+                "expert_exit": bool(ps.labels[ei, EXIT_LABEL]),
+                "exits": int(cycle.facts.get("exits") or 0),
                 "lead_gap": gap,
                 "lead_v": v_lead,
                 "collisions": int(cycle.facts.get("collisions") or 0),
@@ -143,7 +156,7 @@ def fmt_terms(t: np.ndarray, k: int = 4) -> str:
 
 
 def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict[str, Any]:
-    out: dict[str, Any] = {"agreement": {}, "collisions": [], "misses": [], "stops": []}
+    out: dict[str, Any] = {"agreement": {}, "collisions": [], "misses": [], "stops": [], "exits": []}
     allrows = [r for rows, _ in episodes.values() for r in rows]
     sit = np.array([r["situation"] for r in allrows])
     same_policy = np.array([r["learner"] == r["expert"] for r in allrows])
@@ -217,6 +230,33 @@ def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict
                         ],
                     }
                 )
+            if r["exits"]:
+                window = rows[max(0, i - 2 * n_back) : i + 1]
+                tm = terms(window)
+                out["exits"].append(
+                    {
+                        "seed": seed,
+                        "t": r["t"],
+                        "s": r["s"],
+                        "cycles": [
+                            {
+                                "t": w["t"],
+                                "v": w["v"],
+                                "d": w["d"],
+                                "remaining": w["remaining"],
+                                "same_policy": w["learner"] == w["expert"],
+                                "exit_share": w["exit_share"],
+                                "exit": (w["learner_exit"], w["expert_exit"]),
+                                "progress": (float(w["f_learner"][PROG]), float(w["f_expert"][PROG])),
+                                "theta": {
+                                    n: float(w["theta"][FEATURE_NAMES.index(n)]) for n in EXIT_FEATURES
+                                },
+                                "terms": fmt_terms(tm[j]),
+                            }
+                            for j, w in enumerate(window)
+                        ],
+                    }
+                )
             if r["cp_passed"] and not r["cp_in_lane"]:
                 cp = rows[max(i - 1, 0)]["checkpoint"]
                 before = [w for w in rows[: i + 1] if w["checkpoint"] == cp and 0 <= w["remaining"] <= 300.0]
@@ -283,6 +323,23 @@ def markdown(res: dict[str, Any], model: str, ends: dict[int, str]) -> str:
                 f"{'y' if w['same_policy'] else 'n'} | {w['v_min'][0]:.2f} / {w['v_min'][1]:.2f} | "
                 f"{w['stop_line'][0]:.2f} / {w['stop_line'][1]:.2f} | "
                 + ", ".join(f"{th[n]:.2f}" for n in STOP_FEATURES)
+                + f" | {w['terms']} |"
+            )
+    for c in res["exits"]:
+        lines += ["", f"## exit taken, seed {c['seed']} t = {c['t']:.1f} s, s = {c['s']:.0f} m", ""]
+        lines += [
+            "| t | v | d | to checkpoint | same | share of set labelled exit | exit learner / expert | "
+            "progress f learner / expert | theta " + ", ".join(EXIT_FEATURES) + " | terms |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        for w in c["cycles"]:
+            th = w["theta"]
+            lines.append(
+                f"| {w['t']:.1f} | {w['v']:.1f} | {w['d']:.2f} | {w['remaining']:.0f} | "
+                f"{'y' if w['same_policy'] else 'n'} | {w['exit_share']:.2f} | "
+                + " / ".join("y" if e else "n" for e in w["exit"])
+                + f" | {w['progress'][0]:.0f} / {w['progress'][1]:.0f} | "
+                + ", ".join(f"{th[n]:.3g}" for n in EXIT_FEATURES)
                 + f" | {w['terms']} |"
             )
     if res["misses"]:
