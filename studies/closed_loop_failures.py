@@ -155,6 +155,65 @@ def fmt_terms(t: np.ndarray, k: int = 4) -> str:
     return ", ".join(f"{FEATURE_NAMES[i]} {t[i]:+.1f}" for i in order)
 
 
+def event(
+    seed: int, rows: list[dict], i: int, back: int, fields: Any, terms_key: str = "terms", **head: Any
+) -> dict[str, Any]:
+    """The report of an event at cycle ``i``: its seed, time and ``head``, and per cycle of the ``back``
+    cycles before it and itself ``fields(w)`` with the terms of the learner's choice under ``terms_key``."""
+    window = rows[max(0, i - back) : i + 1]
+    tm = terms(window)
+    cycles = [fields(w) | {terms_key: fmt_terms(tm[j])} for j, w in enumerate(window)]
+    return {"seed": seed, "t": rows[i]["t"], **head, "cycles": cycles}
+
+
+def _weights(w: dict, names: tuple[str, ...]) -> dict[str, float]:
+    return {n: float(w["theta"][FEATURE_NAMES.index(n)]) for n in names}
+
+
+def collision_cycle(w: dict) -> dict[str, Any]:
+    return {
+        "t": w["t"],
+        "v": w["v"],
+        "lead_gap": w["lead_gap"],
+        "lead_v": w["lead_v"],
+        "situation": SITUATION_NAMES[w["situation"]],
+        "same_policy": w["learner"] == w["expert"],
+        "theta_prox": float(w["theta"][PROX]),
+        "coll_share": w["coll_share"],
+        "learner_coll": w["learner_coll"],
+        "prox_learner": float(w["f_learner"][PROX]),
+        "prox_expert": float(w["f_expert"][PROX]),
+    }
+
+
+def stop_cycle(w: dict) -> dict[str, Any]:
+    return {
+        "t": w["t"],
+        "v": w["v"],
+        "stop_rel": w["stop_rel"],
+        "lead_gap": w["lead_gap"],
+        "lead_v": w["lead_v"],
+        "same_policy": w["learner"] == w["expert"],
+        "v_min": (w["learner_v_min"], w["expert_v_min"]),
+        "stop_line": (float(w["f_learner"][SL]), float(w["f_expert"][SL])),
+        "theta": _weights(w, STOP_FEATURES),
+    }
+
+
+def exit_cycle(w: dict) -> dict[str, Any]:
+    return {
+        "t": w["t"],
+        "v": w["v"],
+        "d": w["d"],
+        "remaining": w["remaining"],
+        "same_policy": w["learner"] == w["expert"],
+        "exit_share": w["exit_share"],
+        "exit": (w["learner_exit"], w["expert_exit"]),
+        "progress": (float(w["f_learner"][PROG]), float(w["f_expert"][PROG])),
+        "theta": _weights(w, EXIT_FEATURES),
+    }
+
+
 def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict[str, Any]:
     out: dict[str, Any] = {"agreement": {}, "collisions": [], "misses": [], "stops": [], "exits": []}
     allrows = [r for rows, _ in episodes.values() for r in rows]
@@ -178,85 +237,14 @@ def analyse(episodes: dict[int, tuple[list[dict], str]], cycle_s: float) -> dict
     for seed, (rows, _end) in episodes.items():
         for i, r in enumerate(rows):
             if r["collisions"]:
-                window = rows[max(0, i - n_back) : i + 1]
-                tm = terms(window)
+                situation = SITUATION_NAMES[r["situation"]]
                 out["collisions"].append(
-                    {
-                        "seed": seed,
-                        "t": r["t"],
-                        "situation": SITUATION_NAMES[r["situation"]],
-                        "cycles": [
-                            {
-                                "t": w["t"],
-                                "v": w["v"],
-                                "lead_gap": w["lead_gap"],
-                                "lead_v": w["lead_v"],
-                                "situation": SITUATION_NAMES[w["situation"]],
-                                "same_policy": w["learner"] == w["expert"],
-                                "theta_prox": float(w["theta"][PROX]),
-                                "coll_share": w["coll_share"],
-                                "learner_coll": w["learner_coll"],
-                                "prox_learner": float(w["f_learner"][PROX]),
-                                "prox_expert": float(w["f_expert"][PROX]),
-                                "v_learner_end_terms": fmt_terms(tm[j]),
-                            }
-                            for j, w in enumerate(window)
-                        ],
-                    }
+                    event(seed, rows, i, n_back, collision_cycle, "v_learner_end_terms", situation=situation)
                 )
             if r["sl_passed"] > r["sl_compliant"]:
-                window = rows[max(0, i - 2 * n_back) : i + 1]
-                tm = terms(window)
-                out["stops"].append(
-                    {
-                        "seed": seed,
-                        "t": r["t"],
-                        "cycles": [
-                            {
-                                "t": w["t"],
-                                "v": w["v"],
-                                "stop_rel": w["stop_rel"],
-                                "lead_gap": w["lead_gap"],
-                                "lead_v": w["lead_v"],
-                                "same_policy": w["learner"] == w["expert"],
-                                "v_min": (w["learner_v_min"], w["expert_v_min"]),
-                                "stop_line": (float(w["f_learner"][SL]), float(w["f_expert"][SL])),
-                                "theta": {
-                                    n: float(w["theta"][FEATURE_NAMES.index(n)]) for n in STOP_FEATURES
-                                },
-                                "terms": fmt_terms(tm[j]),
-                            }
-                            for j, w in enumerate(window)
-                        ],
-                    }
-                )
+                out["stops"].append(event(seed, rows, i, 2 * n_back, stop_cycle))
             if r["exits"]:
-                window = rows[max(0, i - 2 * n_back) : i + 1]
-                tm = terms(window)
-                out["exits"].append(
-                    {
-                        "seed": seed,
-                        "t": r["t"],
-                        "s": r["s"],
-                        "cycles": [
-                            {
-                                "t": w["t"],
-                                "v": w["v"],
-                                "d": w["d"],
-                                "remaining": w["remaining"],
-                                "same_policy": w["learner"] == w["expert"],
-                                "exit_share": w["exit_share"],
-                                "exit": (w["learner_exit"], w["expert_exit"]),
-                                "progress": (float(w["f_learner"][PROG]), float(w["f_expert"][PROG])),
-                                "theta": {
-                                    n: float(w["theta"][FEATURE_NAMES.index(n)]) for n in EXIT_FEATURES
-                                },
-                                "terms": fmt_terms(tm[j]),
-                            }
-                            for j, w in enumerate(window)
-                        ],
-                    }
-                )
+                out["exits"].append(event(seed, rows, i, 2 * n_back, exit_cycle, s=r["s"]))
             if r["cp_passed"] and not r["cp_in_lane"]:
                 cp = rows[max(i - 1, 0)]["checkpoint"]
                 before = [w for w in rows[: i + 1] if w["checkpoint"] == cp and 0 <= w["remaining"] <= 300.0]
