@@ -69,4 +69,4 @@ lint: setup
 	$(BIN)/python tools/check_sizes.py irlsim pipelines
 
 clean:
-	rm -rf $(VENV) data runs bench build *.egg-info sumo_net/oval.net.xml
+	rm -rf $(VENV) data runs bench build *.egg-info sumo_net/oval/oval.net.xml

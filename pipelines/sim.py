@@ -51,7 +51,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--config", type=Path, default=None, help="TOML with ScenarioConfig fields (see irlsim/sim/config.py)"
     )
     parser.add_argument(
-        "--net", type=Path, default=None, help="SUMO network (default: sumo_net/oval.net.xml, built if stale)"
+        "--scenario",
+        default=None,
+        help="scenario: a shipped name (oval, motorway, ...) or the path of a scenario.toml (default oval)",
+    )
+    parser.add_argument(
+        "--net",
+        type=Path,
+        default=None,
+        help="the oval on this SUMO network file (default: built from sumo_net/oval/)",
     )
     parser.add_argument("--json", type=Path, default=None, help="write the figures to this JSON file")
     parser.add_argument(
@@ -68,6 +76,8 @@ def _scenario(args: argparse.Namespace) -> ScenarioConfig:
         overrides["n_vehicles"] = args.vehicles
     if args.max_time is not None:
         overrides["max_time"] = args.max_time
+    if args.scenario is not None:
+        overrides["name"] = str(args.scenario)
     return load_config(ScenarioConfig, args.config, overrides)
 
 
@@ -91,7 +101,7 @@ def run(args: argparse.Namespace) -> int:
     if args.json is not None:
         check_output_file(args.json, "--json", "sim.json")
     cfg = _scenario(args)
-    road = load_road(args.net) if args.net is not None else load_road()
+    road = load_road(args.net) if args.net is not None else load_road(scenario=cfg.name)
     driver = make_driver(args.driver, road, cfg)
 
     episodes: list[dict[str, Any]] = []

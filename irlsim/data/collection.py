@@ -173,6 +173,10 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
     types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
     d = cfg if isinstance(cfg, dict) else to_dict(cfg)
+    scn = d.get("scenario")
+    if isinstance(scn, dict) and scn.get("name") == "oval":
+        # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
+        d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
     # dagger_round 0 is left out: an expert dataset's manifest keeps its bytes (and identity) of before
     return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS and (k, v) != ("dagger_round", 0)}
 
@@ -302,7 +306,7 @@ def collect_episode(
     t_start = time.perf_counter()
     cfg = job.config
     seed_everything(job.seed)
-    road = load_road()
+    road = load_road(scenario=cfg.scenario.name)
     driver: Any = ExpertDriver(road, cfg.planner) if make_driver is None else make_driver(road, cfg)
     labeller = driver if make_driver is not None else None
     projector = DemoProjector(

@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from irlsim.drive import scorecard as sc
-from irlsim.road import HALF_ROAD
 
 
 class ScorecardObserver:
@@ -84,7 +83,7 @@ class ScorecardObserver:
             d=ego["d"],
             vehicles=veh,
             ego_size=(cfg.ego_length, cfg.ego_width),
-            half_road=float(HALF_ROAD),
+            half_road=float(self.sim.road.half_road),
             exempt=np.asarray(self.exempt, dtype=bool),
             collisions=int(stats["sim/collisions"]),
             exits=int(stats["sim/exits"]),
@@ -114,6 +113,8 @@ class ScorecardObserver:
             "ttc_min": float(ttc.min()) if len(ttc) else float("inf"),
             "ttc_ok": float(np.mean(ttc >= sc.TTC_BOUND)) if len(ttc) else 1.0,
             "overspeed": float(np.max(np.maximum(ego["v"] - sc.SPEED_LIMIT, 0.0))) if len(ttc) else 0.0,
-            "intrusion_m": sc.drivable_intrusion(ego["d"], cfg.ego_width, float(HALF_ROAD), exempt),
+            "intrusion_m": sc.drivable_intrusion(
+                ego["d"], cfg.ego_width, float(self.sim.road.half_road), exempt
+            ),
             "comfort_ok": float(np.mean(within)) if len(within) else 1.0,
         }

@@ -248,13 +248,13 @@ class ExpertDriver:
         risk = np.where(cand, risk, np.inf)
         value = ps.value(self.theta)
         final_lane, n_lc = lane_clusters(ps)
-        req = self.road.checkpoints[obs.target_checkpoint].lane
+        req = self.road.required_lane(obs.target_checkpoint, obs.ego.d)
         rem = max(obs.target_s - obs.ego.s, 1.0)
         mission = mission_penalty(sel, rem)
         # lanes away from the required one where the policy passes the checkpoint (at the horizon if
         # it does not reach it): a swerve back into the lane just after the checkpoint does not count
         miss = mission_lanes_away(ps, obs.target_s, req, final_lane)
-        keys = (np.minimum(miss, 15) * 4 + final_lane + 1) * 16 + np.minimum(n_lc, 15)
+        keys = (np.minimum(miss, 15) * (self.road.n_lanes + 1) + final_lane + 1) * 16 + np.minimum(n_lc, 15)
         best_key, best_score, best_ok = None, -np.inf, None
         for key in np.unique(keys[cand]):  # a handful of clusters
             members = cand & (keys == key)

@@ -51,7 +51,7 @@ import numpy as np
 from irlsim import FEATURE_NAMES
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.sampler import LatBank, LonBank
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.road import LANE_WIDTH, Road
 from irlsim.sim.types import VehicleStates
 
 IDX = {name: i for i, name in enumerate(FEATURE_NAMES)}
@@ -70,6 +70,7 @@ class Context:
     req_d: float  # [m] centre of the required lane
     stop_rel: float  # [m] active stop line, relative (inf if none / beyond reach)
     lap_length: float
+    lane_width: float = LANE_WIDTH  # [m]
 
 
 @dataclass
@@ -193,22 +194,26 @@ def lat_features(
     F[:, IDX["acc_lat"]] = (lat.ddd**2) @ w
     F[:, IDX["jerk_lat"]] = (lat.dddd**2) @ w
     # distance to the nearest lane centre
-    dev = np.minimum(np.minimum(np.abs(d + LANE_WIDTH), np.abs(d)), np.abs(d - LANE_WIDTH))
-    right_edge = np.full(d.shape, -HALF_ROAD)
+    centres = road.lane_centres
+    dev = np.abs(d - centres[0])
+    for c in centres[1:]:  # a handful of lanes
+        dev = np.minimum(dev, np.abs(d - c))
+    half = road.half_road
+    right_edge = np.full(d.shape, -half)
     bound = lat.bound_lon >= 0
     if bound.any():
         sb = ctx.s_ego + lon.s[lat.bound_lon[bound]]
         edge = road.drivable_right_edge(sb)
         right_edge[bound] = edge
-        ramp_c = edge + LANE_WIDTH / 2
-        on_ramp = edge < -HALF_ROAD
+        ramp_c = edge + road.lane_width / 2
+        on_ramp = edge < -half
         dev[bound] = np.where(on_ramp, np.minimum(dev[bound], np.abs(d[bound] - ramp_c)), dev[bound])
         # on the ramp the target is unreachable: the route distance is capped at the lap length
-        off = d[bound] < -HALF_ROAD
+        off = d[bound] < -half
         prog = series.prog[lat.bound_lon[bound]]
         F[bound, IDX["progress"]] = (off * (ctx.lap_length - prog)) @ w
     F[:, IDX["centerline"]] = (dev * dev) @ w
-    gap_l = HALF_ROAD - (d + cfg.ego_width / 2)
+    gap_l = half - (d + cfg.ego_width / 2)
     gap_r = (d - cfg.ego_width / 2) - right_edge
     m = cfg.edge_margin
     F[:, IDX["road_edge"]] = (np.maximum(m - gap_l, 0.0) ** 2 + np.maximum(m - gap_r, 0.0) ** 2) @ w
@@ -240,7 +245,7 @@ def cross_features(
     X[:, 0] = 2.0 * pairs.dot(wd, series.c)
     wj = (lat.dddd * w).astype(F32)
     X[:, 1] = 2.0 * pairs.dot(wj, series.cdot)
-    lanes_away = (np.abs(lat.d - ctx.req_d) / LANE_WIDTH * w).astype(F32)
+    lanes_away = (np.abs(lat.d - ctx.req_d) / ctx.lane_width * w).astype(F32)
     X[:, 2] = pairs.dot(lanes_away, series.urg)
     head = pairs.outer(np.arctan2, lat.dd[:, -1], np.maximum(lon.v[:, -1], v_floor))
     X[:, 3] = head * head

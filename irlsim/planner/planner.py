@@ -24,7 +24,7 @@ from irlsim.planner.features import (
 )
 from irlsim.planner.policy_set import LazyWorld, PolicySet
 from irlsim.planner.sampler import LatBank, LonBank, Sampler, concat_lat, select_pairs, stop_distances
-from irlsim.road import HALF_ROAD, Road, wrap_angle
+from irlsim.road import Road, wrap_angle
 from irlsim.sim.types import Observation, Trajectory
 
 F32 = np.float32
@@ -124,7 +124,7 @@ class Planner:
         t0 = time.perf_counter()
         cfg, road, ego = self.cfg, self.road, obs.ego
         lap = obs.lap_length
-        lon = self.sampler.lon_bank(ego.v, ego.a, stop_distances(obs, cfg))
+        lon = self.sampler.lon_bank(ego.v, ego.a, stop_distances(obs, cfg, road))
         lat = concat_lat(
             self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot),
             self.sampler.exit_bank(ego.d, ego.d_dot, ego.d_ddot, ego.s, lon),
@@ -138,9 +138,10 @@ class Planner:
             d0=ego.d,
             goal=obs.target_s - ego.s + cfg.progress_lookahead,
             target_rel=obs.target_s - ego.s,
-            req_d=float(road.lane_center(road.checkpoints[obs.target_checkpoint].lane)),
+            req_d=float(road.lane_center(road.required_lane(obs.target_checkpoint, ego.d))),
             stop_rel=float(stop_rel),
             lap_length=lap,
+            lane_width=road.lane_width,
         )
         # ---- candidate pairs: free lateral profiles x all lon profiles, exit profiles x their bound one.
         # Pairwise terms are vectors over the C candidates (see Pairs), gathered at the picked ones.
@@ -174,7 +175,7 @@ class Planner:
         feats[:, 14] = veh.proximity[sel]
         np.maximum(feats, 0.0, out=feats)
         offroad_j = self._offroad(lat, lon, ego.s)
-        exit_j = (lat.bound_lon >= 0) & (lat.d.min(axis=1) < -HALF_ROAD)
+        exit_j = (lat.bound_lon >= 0) & (lat.d.min(axis=1) < -road.half_road)
         labels = np.stack([veh.collision[sel], offroad_j[cj], exit_j[cj]], axis=1)
 
         # ---- control points and actions [N, K, .]; the yaw at the K columns only
@@ -273,8 +274,9 @@ class Planner:
     def _offroad(self, lat: LatBank, lon: LonBank, s_ego: float) -> np.ndarray:
         """[J] bool: the ego's body beyond the drivable area (ramps included) at some step."""
         cfg = self.cfg
-        left = (lat.d + cfg.ego_width / 2 > HALF_ROAD + 0.2).any(axis=1)
-        right_edge = np.full(len(lat.d), -HALF_ROAD)[:, None] * np.ones_like(lat.d)
+        half = self.road.half_road
+        left = (lat.d + cfg.ego_width / 2 > half + 0.2).any(axis=1)
+        right_edge = np.full(len(lat.d), -half)[:, None] * np.ones_like(lat.d)
         bound = lat.bound_lon >= 0
         if bound.any():
             right_edge[bound] = self.road.drivable_right_edge(s_ego + lon.s[lat.bound_lon[bound]])

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from irlsim.planner.config import PlannerConfig
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.road import Road
 from irlsim.sim.types import Observation
 
 F32 = np.float32
@@ -274,7 +274,7 @@ class Sampler:
     def lat_bank(self, d0: float, dd0: float, ddd0: float) -> LatBank:
         """Generic lateral profiles from the ego's offset ``d0`` [m], ``dd0`` [m/s], ``ddd0`` [m/s^2]."""
         cfg = self.cfg
-        centres = (np.arange(3) - 1.0) * LANE_WIDTH
+        centres = self.road.lane_centres
         cur = float(centres[np.argmin(np.abs(centres - d0))])
         t1_targets, t1_durs = [], []
         for c in centres:
@@ -286,7 +286,7 @@ class Sampler:
         for sgn in (-1.0, 1.0):  # partial swerves, inside the loop's outer lane centres
             for mag in cfg.swerves:
                 tgt = cur + sgn * mag
-                if abs(tgt) <= LANE_WIDTH + 1e-6:
+                if abs(tgt) <= centres[-1] + 1e-6:
                     t1_targets.append(tgt)
                     t1_durs.append(cfg.stage_split)
         n1 = len(t1_targets)
@@ -331,7 +331,8 @@ class Sampler:
         """Exit-taking profiles (one per longitudinal profile) when an exit starts within reach."""
         cfg = self.cfg
         road = self.road
-        if d0 > -LANE_WIDTH / 2:  # only from lane 0
+        c0 = float(road.lane_centres[0])  # the rightmost lane's centre
+        if d0 > c0 + road.lane_width / 2:  # only from the rightmost lane
             return None
         for ex in road.exits:
             rel = (ex.s_start - s0 + road.lap_length / 2) % road.lap_length - road.lap_length / 2
@@ -339,15 +340,15 @@ class Sampler:
                 break
         else:
             return None
-        p, v, a, j = _quintic(d0, dd0, ddd0, -LANE_WIDTH, self._exit_grid)
+        p, v, a, j = _quintic(d0, dd0, ddd0, c0, self._exit_grid)
         s_abs = ex.s_start - rel + lon.s  # [L, T] in the exit's own unwrapped frame (ego at s_start - rel)
-        ramp = np.interp(s_abs, ex.ramp_s, ex.ramp_d, left=-LANE_WIDTH, right=ex.ramp_d[-1]) + LANE_WIDTH
+        ramp = np.interp(s_abs, ex.ramp_s, ex.ramp_d, left=c0, right=ex.ramp_d[-1]) - c0
         d = p + ramp
         dd = np.gradient(d, cfg.dt, axis=1)
         ddd = np.gradient(dd, cfg.dt, axis=1)
         dddd = np.gradient(ddd, cfg.dt, axis=1)
         dd[:, 0], ddd[:, 0], dddd[:, 0] = dd0, ddd0, j[0, 0]
-        taken = d.min(axis=1) < -HALF_ROAD
+        taken = d.min(axis=1) < -road.half_road
         if not taken.any():
             return None
         idx = np.flatnonzero(taken)
@@ -406,7 +407,7 @@ def select_pairs(feasible: np.ndarray, essential: np.ndarray, n: int) -> np.ndar
     return np.sort(np.concatenate([ess, pick]))
 
 
-def stop_distances(obs: Observation, cfg: PlannerConfig) -> tuple[float, ...]:
+def stop_distances(obs: Observation, cfg: PlannerConfig, road: Road) -> tuple[float, ...]:
     """Distances [m] from the ego's front bumper to where it may have to stand: the active stop line
     (minus ``stop_margin``), the line itself (minus ``stop_line_gap``) once the ego can no longer stand at
     that stop point comfortably, and the tail of the nearest slow (< 2 m/s) vehicle ahead in each lane."""
@@ -422,8 +423,10 @@ def stop_distances(obs: Observation, cfg: PlannerConfig) -> tuple[float, ...]:
         lap = obs.lap_length
         ds = (veh.s - obs.ego.s % lap + lap / 2) % lap - lap / 2
         gap = ds - veh.length
-        for c in (-LANE_WIDTH, 0.0, LANE_WIDTH):  # the nearest slow vehicle ahead in each lane
-            mask = (ds > 0) & (np.abs(veh.d - c) < LANE_WIDTH / 2) & (veh.v < 2.0) & (gap < cfg.stop_reach)
+        for c in road.lane_centres:  # the nearest slow vehicle ahead in each lane
+            mask = (
+                (ds > 0) & (np.abs(veh.d - c) < road.lane_width / 2) & (veh.v < 2.0) & (gap < cfg.stop_reach)
+            )
             if mask.any():
                 out.append(float(gap[mask].min() - cfg.safety_gap - 0.5))
     return tuple(out)

@@ -2,7 +2,8 @@
 
 The route frame: ``s`` is arc length [m] along the reference line (the centreline of the middle loop
 lane, which is the drawn line of the one-way 3-lane loop), ``d`` the signed lateral offset [m],
-positive to the left (towards the inner lane). Lane ``k`` has its centre at ``d = (k - 1) * LANE_WIDTH``.
+positive to the left (towards the inner lane). Lane ``k`` has its centre at ``d = (k - 1) * LANE_WIDTH`` on
+the oval; any other route: see :class:`Road`.
 Yaw is ENU: radians, 0 = east, counter-clockwise. SUMO angles are degrees, 0 = north, clockwise.
 
 The reference line is the concatenation of the middle lane's shapes, internal (junction) lanes included,
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from irlsim.errors import IrlsimError
+from irlsim.road import route
 from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
@@ -36,6 +38,8 @@ ENTRY_EDGES = ("entry1", "entry2")
 CHECKPOINTS_XY = ((250.0, 0.0, 2), (850.0, 150.0, 0), (450.0, 300.0, 2), (-150.0, 150.0, 0))
 SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-degree shape kinks vanish
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
+OPEN_EXTENSION = 300.0  # [m] an open route's reference runs on straight this far beyond both ends
+MIN_OPEN_LENGTH = 200.0  # [m] the shortest route the planner can drive (its look-ahead)
 #: projection index (Road._build_raster): cell size [m]; how far from the reference it answers [m] (points
 #: further away search all segments: exact, ~20 us each); search windows [segments], the narrow one for
 #: nearly every cell near the road, the wide one where normals converge (inside curves); extra segment
@@ -117,9 +121,26 @@ class LaneCentreline:
 
 
 class Road:
-    """Geometry and topology of the oval, from a ``.net.xml``. Build with :func:`load_road`."""
+    """Geometry and topology of a route on a SUMO network (by default the oval), from a ``.net.xml``.
+    Build with :func:`load_road` (a scenario name or path) or directly from a network and a route.
 
-    def __init__(self, net_file: str | Path):
+    The reference line (d = 0) is the centre of the road: the middle lane's centreline for an odd number
+    of lanes, midway between the two middle lanes for an even one. Lane ``k`` (0 = rightmost) has its
+    centre at ``d = (k - (n_lanes - 1) / 2) * lane_width``. A loop route (its last edge leads into its
+    first) is closed and driven in laps; an open route's reference line runs on straight for
+    ``OPEN_EXTENSION`` metres beyond both of its ends, and the episode ends at ``route_end_s``.
+    """
+
+    def __init__(
+        self,
+        net_file: str | Path,
+        edges: tuple[str, ...] = LOOP_EDGES,
+        checkpoints: tuple[tuple[float, float, int], ...] | None = CHECKPOINTS_XY,
+        *,
+        from_edge: str = "",
+        to_edge: str = "",
+        name: str = "oval",
+    ):
         try:
             import sumolib
         except ImportError:
@@ -135,52 +156,69 @@ class Road:
                 f"network {net_file} is malformed ({type(e).__name__}): delete it and run 'irlsim net'"
             ) from None
         self.net_file = net_file
-        missing = [e for e in LOOP_EDGES + EXIT_EDGES if not self.net.hasEdge(e)]
-        if missing:
-            raise IrlsimError(
-                f"network {net_file} lacks edge '{missing[0]}': it is not the oval course; rebuild it "
-                "with 'irlsim net'"
-            )
-        self.lane_shapes = [self._loop_lane_shape(k) for k in range(N_LANES)]
-        ref = _smooth_closed(_resample_closed(self.lane_shapes[1], REF_STEP), SMOOTH_HALF_WINDOW)
+        self.name = name
+        if name == "oval" and edges == LOOP_EDGES:
+            missing = [e for e in LOOP_EDGES + EXIT_EDGES if not self.net.hasEdge(e)]
+            if missing:
+                raise IrlsimError(
+                    f"network {net_file} lacks edge '{missing[0]}': it is not the oval course; rebuild it "
+                    "with 'irlsim net'"
+                )
+        if _lefthand(net_file):
+            raise IrlsimError(f"network {net_file} drives on the left: left-hand traffic is not supported")
+        self.edges = route.resolve_route(self.net, tuple(edges), from_edge, to_edge)
+        self.closed = route.is_closed(self.net, self.edges)
+        self.n_lanes, self.lane_width = route.route_lanes(self.net, self.edges)
+        self.half_road = self.n_lanes * self.lane_width / 2  # [m] |d| of the road's edges
+        self.lane_shapes = [
+            route.lane_shape(self.net, self.edges, k, self.closed) for k in range(self.n_lanes)
+        ]
+        self._ref_lane = (self.n_lanes - 1) // 2  # the lane whose shapes locate edges and stop lines
+        if self.closed:
+            ref = _smooth_closed(_resample_closed(self._centre_shape(), REF_STEP), SMOOTH_HALF_WINDOW)
+        else:
+            ref = _open_reference(self._centre_shape())
         self._set_reference(ref)
-        self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
+        if self.closed:
+            self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
+            self.route_begin_s, self.route_end_s = 0.0, math.inf
+        else:
+            self.lane_lengths = tuple(
+                float(np.linalg.norm(np.diff(sh, axis=0), axis=1).sum()) for sh in self.lane_shapes
+            )
+            ends = self._centre_shape()[[0, -1]]
+            s_ends, _ = self.to_frenet(ends[:, 0], ends[:, 1])
+            self.route_begin_s, self.route_end_s = float(s_ends[0]), float(s_ends[1])
+        if self.route_end_s - self.route_begin_s < MIN_OPEN_LENGTH:
+            raise IrlsimError(
+                f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
+                f"{MIN_OPEN_LENGTH:.0f} m the planner needs to look ahead: choose a longer route"
+            )
         self.stop_lines = self._stop_lines()
         self.exits = self._exits()
+        if checkpoints is None:
+            checkpoints = tuple(route.mission_points(self.net, self.edges, self.closed, self.n_lanes))
         self.checkpoints = tuple(
             Checkpoint(i, float(self.to_frenet(np.array([x]), np.array([y]))[0][0]), x, y, lane)
-            for i, (x, y, lane) in enumerate(CHECKPOINTS_XY)
+            for i, (x, y, lane) in enumerate(checkpoints)
         )
+        if not self.checkpoints:
+            raise IrlsimError("route has no checkpoint: give [[checkpoints]] in the scenario file")
         self._edge_cost = functools.lru_cache(maxsize=None)(self._edge_cost_uncached)
         # SUMO edge of each route-frame position of the middle lane, for Dijkstra queries
         self._edge_bounds = self._loop_edge_bounds()
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
-    def _loop_lane_shape(self, k: int) -> np.ndarray:
-        """Closed centreline of loop lane k (internal lanes included): [P, 2], first point not repeated."""
-        pts: list[tuple[float, float]] = []
-        for i, eid in enumerate(LOOP_EDGES):
-            lane = self.net.getEdge(eid).getLane(k)
-            pts.extend(lane.getShape())
-            nxt = LOOP_EDGES[(i + 1) % len(LOOP_EDGES)]
-            via = [
-                c for c in lane.getOutgoing() if c.getTo().getID() == nxt and c.getToLane().getIndex() == k
-            ]
-            if not via:
-                raise IrlsimError(
-                    f"network: lane {eid}_{k} does not continue on {nxt}; rebuild with 'irlsim net'"
-                )
-            via_id = via[0].getViaLaneID()
-            if via_id:
-                pts.extend(self.net.getLane(via_id).getShape())
-        arr = np.asarray(pts, dtype=np.float64)
-        keep = np.ones(len(arr), bool)
-        keep[1:] = np.linalg.norm(np.diff(arr, axis=0), axis=1) > 1e-6
-        arr = arr[keep]
-        if np.linalg.norm(arr[0] - arr[-1]) < 1e-6:
-            arr = arr[:-1]
-        return arr
+    def _centre_shape(self) -> np.ndarray:
+        """The road's centre along the route: the middle lane's shape, or midway between the two middle
+        lanes' shapes (resampled to a common count) for an even number of lanes."""
+        n = self.n_lanes
+        if n % 2:
+            return self.lane_shapes[n // 2]
+        a, b = self.lane_shapes[n // 2 - 1], self.lane_shapes[n // 2]
+        m = max(len(a), len(b)) * 4
+        return 0.5 * (_resample_count(a, m, self.closed) + _resample_count(b, m, self.closed))
 
     def _set_reference(self, ref: np.ndarray) -> None:
         self.ref_xy = ref  # [M, 2], closed (segment M-1 joins the last point to the first)
@@ -207,7 +245,8 @@ class Road:
         # component). The vertices are spaced ~REF_STEP apart, so a vertex index is a division plus a
         # few corrections (exactly what searchsorted would give), not a binary search.
         m = len(ref)
-        self._h = self.lap_length / m
+        # an open route's closing chord is one long segment: the spacing of the others makes the guess
+        self._h = self.lap_length / m if self.closed else float(self.ref_s[-1]) / (m - 1)
         self._inv_h = 1.0 / self._h
         dev = np.abs(self.ref_s - np.arange(m) * self._h).max()
         self._n_fix = int(math.ceil(dev / self._h)) + 1  # correction passes each way
@@ -274,8 +313,11 @@ class Road:
             (self._seg_normal * self._vtx_normal).sum(-1),
             (np.roll(self._seg_normal, 1, axis=0) * self._vtx_normal).sum(-1),
         )
+        if not self.closed:  # the chord's normals at an open route's two far ends bound nothing
+            cos_t[[0, -1]] = 1.0
         max_angle = float(np.arccos(np.clip(cos_t, -1.0, 1.0)).max())
-        bound = float(self._seg_len.max()) + reach * 2.0 * math.sin(max_angle / 2.0) + step / 2
+        longest = float(self._seg_len.max() if self.closed else self._seg_len[:-1].max())  # open: no chord
+        bound = longest + reach * 2.0 * math.sin(max_angle / 2.0) + step / 2
         r = int(math.ceil(bound / cell))  # [cells] dilation radius
         # index ranges in two numberings: a cell near s = 0 sees vertices near 0 and near M - 1, which
         # are contiguous only when counted from half a lap on
@@ -303,43 +345,15 @@ class Road:
 
     def _stop_lines(self) -> tuple[StopLine, ...]:
         out = []
-        for node in self.net.getNodes():
-            if node.getType() != "allway_stop":
-                continue
-            inc = [e for e in node.getIncoming() if e.getID() in LOOP_EDGES]
-            if not inc:
-                continue
-            x, y = inc[0].getLane(1).getShape()[-1]
+        for node, x, y in route.stop_points(self.net, self.edges, self._ref_lane):
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
-            out.append(StopLine(node.getID(), s, float(x), float(y)))
-        if len(out) != 2:
-            raise IrlsimError(
-                f"network has {len(out)} allway_stop lines, expected 2: rebuild with 'irlsim net'"
-            )
+            out.append(StopLine(node, s, x, y))
         return tuple(sorted(out, key=lambda sl: sl.s))
 
     def _exits(self) -> tuple[Exit, ...]:
         out = []
-        for eid in EXIT_EDGES:
-            edge = self.net.getEdge(eid)
-            pts: list[tuple[float, float]] = []
-            # the internal lane from lane 0 into the ramp, then the ramp itself
-            inc = [
-                c
-                for e in edge.getFromNode().getIncoming()
-                if e.getID() in LOOP_EDGES
-                for c in e.getLane(0).getOutgoing()
-                if c.getTo().getID() == eid
-            ]
-            if not inc:
-                raise IrlsimError(
-                    f"network: exit {eid} is not reachable from lane 0; rebuild with 'irlsim net'"
-                )
-            via = inc[0].getViaLaneID()
-            if via:
-                pts.extend(self.net.getLane(via).getShape())
-            pts.extend(edge.getLane(0).getShape())
-            xy = _resample_open(np.asarray(pts), 1.0)
+        for eid, pts in route.exit_shapes(self.net, self.edges, self.closed):
+            xy = _resample_open(pts, 1.0)
             s, d = self.to_frenet(xy[:, 0], xy[:, 1])
             s0 = s[0]
             s_rel = (s - s0) % self.lap_length
@@ -354,8 +368,8 @@ class Road:
     def _loop_edge_bounds(self) -> list[tuple[str, float, float]]:
         """(edge id, s at its start, s at its end) of each loop edge on the middle lane."""
         out = []
-        for eid in LOOP_EDGES:
-            shape = np.asarray(self.net.getEdge(eid).getLane(1).getShape())
+        for eid in self.edges:
+            shape = np.asarray(self.net.getEdge(eid).getLane(self._ref_lane).getShape())
             s, _ = self.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
             out.append((eid, float(s[0]), float(s[1])))
         return out
@@ -445,6 +459,10 @@ class Road:
         dx = qx[:, None] - (ax + ux * tt)
         dy = qy[:, None] - (ay + uy * tt)
         dist2 = dx * dx + dy * dy
+        if not self.closed:  # an open route's closing segment (last vertex -> first) is no road
+            m = len(self.ref_xy)
+            cols = first[:, None] + np.arange(dist2.shape[1])
+            dist2 = np.where(cols % m == m - 1, np.inf, dist2)
         j = np.argmin(dist2, axis=1)
         rows = np.arange(len(qx))
         return (first + j) % len(self.ref_xy), tt[rows, j], dist2[rows, j]
@@ -557,17 +575,26 @@ class Road:
         return self._kappa[i0] * (1 - f) + self._kappa[(i0 + 1) % m] * f
 
     # ------------------------------------------------------------------ lanes
-    @staticmethod
-    def lane_center(lane: np.ndarray | int) -> np.ndarray:
+    def lane_center(self, lane: np.ndarray | int) -> np.ndarray:
         """Lateral offset [m] of lane centre(s)."""
-        return (np.asarray(lane, dtype=np.float64) - 1.0) * LANE_WIDTH
+        return (np.asarray(lane, dtype=np.float64) - (self.n_lanes - 1) / 2) * self.lane_width
 
-    @staticmethod
-    def lane_of_d(d: np.ndarray) -> np.ndarray:
-        """Loop lane index (int8) of lateral offset(s) d; -1 beyond the loop's road edges."""
+    @property
+    def lane_centres(self) -> np.ndarray:
+        """[n_lanes] lateral offsets [m] of every lane's centre, rightmost first."""
+        return (np.arange(self.n_lanes) - (self.n_lanes - 1) / 2) * self.lane_width
+
+    def lane_of_d(self, d: np.ndarray) -> np.ndarray:
+        """Lane index (int8) of lateral offset(s) d; -1 beyond the road's edges."""
         d = np.asarray(d, dtype=np.float64)
-        lane = np.clip(np.floor(d / LANE_WIDTH + 1.5), 0, N_LANES - 1).astype(np.int8)
-        return np.where(np.abs(d) <= HALF_ROAD, lane, -1).astype(np.int8)
+        lane = np.clip(np.floor(d / self.lane_width + self.n_lanes / 2), 0, self.n_lanes - 1).astype(np.int8)
+        return np.where(np.abs(d) <= self.half_road, lane, -1).astype(np.int8)
+
+    def required_lane(self, checkpoint: int, d: float) -> int:
+        """The lane checkpoint ``checkpoint`` requires; for an any-lane checkpoint (lane -1, an open
+        route's end) the lane at offset ``d``, so staying in one's lane meets it."""
+        lane = self.checkpoints[checkpoint].lane
+        return int(lane) if lane >= 0 else max(int(self.lane_of_d(np.array(d))), 0)
 
     def lane_centreline(self, lane: int) -> LaneCentreline:
         """The closed centreline of loop lane ``lane`` (0 outer .. 2 inner) with its own arc length.
@@ -576,8 +603,8 @@ class Road:
         the half circles the outer lane is longer than the middle one, and the middle one longer than the
         inner one, by pi x LANE_WIDTH each. (``lane_lengths`` are SUMO's own lane shapes instead.)
         """
-        if lane not in range(N_LANES):
-            raise ValueError(f"lane must be 0..{N_LANES - 1}, got {lane}")
+        if lane not in range(self.n_lanes):
+            raise ValueError(f"lane must be 0..{self.n_lanes - 1}, got {lane}")
         if lane not in self._centrelines:
             x, y = self.to_xy(self.ref_s, np.full(len(self.ref_s), float(self.lane_center(lane))))
             seg = np.hypot(np.roll(x, -1) - x, np.roll(y, -1) - y)  # [M] closed
@@ -611,7 +638,7 @@ class Road:
                 (
                     self._edge_cost(n.getID(), to_edge) + self.net.getInternalPath(conns)[1]
                     for n, conns in edge.getOutgoing().items()
-                    if n.getID() in LOOP_EDGES
+                    if n.getID() in self.edges
                 ),
                 default=math.inf,
             )
@@ -637,15 +664,17 @@ class Road:
     def drivable_right_edge(self, s: np.ndarray) -> np.ndarray:
         """Lowest drivable d [m] at s: the loop's right edge, or the far edge of an exit ramp beside it."""
         s = np.asarray(s, dtype=np.float64)
-        edge = np.full(s.shape, -HALF_ROAD)
+        edge = np.full(s.shape, -self.half_road)
         for ex in self.exits:
             ds = (s - ex.s_start) % self.lap_length + ex.s_start
             rd = ex.d_at(ds)
-            edge = np.where(np.isfinite(rd), np.minimum(edge, rd - LANE_WIDTH / 2), edge)
+            edge = np.where(np.isfinite(rd), np.minimum(edge, rd - self.lane_width / 2), edge)
         return edge
 
     def describe(self) -> dict[str, object]:
         return {
+            "route": f"{len(self.edges)} edges, {'a loop' if self.closed else 'open'}",
+            "lanes": f"{self.n_lanes} x {self.lane_width:.2f} m",
             "lap_length_m": round(self.lap_length, 2),
             "lane_lengths_m": [round(v, 2) for v in self.lane_lengths],
             "stop_lines_s_m": [round(sl.s, 2) for sl in self.stop_lines],
@@ -698,16 +727,64 @@ def _resample_closed(pts: np.ndarray, step: float) -> np.ndarray:
     return np.stack([np.interp(si, s, closed[:, 0]), np.interp(si, s, closed[:, 1])], axis=1)
 
 
-@functools.lru_cache(maxsize=4)
-def _load_road_cached(path: str, mtime: float) -> Road:
-    return Road(path)
+def _resample_count(pts: np.ndarray, m: int, closed: bool) -> np.ndarray:
+    """``m`` points evenly spaced by arc length along a polyline (closed: around the loop)."""
+    p = np.vstack([pts, pts[:1]]) if closed else pts
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    si = np.arange(m) * (s[-1] / m) if closed else np.linspace(0.0, s[-1], m)
+    return np.stack([np.interp(si, s, p[:, 0]), np.interp(si, s, p[:, 1])], axis=1)
 
 
-def load_road(net_file: str | Path | None = None, build: bool = True) -> Road:
-    """The oval's :class:`Road`; builds the network first when it is missing or stale (if ``build``)."""
+def _open_reference(centre: np.ndarray) -> np.ndarray:
+    """An open route's reference: the centre resampled every ~REF_STEP, run on straight for
+    OPEN_EXTENSION metres beyond both ends, then smoothed as a loop's is (the straight runs absorb the
+    smoothing window at the ends)."""
+    core = _resample_open(centre, REF_STEP)
+    h = float(np.linalg.norm(core[1] - core[0]))
+    w = max(1, int(round(SMOOTH_HALF_WINDOW / h)))
+    k = int(math.ceil(OPEN_EXTENSION / h)) + w
+    u0 = (core[0] - core[1]) / np.linalg.norm(core[0] - core[1])
+    u1 = (core[-1] - core[-2]) / np.linalg.norm(core[-1] - core[-2])
+    steps = np.arange(1, k + 1)[:, None] * h
+    ext = np.vstack([(core[0] + steps * u0)[::-1], core, core[-1] + steps * u1])
+    kern = np.ones(2 * w + 1) / (2 * w + 1)
+    return np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
+
+
+def _lefthand(net_file: Path) -> bool:
+    """True when the network says it drives on the left (``<net ... lefthand="true">``)."""
+    with open(net_file, "rb") as f:
+        head = f.read(4096)
+    return b'lefthand="true"' in head
+
+
+@functools.lru_cache(maxsize=8)
+def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: float) -> Road:
+    if not scenario:
+        return Road(path)
+    from irlsim.road.scenario import load_scenario  # the scenario file, read again only when changed
+
+    scn = load_scenario(scenario, build=False)
+    checkpoints = scn.checkpoints or None
+    return Road(path, scn.edges, checkpoints, from_edge=scn.from_edge, to_edge=scn.to_edge, name=scn.name)
+
+
+def load_road(
+    net_file: str | Path | None = None, build: bool = True, scenario: str | Path | None = None
+) -> Road:
+    """The :class:`Road` of a scenario (a shipped name or a path; default the oval), or of the oval on
+    ``net_file``; builds the network first when it is missing or stale (if ``build``)."""
+    if scenario is not None and str(scenario) != "oval":
+        from irlsim.road.scenario import load_scenario, scenario_path
+
+        scn = load_scenario(scenario, build=build)
+        p = scn.net_file
+        spath = scenario_path(scenario).resolve()
+        return _load_road_cached(str(p.resolve()), p.stat().st_mtime, str(spath), spath.stat().st_mtime)
     if net_file is None:
         net_file = build_net() if build else net_path()
     p = Path(net_file)
     if not p.is_file():
         raise IrlsimError(f"network {p} not found: run 'irlsim net' (or 'make net') to build it")
-    return _load_road_cached(str(p.resolve()), p.stat().st_mtime)
+    return _load_road_cached(str(p.resolve()), p.stat().st_mtime, "", 0.0)

@@ -1,4 +1,4 @@
-"""Building and locating the SUMO network of the oval course.
+"""Building and locating SUMO networks: the shipped scenarios' folders, netconvert builds.
 
 SUMO is located only when needed (never at import): binaries come from the ``eclipse-sumo`` wheel
 (``site-packages/sumo/bin``), found through ``sumolib.checkBinary`` with SUMO_HOME pointing at that wheel.
@@ -11,14 +11,19 @@ import re
 import subprocess
 from pathlib import Path
 
+import sumo_net
 from irlsim.errors import IrlsimError
 from irlsim.utils import atomic_path
 
-#: the folder with the plain-XML sources of the course
-SUMO_NET_DIR = Path(__file__).resolve().parents[2] / "sumo_net"
+#: the shipped scenarios, one folder each (the ``sumo_net`` package, installed beside irlsim)
+SUMO_NET_DIR = Path(sumo_net.__file__).resolve().parent
+#: the oval's plain-XML sources, in its scenario folder
+OVAL_DIR = SUMO_NET_DIR / "oval"
 NET_SOURCES = ("oval.nod.xml", "oval.edg.xml", "netconvert.cfg")
 NET_FILE = "oval.net.xml"
+#: irlsim's vehicle types (ego, background), shared by every scenario
 VTYPES_FILE = "vtypes.add.xml"
+VTYPES_PATH = SUMO_NET_DIR / VTYPES_FILE
 
 _HEADER = re.compile(rb"<!-- generated on .*?-->\s*", re.DOTALL)
 
@@ -50,36 +55,52 @@ def sumo_binary(name: str) -> str:
 
 
 def net_path(net_dir: str | Path | None = None) -> Path:
-    return Path(net_dir or SUMO_NET_DIR) / NET_FILE
+    return Path(net_dir or OVAL_DIR) / NET_FILE
 
 
-def net_is_stale(net_dir: str | Path | None = None) -> bool:
+def _sources(d: Path, config: str) -> tuple[str, ...]:
+    """The files a netconvert build in ``d`` reads: the oval's, or a configuration and its inputs."""
+    if config == "netconvert.cfg" and all((d / s).is_file() for s in NET_SOURCES):
+        return NET_SOURCES
+    names = [config]
+    text = (d / config).read_text() if (d / config).is_file() else ""
+    names += [v for v in re.findall(r'value="([^"]+\.xml)"', text) if (d / v).is_file()]
+    return tuple(names)
+
+
+def net_is_stale(net_dir: str | Path | None = None, config: str = "netconvert.cfg") -> bool:
     """True when the .net.xml is missing or older than any of its sources."""
-    d = Path(net_dir or SUMO_NET_DIR)
-    target = d / NET_FILE
+    d = Path(net_dir or OVAL_DIR)
+    target = d / _target_name(d, config)
     if not target.is_file():
         return True
     t = target.stat().st_mtime
-    return any((d / s).stat().st_mtime > t for s in NET_SOURCES)
+    return any((d / s).stat().st_mtime > t for s in _sources(d, config))
 
 
-def build_net(net_dir: str | Path | None = None, force: bool = False) -> Path:
-    """Build ``oval.net.xml`` from the plain-XML sources with netconvert, if stale (or ``force``).
+def _target_name(d: Path, config: str) -> str:
+    return NET_FILE if (d / "oval.nod.xml").is_file() else f"{d.name}.net.xml"
+
+
+def build_net(net_dir: str | Path | None = None, force: bool = False, config: str = "netconvert.cfg") -> Path:
+    """Build the network of ``net_dir`` (default: the oval's folder) from its netconvert configuration,
+    if stale (or ``force``): ``oval.net.xml`` for the oval, ``<folder name>.net.xml`` for others.
 
     The output is byte-identical across runs: netconvert's header comment (with a timestamp and the
     absolute output path) is removed. The file is written under a temporary name, then renamed.
     """
-    d = Path(net_dir or SUMO_NET_DIR)
-    for s in NET_SOURCES:
+    d = Path(net_dir or OVAL_DIR)
+    needed = NET_SOURCES if (d / "oval.nod.xml").is_file() or net_dir is None else (config,)
+    for s in needed:
         if not (d / s).is_file():
             raise IrlsimError(f"network source {d / s} is missing: restore it from git ('git checkout {s}')")
-    target = d / NET_FILE
-    if not force and not net_is_stale(d):
+    target = d / _target_name(d, config)
+    if not force and not net_is_stale(d, config):
         return target
     netconvert = sumo_binary("netconvert")
     with atomic_path(target) as tmp:
         proc = subprocess.run(
-            [netconvert, "-c", str(d / "netconvert.cfg"), "-o", str(tmp)],
+            [netconvert, "-c", str(d / config), "-o", str(tmp)],
             cwd=d,
             capture_output=True,
             text=True,
@@ -87,9 +108,13 @@ def build_net(net_dir: str | Path | None = None, force: bool = False) -> Path:
         )
         if proc.returncode != 0:
             raise IrlsimError(f"netconvert failed on {d}: {_netconvert_error(proc)}; fix the XML sources")
-        data = _HEADER.sub(b"", tmp.read_bytes(), count=1)
-        tmp.write_bytes(data)
+        tmp.write_bytes(strip_header(tmp.read_bytes()))
     return target
+
+
+def strip_header(data: bytes) -> bytes:
+    """A netconvert output without its header comment (a timestamp and the output path)."""
+    return _HEADER.sub(b"", data, count=1)
 
 
 def _netconvert_error(proc: subprocess.CompletedProcess[str]) -> str:

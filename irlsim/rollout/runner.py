@@ -68,7 +68,7 @@ FACT_COUNTS = (
     "offroad_steps",
 )
 #: end reasons that terminate an episode; the others ('timeout', 'max_cycles') truncate it
-TERMINAL_REASONS = ("collision", "exit", "laps")
+TERMINAL_REASONS = ("collision", "exit", "laps", "route_end")
 
 
 @runtime_checkable

@@ -11,11 +11,13 @@ MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/DESIGN.md s
 
 @dataclass(frozen=True)
 class ScenarioConfig:
-    """One SUMO episode on the oval.
+    """One SUMO episode: the scenario (road and route) it runs on, its traffic, clocks and ego start.
 
     Load from TOML with ``irlsim.config.load_config(ScenarioConfig, path)`` (unknown keys are errors).
     """
 
+    name: str = "oval"
+    """the scenario: a shipped name (``irlsim scenario list``) or the path of a scenario.toml"""
     n_vehicles: int = 15
     """number of background vehicles kept around the ego, 0..15"""
     spawn_distance: float = 200.0

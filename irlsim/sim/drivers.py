@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from irlsim.road import LANE_WIDTH, Road, wrap_angle
+from irlsim.road import Road, wrap_angle
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import EgoState, Observation, Trajectory
 
@@ -134,7 +134,7 @@ class SimpleDriver:
         if veh.count == 0:
             return None
         ds = (veh.s - obs.ego.s) % obs.lap_length
-        same = np.abs(veh.d - obs.ego.d) < 0.5 * LANE_WIDTH + 0.4
+        same = np.abs(veh.d - obs.ego.d) < 0.5 * self.road.lane_width + 0.4
         gap = ds - veh.length
         ok = same & (ds > 0) & (ds < 250.0) & (gap > -2.0)
         if not ok.any():
@@ -172,7 +172,8 @@ class SimpleDriver:
         v = np.clip(ego.v + acc * tau, 0.0, v_cap)
         a = np.where((v > 0.0) & (v < v_cap) | (tau == 0), acc, 0.0)
         # lateral: critically damped towards the lane centre, continuous in d and dd/dt
-        lane = int(np.clip(np.floor(ego.d / LANE_WIDTH + 1.5), 0, 2))
+        road = self.road
+        lane = int(np.clip(np.floor(ego.d / road.lane_width + road.n_lanes / 2), 0, road.n_lanes - 1))
         dc = float(self.road.lane_center(lane))
         w = self.lateral_rate
         e0, e0_dot = ego.d - dc, ego.d_dot

@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.road import HALF_ROAD, Road
+from irlsim.road import Road
 from irlsim.sim.types import EgoState
 
 #: why an episode ended, by priority when several happen in the same step
-END_REASONS = ("collision", "exit", "laps", "timeout")
+END_REASONS = ("collision", "exit", "laps", "route_end", "timeout")
 
 
 @dataclass(frozen=True)
@@ -33,7 +33,8 @@ class CourseMarks:
     checkpoint_lane: tuple[int, ...]  # required lane of each checkpoint
     stop_line_s: tuple[float, ...]  # [m] wrapped
     exit_zones: tuple[tuple[float, float], ...]  # [m] wrapped (start, end) of each exit's ramp zone
-    half_road: float  # [m] |d| of the loop's road edges
+    half_road: float  # [m] |d| of the road's edges
+    route_end_s: float = math.inf  # [m] an open route's end (wrapped); inf for a loop
 
     @staticmethod
     def from_road(road: Road) -> CourseMarks:
@@ -43,7 +44,8 @@ class CourseMarks:
             checkpoint_lane=tuple(int(c.lane) for c in road.checkpoints),
             stop_line_s=tuple(float(sl.s) for sl in road.stop_lines),
             exit_zones=tuple((float(e.ramp_s[0]), float(e.ramp_s[-1])) for e in road.exits),
-            half_road=float(HALF_ROAD),
+            half_road=float(road.half_road),
+            route_end_s=float(road.route_end_s),
         )
 
     def passes(self, s: float, m: float) -> int:
@@ -134,7 +136,7 @@ class Episode:
         for i, (m, lane) in enumerate(zip(self.marks.checkpoint_s, self.marks.checkpoint_lane, strict=False)):
             for _ in range(self.marks.passes(ego.s, m) - self.marks.passes(prev.s, m)):
                 c["checkpoints_passed"] += 1
-                c["checkpoints_in_lane"] += int(ego.lane == lane)
+                c["checkpoints_in_lane"] += int(ego.lane == lane or (lane < 0 <= ego.lane))
                 self.events.append(
                     {"t": ego.t, "kind": "checkpoint", "index": i, "lane": ego.lane, "required": lane}
                 )
@@ -160,6 +162,7 @@ class Episode:
             "collision": bool(collisions) and self.end_on_collision,
             "exit": took_exit,
             "laps": self.laps_completed >= self.laps,
+            "route_end": ego.s >= self.marks.route_end_s,
             "timeout": ego.t - self.start.t >= self.max_time - 1e-9,
         }
         for r in END_REASONS:

@@ -36,6 +36,8 @@ MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones ma
 #: of its own, and the traffic of a fixed start as before
 _START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
+#: [m] a random start on an open route leaves at least this much of the route ahead
+OPEN_START_RESERVE = 300.0
 
 
 def check_seed(seed: object) -> int:
@@ -273,10 +275,11 @@ class Simulation:
             gap = np.abs(_wrap(s[:, None] - marks, lap))  # [C, marks]
             clear = (gap >= cfg.ego_start_clearance).all(axis=1)
             before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance).any(axis=1)
-            ok = np.flatnonzero(on_edge & clear & ~before_cp)
+            room = s <= self.road.route_end_s - OPEN_START_RESERVE  # always on a loop (inf)
+            ok = np.flatnonzero(on_edge & clear & ~before_cp & room)
             if len(ok):
                 s0 = float(s[ok[0]])
-                lane = int(rng.integers(0, 3))
+                lane = int(rng.integers(0, self.road.n_lanes))
                 speed = float(rng.uniform(cfg.ego_start_speed_min, cfg.ego_start_speed_max))
                 return s0, lane, speed
         raise IrlsimError(
@@ -400,7 +403,10 @@ class Simulation:
             target_s=target_s,
             stop_s=self.episode.stop_s(self.ego.s),
             lap_length=self.road.lap_length,
-            info={"lane_required": self.road.checkpoints[idx].lane, "laps": self.episode.laps_completed},
+            info={
+                "lane_required": self.road.required_lane(idx, self.ego.d),
+                "laps": self.episode.laps_completed,
+            },
         )
 
     def _require_episode(self) -> None:

@@ -19,8 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.road import HALF_ROAD, Road
-from irlsim.road.geometry import LOOP_EDGES
+from irlsim.road import Road
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import VehicleStates
 
@@ -36,7 +35,7 @@ class _Tracked:
 
 @dataclass
 class LoopEdges:
-    """Route-frame extent of each loop edge (middle lane) to map s -> (edge, lane position)."""
+    """Route-frame extent of each route edge (middle lane) to map s -> (edge, lane position)."""
 
     ids: tuple[str, ...]
     s0: np.ndarray  # [E] [m]
@@ -46,14 +45,14 @@ class LoopEdges:
     @staticmethod
     def from_road(road: Road) -> LoopEdges:
         s0, s1, ln = [], [], []
-        for eid in LOOP_EDGES:
+        for eid in road.edges:
             edge = road.net.getEdge(eid)
-            shape = np.asarray(edge.getLane(1).getShape())
+            shape = np.asarray(edge.getLane((road.n_lanes - 1) // 2).getShape())
             s, _ = road.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
             s0.append(float(s[0]))
             s1.append(float(s[1]) if s[1] > s[0] else float(s[1]) + road.lap_length)
             ln.append(float(edge.getLength()))
-        return LoopEdges(LOOP_EDGES, np.array(s0), np.array(s1), np.array(ln))
+        return LoopEdges(road.edges, np.array(s0), np.array(s1), np.array(ln))
 
     def locate(self, s: float, lap: float, margin: float = 1.0) -> tuple[str, float] | None:
         """(edge id, lane position [m]) of wrapped route position s; None inside a junction (or within
@@ -91,10 +90,15 @@ class BackgroundTraffic:
 
     # ------------------------------------------------------------------ routes and insertion
     def add_routes(self) -> None:
-        """One route per loop edge: the loop from that edge, repeated ``route_laps`` times."""
-        n = len(LOOP_EDGES)
-        for i, eid in enumerate(LOOP_EDGES):
-            edges = [LOOP_EDGES[(i + k) % n] for k in range(n * self.route_laps)]
+        """One route per route edge: on a loop, the loop from that edge repeated ``route_laps`` times; on
+        an open route, the rest of the route (vehicles leave at its end and others enter ahead)."""
+        route = self.road.edges
+        n = len(route)
+        for i, eid in enumerate(route):
+            if self.road.closed:
+                edges = [route[(i + k) % n] for k in range(n * self.route_laps)]
+            else:
+                edges = list(route[i:])
             self.api.route.add(f"loop@{eid}", edges)
 
     def _spot_free(
@@ -178,7 +182,7 @@ class BackgroundTraffic:
         for _try in range(20):
             ds = self.rng.uniform(a, b)
             s = (ego_s + ds) % self.road.lap_length
-            lane = int(self.rng.integers(0, 3))
+            lane = int(self.rng.integers(0, self.road.n_lanes))
             speed = float(self.rng.uniform(c.bg_speed_min, c.bg_speed_max))
             if self._spot_free(s, lane, ego_s, occupied, spacing) and self._insert(s, lane, speed):
                 occupied.append((s, lane))
@@ -244,7 +248,7 @@ class BackgroundTraffic:
             self.stuck.update(veh.ids[i] for i in np.flatnonzero(over))
         for i, vid in enumerate(veh.ids):
             self.tracked[vid] = _Tracked(float(s_new[i]), stopped[i].tolist(), float(since[i]))
-        off = np.abs(veh.d) > HALF_ROAD + 0.3
+        off = np.abs(veh.d) > self.road.half_road + 0.3
         if off.any():
             self.off_loop.update(veh.ids[i] for i in np.flatnonzero(off))
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES
 from irlsim.planner.policy_set import PolicySet
-from irlsim.road import HALF_ROAD, LANE_WIDTH, Road
+from irlsim.road import Road
 from irlsim.sim.types import Observation
 
 
@@ -215,20 +215,21 @@ def road_lines(
     """Lane edges, dividers, stop lines and exit ramps within [s0 - behind, s0 + ahead] as world polylines."""
     s = np.arange(s0 - behind, s0 + ahead, 2.0)
     lines: list[tuple[str, np.ndarray]] = []
-    for d in (-HALF_ROAD, -LANE_WIDTH / 2, LANE_WIDTH / 2, HALF_ROAD):
+    half, w = road.half_road, road.lane_width
+    for d in (-half, *(road.lane_centres[1:] - w / 2), half):
         x, y = road.to_xy(s, np.full_like(s, d))
-        lines.append(("edge" if abs(d) == HALF_ROAD else "divider", np.stack([x, y], axis=1)))
+        lines.append(("edge" if abs(d) == half else "divider", np.stack([x, y], axis=1)))
     lap = road.lap_length
     for sl in road.stop_lines:
         rel_s = (sl.s - s0 + behind) % lap - behind
         if -behind <= rel_s <= ahead:
-            x, y = road.to_xy(np.full(2, s0 + rel_s), np.array([-HALF_ROAD, HALF_ROAD]))
+            x, y = road.to_xy(np.full(2, s0 + rel_s), np.array([-half, half]))
             lines.append(("stop", np.stack([x, y], axis=1)))
     for ex in road.exits:
         rel = (ex.ramp_s - s0 + behind) % lap - behind
         ok = (rel >= -behind) & (rel <= ahead)
         if ok.sum() >= 2:
-            for off in (-LANE_WIDTH / 2, LANE_WIDTH / 2):
+            for off in (-w / 2, w / 2):
                 x, y = road.to_xy(s0 + rel[ok], ex.ramp_d[ok] + off)
                 lines.append(("ramp", np.stack([x, y], axis=1)))
     return tuple(lines)

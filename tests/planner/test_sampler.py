@@ -82,17 +82,17 @@ def test_stop_distances_add_the_line_once_the_stop_point_is_out_of_comfortable_r
     cfg = PlannerConfig()  # stop_margin 1.0 m, stop_line_gap 0.2 m, stop_decel_comfort 2.5 m/s^2
     line = road.stop_lines[0].s
     # 40 m before the line at 12 m/s: the stop point (39 m) needs 12^2 / 5 = 28.8 m, reachable
-    assert stop_distances(make_obs(road, line - 40.0, 0.0, 12.0, stop_s=line), cfg) == (39.0,)
+    assert stop_distances(make_obs(road, line - 40.0, 0.0, 12.0, stop_s=line), cfg, road) == (39.0,)
     # 3 m before at 4 m/s: the stop point (2 m) needs 16 / 5 = 3.2 m -> also stand 0.2 m before the line
-    far, near = stop_distances(make_obs(road, line - 3.0, 0.0, 4.0, stop_s=line), cfg)
+    far, near = stop_distances(make_obs(road, line - 3.0, 0.0, 4.0, stop_s=line), cfg, road)
     assert far == pytest.approx(2.0) and near == pytest.approx(2.8)
     # past the stop point, 0.7 m before the line, rolling at 1.2 m/s
-    far, near = stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), cfg)
+    far, near = stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), cfg, road)
     assert far == pytest.approx(-0.3) and near == pytest.approx(0.5)
     # closer to the line than the gap: nothing to add; and stop_line_gap = 0 switches it off
-    assert len(stop_distances(make_obs(road, line - 0.1, 0.0, 1.2, stop_s=line), cfg)) == 1
+    assert len(stop_distances(make_obs(road, line - 0.1, 0.0, 1.2, stop_s=line), cfg, road)) == 1
     off = dataclasses.replace(cfg, stop_line_gap=0.0)
-    assert len(stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), off)) == 1
+    assert len(stop_distances(make_obs(road, line - 0.7, 0.0, 1.2, stop_s=line), off, road)) == 1
 
 
 def test_a_smooth_stop_before_the_line_in_the_last_metre(road, planner):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from irlsim.road.geometry import EXIT_EDGES, LOOP_EDGES
-from irlsim.road.network import NET_FILE, NET_SOURCES, SUMO_NET_DIR, build_net, net_is_stale
+from irlsim.road.network import NET_FILE, NET_SOURCES, OVAL_DIR, build_net, net_is_stale
 
 
 def test_loop_has_three_lanes(road):
@@ -37,7 +37,7 @@ def test_two_allway_stops(road):
 
 def test_build_is_byte_identical(tmp_path):
     for s in NET_SOURCES:
-        shutil.copy(SUMO_NET_DIR / s, tmp_path / s)
+        shutil.copy(OVAL_DIR / s, tmp_path / s)
     first = build_net(tmp_path, force=True).read_bytes()
     second = build_net(tmp_path, force=True).read_bytes()
     assert first == second
@@ -46,7 +46,7 @@ def test_build_is_byte_identical(tmp_path):
 
 def test_net_is_rebuilt_when_missing_or_older_than_a_source(tmp_path):
     for s in NET_SOURCES:
-        shutil.copy(SUMO_NET_DIR / s, tmp_path / s)
+        shutil.copy(OVAL_DIR / s, tmp_path / s)
         os.utime(tmp_path / s, (1_000_000.0, 1_000_000.0))
     net = tmp_path / NET_FILE
     assert net_is_stale(tmp_path)  # missing

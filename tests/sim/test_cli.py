@@ -166,10 +166,10 @@ def test_net_reports_netconvert_error_line(capsys, tmp_path, monkeypatch):
     from irlsim.road import network
 
     for name in network.NET_SOURCES:
-        shutil.copy(network.SUMO_NET_DIR / name, tmp_path / name)
+        shutil.copy(network.OVAL_DIR / name, tmp_path / name)
     edg = tmp_path / "oval.edg.xml"
     edg.write_text(edg.read_text().replace('from="S1" to="X1"', 'from="Q9" to="X1"'))
-    monkeypatch.setattr(network, "SUMO_NET_DIR", tmp_path)
+    monkeypatch.setattr(network, "OVAL_DIR", tmp_path)
     rc, _, err = _run(capsys, "net")
     assert rc == 2
     _one_line_error(err, "netconvert failed", "Error:", "from-node 'Q9' is not known", "fix the XML sources")

@@ -1,0 +1,247 @@
+"""Scenario files: a SUMO network, the ego's route on it and what the network cannot say.
+
+A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shipped ones live under
+``sumo_net/<name>/`` (installed with the package); any other is named by its path::
+
+    name = "highway"
+    description = "three-lane motorway in Bremen (OpenStreetMap, from SUMO's game)"
+
+    [network]                # exactly one of:
+    file = "net.net.xml"     #   a SUMO network (.net.xml or .net.xml.gz), relative to this file or absolute
+    # netconvert = "x.cfg"   #   a netconvert configuration (plain node/edge XML), built into a cache
+    # osm = "map.osm"        #   an OpenStreetMap extract, built with netconvert into a cache
+    # sumo_tools = "game/highway/highway.net.xml"   # a network inside the installed eclipse-sumo wheel
+
+    [route]                  # the ego's route: a list of edges, or from/to (the shortest path on the net)
+    edges = ["a", "b", "c"]
+    # from = "a"
+    # to = "c"
+
+    [[checkpoints]]          # optional: (x, y) on the route and the lane required there (0 = rightmost)
+    x = 250.0
+    y = 0.0
+    lane = 2
+
+    [scenario]               # optional: defaults of irlsim.sim.config.ScenarioConfig for this road
+    n_vehicles = 10
+
+A route whose last edge leads back into its first is a loop (laps); any other route is open and the
+episode ends at its end. What the network says (lanes, widths, exits, all-way stops) is derived from it
+by :class:`irlsim.road.Road`.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import os
+import shutil
+import subprocess
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from irlsim.config import from_dict
+from irlsim.errors import IrlsimError
+from irlsim.road.network import SUMO_NET_DIR, _netconvert_error, strip_header, sumo_binary, sumo_home
+from irlsim.utils import atomic_path
+
+SCENARIO_FILE = "scenario.toml"
+DEFAULT_SCENARIO = "oval"
+
+
+@dataclass(frozen=True)
+class NetworkSpec:
+    """Where the network comes from: exactly one field set (paths relative to the scenario file)."""
+
+    file: str = ""
+    """a SUMO network, .net.xml or .net.xml.gz"""
+    netconvert: str = ""
+    """a netconvert configuration file (its inputs relative to it); built once into the cache"""
+    osm: str = ""
+    """an OpenStreetMap extract (.osm / .osm.xml); built once with netconvert into the cache"""
+    sumo_tools: str = ""
+    """a network inside the installed eclipse-sumo wheel, relative to its ``tools/`` folder"""
+
+    def validate(self) -> None:
+        given = [k for k in ("file", "netconvert", "osm", "sumo_tools") if getattr(self, k)]
+        if len(given) != 1:
+            raise IrlsimError(
+                "scenario: [network] needs exactly one of file, netconvert, osm, sumo_tools; got "
+                f"{', '.join(given) or 'none'}"
+            )
+
+
+@dataclass(frozen=True)
+class RouteSpec:
+    """The ego's route: ``edges`` in order, or ``from`` / ``to`` resolved by the shortest path."""
+
+    edges: tuple[str, ...] = ()
+    from_edge: str = ""
+    to_edge: str = ""
+
+    def validate(self) -> None:
+        if bool(self.edges) == bool(self.from_edge or self.to_edge):
+            raise IrlsimError("scenario: [route] needs either edges = [...] or from = ... and to = ...")
+        if not self.edges and not (self.from_edge and self.to_edge):
+            raise IrlsimError("scenario: [route] needs both from and to")
+
+
+@dataclass(frozen=True)
+class CheckpointSpec:
+    x: float
+    """[m] world x of a point on the route"""
+    y: float
+    """[m] world y"""
+    lane: int
+    """lane required when passing it (0 = rightmost), -1 for any lane"""
+
+
+@dataclass(frozen=True)
+class ScenarioFile:
+    """The typed content of a ``scenario.toml`` (unknown keys are errors)."""
+
+    network: NetworkSpec
+    route: RouteSpec
+    name: str = ""
+    description: str = ""
+    checkpoints: tuple[CheckpointSpec, ...] = ()
+    scenario: dict[str, Any] = field(default_factory=dict)
+    """defaults of ScenarioConfig's fields for this road (traffic, ego start, episode)"""
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A loaded scenario: the network file ready for SUMO and the route's description."""
+
+    name: str
+    path: Path  # the scenario.toml
+    net_file: Path
+    edges: tuple[str, ...]  # as written, or () when from/to
+    from_edge: str
+    to_edge: str
+    checkpoints: tuple[tuple[float, float, int], ...]
+    defaults: dict[str, Any]
+    description: str = ""
+
+    def digest(self) -> str:
+        """sha256 of the scenario file and its network: what a dataset records of its road."""
+        h = hashlib.sha256(self.path.read_bytes())
+        h.update(self.net_file.read_bytes())
+        return "sha256:" + h.hexdigest()
+
+
+def shipped_scenarios() -> tuple[str, ...]:
+    """Names of the scenarios that ship with irlsim (folders of sumo_net/ with a scenario.toml)."""
+    return tuple(sorted(p.parent.name for p in SUMO_NET_DIR.glob(f"*/{SCENARIO_FILE}")))
+
+
+def scenario_path(spec: str | Path) -> Path:
+    """The scenario.toml of a shipped name, a folder or a file; one-line error when there is none."""
+    text = str(spec)
+    if text in shipped_scenarios():
+        return SUMO_NET_DIR / text / SCENARIO_FILE
+    p = Path(text)
+    if p.is_dir():
+        p = p / SCENARIO_FILE
+    if p.is_file():
+        return p
+    raise IrlsimError(
+        f"scenario '{text}' not found: name a shipped one ({', '.join(shipped_scenarios())}) or the path of "
+        f"a {SCENARIO_FILE} (see docs/SCENARIOS.md)"
+    )
+
+
+def read_scenario_file(path: Path) -> ScenarioFile:
+    try:
+        data = tomllib.loads(path.read_bytes().decode("utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
+        raise IrlsimError(f"scenario {path} cannot be read ({e}): fix the file") from None
+    route = data.get("route")
+    if isinstance(route, dict):  # 'from' is a Python keyword: the fields are from_edge / to_edge
+        route = dict(route)
+        for key in ("from", "to"):
+            if key in route:
+                route[f"{key}_edge"] = route.pop(key)
+        data = {**data, "route": route}
+    try:
+        return from_dict(ScenarioFile, data)
+    except IrlsimError as e:
+        raise IrlsimError(f"scenario {path}: {str(e).removeprefix('config: ')}") from None
+    except TypeError as e:  # a missing required table
+        raise IrlsimError(f"scenario {path}: needs [network] and [route] tables ({e})") from None
+
+
+def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Scenario:
+    """Load a scenario by shipped name or path; builds its network into the cache when needed."""
+    path = scenario_path(spec)
+    sf = read_scenario_file(path)
+    net_file = _network_file(path, sf.network, build)
+    return Scenario(
+        name=sf.name or path.parent.name,
+        path=path,
+        net_file=net_file,
+        edges=tuple(sf.route.edges),
+        from_edge=sf.route.from_edge,
+        to_edge=sf.route.to_edge,
+        checkpoints=tuple((c.x, c.y, c.lane) for c in sf.checkpoints),
+        defaults=dict(sf.scenario),
+        description=sf.description,
+    )
+
+
+def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:
+    base = path.parent
+    if spec.file or spec.sumo_tools:
+        net = (Path(sumo_home()) / "tools" / spec.sumo_tools) if spec.sumo_tools else base / spec.file
+        if not net.is_file():
+            raise IrlsimError(f"scenario {path}: network {net} not found: fix [network] or restore the file")
+        if net.suffix == ".gz":
+            return _gunzip_cached(net, path)
+        return net
+    if spec.netconvert:
+        from irlsim.road.network import build_net  # the oval's byte-identical build, any config
+
+        cfg = base / spec.netconvert
+        if not cfg.is_file():
+            raise IrlsimError(f"scenario {path}: netconvert configuration {cfg} not found")
+        return build_net(base, config=cfg.name, force=False) if build else base / f"{base.name}.net.xml"
+    return _osm_cached(base / spec.osm, path, build)
+
+
+def cache_dir(scenario: Path) -> Path:
+    """Where built networks of a scenario go: beside it when that folder is writable, else the user's
+    cache ($IRLSIM_CACHE or ~/.cache/irlsim)."""
+    base = scenario.parent
+    if os.access(base, os.W_OK):
+        return base
+    root = Path(os.environ.get("IRLSIM_CACHE") or Path.home() / ".cache" / "irlsim")
+    out = root / "scenarios" / hashlib.sha256(str(scenario.resolve()).encode()).hexdigest()[:16]
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def _gunzip_cached(net: Path, scenario: Path) -> Path:
+    target = cache_dir(scenario) / net.name.removesuffix(".gz")
+    if not target.is_file() or target.stat().st_mtime < net.stat().st_mtime:
+        with atomic_path(target) as tmp, gzip.open(net, "rb") as src, open(tmp, "wb") as dst:
+            shutil.copyfileobj(src, dst)
+    return target
+
+
+def _osm_cached(osm: Path, scenario: Path, build: bool) -> Path:
+    if not osm.is_file():
+        raise IrlsimError(f"scenario {scenario}: OpenStreetMap file {osm} not found")
+    target = cache_dir(scenario) / (osm.name.split(".")[0] + ".net.xml")
+    if not build or (target.is_file() and target.stat().st_mtime >= osm.stat().st_mtime):
+        return target
+    cmd = [sumo_binary("netconvert"), "--osm-files", str(osm), "--geometry.remove", "--ramps.guess"]
+    cmd += ["--junctions.join", "--tls.guess-signals", "--tls.discard-simple", "--tls.join"]
+    cmd += ["--remove-edges.isolated", "--keep-edges.by-vclass", "passenger", "--no-warnings"]
+    with atomic_path(target) as tmp:
+        proc = subprocess.run(cmd + ["-o", str(tmp)], capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise IrlsimError(f"netconvert failed on {osm}: {_netconvert_error(proc)}; check the extract")
+        tmp.write_bytes(strip_header(tmp.read_bytes()))
+    return target
