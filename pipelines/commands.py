@@ -19,6 +19,7 @@ from irlsim.outputs import os_error_message
 #: command name -> stage module
 COMMANDS: dict[str, str] = {
     "net": "pipelines.net",
+    "scenario": "pipelines.scenario",
     "sim": "pipelines.sim",
     "plot-cycle": "pipelines.plot_cycle",
     "collect": "pipelines.collect",

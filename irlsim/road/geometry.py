@@ -229,6 +229,8 @@ class Road:
         # vertex normals (mean of the adjacent segments'); to_xy interpolates them, so the frame is
         # continuous and to_frenet can invert it exactly
         vn = self._seg_normal + np.roll(self._seg_normal, 1, axis=0)
+        if not self.closed:  # an open route's two end vertices take their real segment's normal alone
+            vn[0], vn[-1] = self._seg_normal[0], self._seg_normal[-2]
         self._vtx_normal = vn / np.linalg.norm(vn, axis=1)[:, None]
         self.ref_s = np.concatenate([[0.0], np.cumsum(self._seg_len)[:-1]])  # [M] s of each vertex
         self.lap_length = float(np.sum(self._seg_len))  # [m]

@@ -76,7 +76,8 @@ def route_lanes(net: object, edges: tuple[str, ...]) -> tuple[int, float]:
 
 def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.ndarray:
     """Centreline of lane ``k`` along the route, the junction (internal) lanes from lane k to lane k of the
-    next edge included: [P, 2]; for a loop the first point is not repeated at the end."""
+    next edge included where that connection exists: [P, 2]; for a loop the first point is not repeated
+    at the end."""
     pts: list[tuple[float, float]] = []
     n = len(edges)
     for i, eid in enumerate(edges):
@@ -86,12 +87,9 @@ def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.
             break
         nxt = edges[(i + 1) % n]
         via = [c for c in lane.getOutgoing() if c.getTo().getID() == nxt and c.getToLane().getIndex() == k]
-        if not via:
-            raise IrlsimError(
-                f"route: lane {eid}_{k} does not continue on {nxt}: the route needs every lane to go on "
-                "(lane drops are not supported yet); choose another route"
-            )
-        via_id = via[0].getViaLaneID()
+        # a lane that does not go on into lane k (it turns off, or only other lanes continue) is joined to
+        # the next edge's lane k by a straight segment across the junction
+        via_id = via[0].getViaLaneID() if via else ""
         if via_id:
             pts.extend(net.getLane(via_id).getShape())  # type: ignore[attr-defined]
     arr = np.asarray(pts, dtype=np.float64)
