@@ -71,6 +71,9 @@ class Context:
     stop_rel: float  # [m] active stop line, relative (inf if none / beyond reach)
     lap_length: float
     lane_width: float = LANE_WIDTH  # [m]
+    #: (lowest, highest) lane [T] at each step where lanes are added or dropped (Planner's lane_window);
+    #: None on a road with the same lanes throughout
+    lanes: tuple[np.ndarray, np.ndarray] | None = None
 
 
 @dataclass
@@ -193,27 +196,23 @@ def lat_features(
     F = np.zeros((J, NF), F32)
     F[:, IDX["acc_lat"]] = (lat.ddd**2) @ w
     F[:, IDX["jerk_lat"]] = (lat.dddd**2) @ w
-    # distance to the nearest lane centre
-    centres = road.lane_centres
-    dev = np.abs(d - centres[0])
-    for c in centres[1:]:  # a handful of lanes
-        dev = np.minimum(dev, np.abs(d - c))
+    # distance to the nearest lane centre, and the road's edges (of the lanes that exist at each step)
+    dev, right_edge, left_edge = road.lane_geometry(d, ctx.lanes)
     half = road.half_road
-    right_edge = np.full(d.shape, -half)
     bound = lat.bound_lon >= 0
     if bound.any():
         sb = ctx.s_ego + lon.s[lat.bound_lon[bound]]
         edge = road.drivable_right_edge(sb)
         right_edge[bound] = edge
         ramp_c = edge + road.lane_width / 2
-        on_ramp = edge < -half
+        on_ramp = edge < (-half if ctx.lanes is None else road.road_edges(sb)[0])
         dev[bound] = np.where(on_ramp, np.minimum(dev[bound], np.abs(d[bound] - ramp_c)), dev[bound])
         # on the ramp the target is unreachable: the route distance is capped at the lap length
-        off = d[bound] < -half
+        off = d[bound] < (-half if ctx.lanes is None else road.road_edges(sb)[0])
         prog = series.prog[lat.bound_lon[bound]]
         F[bound, IDX["progress"]] = (off * (ctx.lap_length - prog)) @ w
     F[:, IDX["centerline"]] = (dev * dev) @ w
-    gap_l = half - (d + cfg.ego_width / 2)
+    gap_l = left_edge - (d + cfg.ego_width / 2)
     gap_r = (d - cfg.ego_width / 2) - right_edge
     m = cfg.edge_margin
     F[:, IDX["road_edge"]] = (np.maximum(m - gap_l, 0.0) ** 2 + np.maximum(m - gap_r, 0.0) ** 2) @ w

@@ -125,8 +125,10 @@ class Planner:
         cfg, road, ego = self.cfg, self.road, obs.ego
         lap = obs.lap_length
         lon = self.sampler.lon_bank(ego.v, ego.a, stop_distances(obs, cfg, road))
+        lanes = lane_window(road, ego.s, lon.s) if road.lanes_vary else None
+        targets = None if lanes is None else road.lane_centres[lanes[0][-1] : lanes[1][-1] + 1]
         lat = concat_lat(
-            self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot),
+            self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot, targets),
             self.sampler.exit_bank(ego.d, ego.d_dot, ego.d_ddot, ego.s, lon),
         )
         L = len(lon.v)
@@ -142,6 +144,7 @@ class Planner:
             stop_rel=float(stop_rel),
             lap_length=lap,
             lane_width=road.lane_width,
+            lanes=lanes,
         )
         # ---- candidate pairs: free lateral profiles x all lon profiles, exit profiles x their bound one.
         # Pairwise terms are vectors over the C candidates (see Pairs), gathered at the picked ones.
@@ -174,7 +177,7 @@ class Planner:
         feats[:, CROSS_COLS] += f_x[sel]
         feats[:, 14] = veh.proximity[sel]
         np.maximum(feats, 0.0, out=feats)
-        offroad_j = self._offroad(lat, lon, ego.s)
+        offroad_j = self._offroad(lat, lon, ego.s, lanes)
         exit_j = (lat.bound_lon >= 0) & (lat.d.min(axis=1) < -road.half_road)
         labels = np.stack([veh.collision[sel], offroad_j[cj], exit_j[cj]], axis=1)
 
@@ -271,12 +274,20 @@ class Planner:
             ok[unsure] = acc & slip
         return ok
 
-    def _offroad(self, lat: LatBank, lon: LonBank, s_ego: float) -> np.ndarray:
-        """[J] bool: the ego's body beyond the drivable area (ramps included) at some step."""
+    def _offroad(
+        self, lat: LatBank, lon: LonBank, s_ego: float, lanes: tuple[np.ndarray, np.ndarray] | None
+    ) -> np.ndarray:
+        """[J] bool: the ego's body beyond the drivable area (ramps included) at some step; where lanes
+        are added or dropped, the lanes of :func:`lane_window`."""
         cfg = self.cfg
         half = self.road.half_road
-        left = (lat.d + cfg.ego_width / 2 > half + 0.2).any(axis=1)
-        right_edge = np.full(len(lat.d), -half)[:, None] * np.ones_like(lat.d)
+        if lanes is None:
+            left = (lat.d + cfg.ego_width / 2 > half + 0.2).any(axis=1)
+            right_edge = np.full(len(lat.d), -half)[:, None] * np.ones_like(lat.d)
+        else:
+            right_t, left_t = lane_edges(self.road, lanes)
+            left = (lat.d + cfg.ego_width / 2 > left_t + 0.2).any(axis=1)
+            right_edge = np.broadcast_to(right_t, lat.d.shape).copy()
         bound = lat.bound_lon >= 0
         if bound.any():
             right_edge[bound] = self.road.drivable_right_edge(s_ego + lon.s[lat.bound_lon[bound]])
@@ -314,3 +325,21 @@ class Planner:
             d_ddot=p.lat.ddd[j].copy(),
             lane=self.road.lane_of_d(d),
         )
+
+
+def lane_window(road: Road, s_ego: float, lon_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest) lane [T] the policies may use at each step where lanes are added or dropped:
+    those that exist both where the slowest and where the fastest longitudinal profile is at that step
+    (``lon_s`` [L, T] relative to ``s_ego``), so no policy is sent into a lane that ends before it gets
+    there or that has not begun yet. Where the two share no lane, the fastest profile's lanes."""
+    lo_n, hi_n = road.lane_bounds(s_ego + lon_s.min(axis=0))
+    lo_f, hi_f = road.lane_bounds(s_ego + lon_s.max(axis=0))
+    lo, hi = np.maximum(lo_n, lo_f), np.minimum(hi_n, hi_f)
+    none = lo > hi
+    return np.where(none, lo_f, lo), np.where(none, hi_f, hi)
+
+
+def lane_edges(road: Road, lanes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """(right, left) edge [m] [T] of the lanes of :func:`lane_window`."""
+    half_w = road.lane_width / 2
+    return road.lane_center(lanes[0]) - half_w, road.lane_center(lanes[1]) + half_w

@@ -271,10 +271,13 @@ class Sampler:
         return _hold_after_stop(ps, vs, as_)
 
     # ------------------------------------------------------------------ lateral
-    def lat_bank(self, d0: float, dd0: float, ddd0: float) -> LatBank:
-        """Generic lateral profiles from the ego's offset ``d0`` [m], ``dd0`` [m/s], ``ddd0`` [m/s^2]."""
+    def lat_bank(self, d0: float, dd0: float, ddd0: float, centres: np.ndarray | None = None) -> LatBank:
+        """Generic lateral profiles from the ego's offset ``d0`` [m], ``dd0`` [m/s], ``ddd0`` [m/s^2],
+        to the lane centres ``centres`` [m] (default: every lane's; where lanes are added or dropped, the
+        planner passes those that exist where the policies end)."""
         cfg = self.cfg
-        centres = self.road.lane_centres
+        centres = self.road.lane_centres if centres is None else centres
+        k = len(centres)
         cur = float(centres[np.argmin(np.abs(centres - d0))])
         t1_targets, t1_durs = [], []
         for c in centres:
@@ -286,19 +289,19 @@ class Sampler:
         for sgn in (-1.0, 1.0):  # partial swerves, inside the loop's outer lane centres
             for mag in cfg.swerves:
                 tgt = cur + sgn * mag
-                if abs(tgt) <= centres[-1] + 1e-6:
+                if centres[0] - 1e-6 <= tgt <= centres[-1] + 1e-6:
                     t1_targets.append(tgt)
                     t1_durs.append(cfg.stage_split)
         n1 = len(t1_targets)
-        D1 = np.repeat(np.array(t1_targets), 3)[:, None]
-        DUR = np.repeat(np.array(t1_durs), 3)[:, None]
+        D1 = np.repeat(np.array(t1_targets), k)[:, None]
+        DUR = np.repeat(np.array(t1_durs), k)[:, None]
         D2 = np.tile(centres, n1)[:, None]
         isp = self._i_split
-        # stage 1: one quintic per (target, duration), each repeated for the 3 stage-2 targets
+        # stage 1: one quintic per (target, duration), each repeated for the k stage-2 targets
         q1 = _quintic(
             d0, dd0, ddd0, np.array(t1_targets)[:, None], self._lat_grid(np.array(t1_durs)[:, None])
         )
-        p1, v1, a1, j1 = (np.repeat(q, 3, axis=0) for q in q1)
+        p1, v1, a1, j1 = (np.repeat(q, k, axis=0) for q in q1)
         # stage 2 from the stage-1 state at the split, to a lane centre at the horizon
         p2, v2, a2, j2 = _quintic(
             p1[:, isp : isp + 1], v1[:, isp : isp + 1], a1[:, isp : isp + 1], D2, self._lat_grid2
@@ -331,14 +334,16 @@ class Sampler:
         """Exit-taking profiles (one per longitudinal profile) when an exit starts within reach."""
         cfg = self.cfg
         road = self.road
-        c0 = float(road.lane_centres[0])  # the rightmost lane's centre
-        if d0 > c0 + road.lane_width / 2:  # only from the rightmost lane
-            return None
         for ex in road.exits:
             rel = (ex.s_start - s0 + road.lap_length / 2) % road.lap_length - road.lap_length / 2
             if -(ex.ramp_s[-1] - ex.s_start) < rel < cfg.exit_reach:
                 break
         else:
+            return None
+        # the centre of the rightmost lane where the exit leaves it
+        lo = int(road.lane_bounds(np.array(ex.s_start - 1.0))[0]) if road.lanes_vary else 0
+        c0 = float(road.lane_centres[lo])
+        if d0 > c0 + road.lane_width / 2:  # only from that lane
             return None
         p, v, a, j = _quintic(d0, dd0, ddd0, c0, self._exit_grid)
         s_abs = ex.s_start - rel + lon.s  # [L, T] in the exit's own unwrapped frame (ego at s_start - rel)

@@ -20,6 +20,7 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -141,20 +142,8 @@ class Road:
         to_edge: str = "",
         name: str = "oval",
     ):
-        try:
-            import sumolib
-        except ImportError:
-            raise IrlsimError("sumolib is not installed: run 'make setup'") from None
-
         net_file = Path(net_file)
-        if not net_file.is_file():
-            raise IrlsimError(f"network {net_file} not found: run 'irlsim net' (or 'make net') to build it")
-        try:
-            self.net = sumolib.net.readNet(str(net_file), withInternal=True)
-        except Exception as e:  # sumolib raises bare SAX / attribute errors on malformed XML
-            raise IrlsimError(
-                f"network {net_file} is malformed ({type(e).__name__}): delete it and run 'irlsim net'"
-            ) from None
+        self.net = _read_net(net_file)
         self.net_file = net_file
         self.name = name
         if name == "oval" and edges == LOOP_EDGES:
@@ -164,20 +153,25 @@ class Road:
                     f"network {net_file} lacks edge '{missing[0]}': it is not the oval course; rebuild it "
                     "with 'irlsim net'"
                 )
-        if _lefthand(net_file):
-            raise IrlsimError(f"network {net_file} drives on the left: left-hand traffic is not supported")
         self.edges = route.resolve_route(self.net, tuple(edges), from_edge, to_edge)
         self.closed = route.is_closed(self.net, self.edges)
-        self.n_lanes, self.lane_width = route.route_lanes(self.net, self.edges)
-        self.half_road = self.n_lanes * self.lane_width / 2  # [m] |d| of the road's edges
-        self.lane_shapes = [
-            route.lane_shape(self.net, self.edges, k, self.closed) for k in range(self.n_lanes)
-        ]
-        self._ref_lane = (self.n_lanes - 1) // 2  # the lane whose shapes locate edges and stop lines
+        self.layout = route.lane_layout(self.net, self.edges, self.closed)
+        self.n_lanes, self.lane_width = self.layout.n_lanes, self.layout.width
+        self.half_road = self.n_lanes * self.lane_width / 2  # [m] |d| of the road's outer edges
+        #: per route edge, the SUMO lane nearest the middle of the road (locates edges and stop lines)
+        self.middle_lane = {
+            e: k for e, (k, _) in zip(self.edges, route.reference_lanes(self.layout), strict=True)
+        }
+        self.lane_shapes = (
+            []
+            if self.layout.varies
+            else [route.lane_shape(self.net, self.edges, k, self.closed) for k in range(self.n_lanes)]
+        )
+        centre = route.reference_shape(self.net, self.edges, self.layout, self.closed)
         if self.closed:
-            ref = _smooth_closed(_resample_closed(self._centre_shape(), REF_STEP), SMOOTH_HALF_WINDOW)
+            ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
         else:
-            ref = _open_reference(self._centre_shape())
+            ref = _open_reference(centre)
         self._set_reference(ref)
         if self.closed:
             self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
@@ -186,8 +180,7 @@ class Road:
             self.lane_lengths = tuple(
                 float(np.linalg.norm(np.diff(sh, axis=0), axis=1).sum()) for sh in self.lane_shapes
             )
-            ends = self._centre_shape()[[0, -1]]
-            s_ends, _ = self.to_frenet(ends[:, 0], ends[:, 1])
+            s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1])
             self.route_begin_s, self.route_end_s = float(s_ends[0]), float(s_ends[1])
         if self.route_end_s - self.route_begin_s < MIN_OPEN_LENGTH:
             raise IrlsimError(
@@ -197,7 +190,7 @@ class Road:
         self.stop_lines = self._stop_lines()
         self.exits = self._exits()
         if checkpoints is None:
-            checkpoints = tuple(route.mission_points(self.net, self.edges, self.closed, self.n_lanes))
+            checkpoints = tuple(route.mission_points(self.net, self.edges, self.closed, self.layout))
         self.checkpoints = tuple(
             Checkpoint(i, float(self.to_frenet(np.array([x]), np.array([y]))[0][0]), x, y, lane)
             for i, (x, y, lane) in enumerate(checkpoints)
@@ -207,19 +200,13 @@ class Road:
         self._edge_cost = functools.lru_cache(maxsize=None)(self._edge_cost_uncached)
         # SUMO edge of each route-frame position of the middle lane, for Dijkstra queries
         self._edge_bounds = self._loop_edge_bounds()
+        # the lowest and highest route lane at each reference vertex (all lanes on a constant road)
+        self._lane_lo, self._lane_hi = route.lane_table(
+            self.ref_s, self._edge_bounds, self.layout, self.closed
+        )
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
-    def _centre_shape(self) -> np.ndarray:
-        """The road's centre along the route: the middle lane's shape, or midway between the two middle
-        lanes' shapes (resampled to a common count) for an even number of lanes."""
-        n = self.n_lanes
-        if n % 2:
-            return self.lane_shapes[n // 2]
-        a, b = self.lane_shapes[n // 2 - 1], self.lane_shapes[n // 2]
-        m = max(len(a), len(b)) * 4
-        return 0.5 * (_resample_count(a, m, self.closed) + _resample_count(b, m, self.closed))
-
     def _set_reference(self, ref: np.ndarray) -> None:
         self.ref_xy = ref  # [M, 2], closed (segment M-1 joins the last point to the first)
         seg = np.roll(ref, -1, axis=0) - ref
@@ -347,7 +334,7 @@ class Road:
 
     def _stop_lines(self) -> tuple[StopLine, ...]:
         out = []
-        for node, x, y in route.stop_points(self.net, self.edges, self._ref_lane):
+        for node, x, y in route.stop_points(self.net, self.edges, self.middle_lane):
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
             out.append(StopLine(node, s, x, y))
         return tuple(sorted(out, key=lambda sl: sl.s))
@@ -371,7 +358,7 @@ class Road:
         """(edge id, s at its start, s at its end) of each loop edge on the middle lane."""
         out = []
         for eid in self.edges:
-            shape = np.asarray(self.net.getEdge(eid).getLane(self._ref_lane).getShape())
+            shape = np.asarray(self.net.getEdge(eid).getLane(self.middle_lane[eid]).getShape())
             s, _ = self.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
             out.append((eid, float(s[0]), float(s[1])))
         return out
@@ -592,6 +579,43 @@ class Road:
         lane = np.clip(np.floor(d / self.lane_width + self.n_lanes / 2), 0, self.n_lanes - 1).astype(np.int8)
         return np.where(np.abs(d) <= self.half_road, lane, -1).astype(np.int8)
 
+    @property
+    def lanes_vary(self) -> bool:
+        """True when lanes are added or dropped along the route (see :meth:`lane_bounds`)."""
+        return self.layout.varies
+
+    def lane_bounds(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lowest, highest) lane that exists at route position(s) ``s`` (wrapped), int arrays."""
+        sw = np.asarray(s, dtype=np.float64).reshape(-1) % self.lap_length
+        seg = self._segment_of_wrapped(np.where(sw >= self.lap_length, 0.0, sw))
+        shape = np.shape(s)
+        return self._lane_lo[seg].reshape(shape), self._lane_hi[seg].reshape(shape)
+
+    def road_edges(self, s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(right, left) edge [m] of the lanes that exist at route position(s) ``s``."""
+        lo, hi = self.lane_bounds(s)
+        half_w = self.lane_width / 2
+        return self.lane_center(lo) - half_w, self.lane_center(hi) + half_w
+
+    def lane_geometry(
+        self, d: np.ndarray, lanes: tuple[np.ndarray, np.ndarray] | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | float]:
+        """For lateral offsets ``d`` [J, T]: (distance [m] to the nearest lane centre, the road's right
+        edge [J, T], its left edge) over every lane, or with ``lanes`` ((lowest, highest) lane [T] at each
+        step) over the lanes that exist at each step."""
+        centres = self.lane_centres
+        if lanes is None:
+            dev = np.abs(d - centres[0])
+            for c in centres[1:]:  # a handful of lanes
+                dev = np.minimum(dev, np.abs(d - c))
+            return dev, np.full(d.shape, -self.half_road), self.half_road
+        lo, hi = lanes
+        dev = np.full(d.shape, np.inf)
+        for k, c in enumerate(centres):
+            dev = np.minimum(dev, np.where((lo <= k) & (k <= hi), np.abs(d - c), np.inf))
+        right = np.broadcast_to(self.lane_center(lo) - self.lane_width / 2, d.shape).copy()
+        return dev, right, self.lane_center(hi) + self.lane_width / 2
+
     def required_lane(self, checkpoint: int, d: float) -> int:
         """The lane checkpoint ``checkpoint`` requires; for an any-lane checkpoint (lane -1, an open
         route's end) the lane at offset ``d``, so staying in one's lane meets it."""
@@ -666,7 +690,7 @@ class Road:
     def drivable_right_edge(self, s: np.ndarray) -> np.ndarray:
         """Lowest drivable d [m] at s: the loop's right edge, or the far edge of an exit ramp beside it."""
         s = np.asarray(s, dtype=np.float64)
-        edge = np.full(s.shape, -self.half_road)
+        edge = self.road_edges(s)[0] if self.lanes_vary else np.full(s.shape, -self.half_road)
         for ex in self.exits:
             ds = (s - ex.s_start) % self.lap_length + ex.s_start
             rd = ex.d_at(ds)
@@ -752,6 +776,26 @@ def _open_reference(centre: np.ndarray) -> np.ndarray:
     ext = np.vstack([(core[0] + steps * u0)[::-1], core, core[-1] + steps * u1])
     kern = np.ones(2 * w + 1) / (2 * w + 1)
     return np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
+
+
+def _read_net(net_file: Path) -> Any:
+    """The sumolib network (internal lanes included); one-line errors for a missing, malformed or
+    left-hand network."""
+    try:
+        import sumolib  # lazy: sumolib parses XML with its own machinery, only needed here
+    except ImportError:
+        raise IrlsimError("sumolib is not installed: run 'make setup'") from None
+    if not net_file.is_file():
+        raise IrlsimError(f"network {net_file} not found: run 'irlsim net' (or 'make net') to build it")
+    try:
+        net = sumolib.net.readNet(str(net_file), withInternal=True)
+    except Exception as e:  # sumolib raises bare SAX / attribute errors on malformed XML
+        raise IrlsimError(
+            f"network {net_file} is malformed ({type(e).__name__}): delete it and run 'irlsim net'"
+        ) from None
+    if _lefthand(net_file):
+        raise IrlsimError(f"network {net_file} drives on the left: left-hand traffic is not supported")
+    return net
 
 
 def _lefthand(net_file: Path) -> bool:

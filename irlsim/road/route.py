@@ -7,6 +7,8 @@ edge at fault and the fix (``IrlsimError``), raised before any simulation starts
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from irlsim.errors import IrlsimError
@@ -47,20 +49,59 @@ def is_closed(net: object, edges: tuple[str, ...]) -> bool:
     return len(edges) > 1 and _connects(net, edges[-1], edges[0])
 
 
-def route_lanes(net: object, edges: tuple[str, ...]) -> tuple[int, float]:
-    """(number of lanes, lane width [m]) along the route, which must be the same on every edge and every
-    lane a passenger car may use."""
-    first = net.getEdge(edges[0])  # type: ignore[attr-defined]
-    n, width = first.getLaneNumber(), float(first.getLane(0).getWidth())
-    for eid in edges:
-        edge = net.getEdge(eid)  # type: ignore[attr-defined]
-        if edge.getLaneNumber() != n:
+@dataclass(frozen=True)
+class LaneLayout:
+    """The lanes along a route on one numbering: lane ``g`` (0 = the rightmost lane anywhere on the route)
+    is SUMO lane ``g - first[i]`` of route edge ``i``, where it exists. Lanes that go straight on across
+    a junction keep their number; a lane added on the right (an on-ramp) or dropped there shifts
+    ``first`` by one."""
+
+    first: tuple[int, ...]  # per route edge: the route lane of its SUMO lane 0
+    count: tuple[int, ...]  # per route edge: its number of lanes
+    n_lanes: int  # lanes on the route's numbering
+    width: float  # [m] every lane's width
+
+    @property
+    def varies(self) -> bool:
+        """True when some edge lacks some of the route's lanes (lanes added, dropped, merging)."""
+        return any(c != self.n_lanes for c in self.count)
+
+    def edge_lane(self, i: int, lane: int) -> int:
+        """SUMO lane index on route edge ``i`` of route lane ``lane``; -1 where that edge lacks it."""
+        k = lane - self.first[i]
+        return k if 0 <= k < self.count[i] else -1
+
+
+def lane_layout(net: object, edges: tuple[str, ...], closed: bool) -> LaneLayout:
+    """The route's lane numbering (:class:`LaneLayout`) from SUMO's lane connections: across each
+    junction the most common shift between a connection's from- and to-lane index (the lanes that go
+    straight on); checks one lane width and lanes for passenger cars."""
+    n = len(edges)
+    rel = [0]
+    for i in range(n - 1 if not closed else n):
+        a, b = net.getEdge(edges[i]), edges[(i + 1) % n]  # type: ignore[attr-defined]
+        shifts = [
+            lane.getIndex() - c.getToLane().getIndex()
+            for lane in a.getLanes()
+            for c in lane.getOutgoing()
+            if c.getTo().getID() == b
+        ]
+        if not shifts:
+            raise IrlsimError(f"route: no lane of '{edges[i]}' leads into '{b}': fix [route] edges")
+        shift = min(set(shifts), key=lambda v: (-shifts.count(v), abs(v), v))
+        if i < n - 1:
+            rel.append(rel[-1] + shift)
+        elif rel[-1] + shift != rel[0]:
             raise IrlsimError(
-                f"route: edge '{eid}' has {edge.getLaneNumber()} lanes where the route began with {n}: "
-                "routes whose number of lanes changes are not supported yet; choose a route with the same "
-                "number of lanes on every edge"
+                f"route: the loop's lanes do not join up at '{edges[0]}' (a lane added or dropped for good "
+                "on a loop): choose a loop with the same lanes all round"
             )
-        for lane in edge.getLanes():
+    lo = min(rel)
+    first = tuple(r - lo for r in rel)
+    count = tuple(net.getEdge(e).getLaneNumber() for e in edges)  # type: ignore[attr-defined]
+    width = float(net.getEdge(edges[0]).getLane(0).getWidth())  # type: ignore[attr-defined]
+    for eid in edges:
+        for lane in net.getEdge(eid).getLanes():  # type: ignore[attr-defined]
             if abs(float(lane.getWidth()) - width) > 0.05:
                 raise IrlsimError(
                     f"route: lane '{lane.getID()}' is {lane.getWidth():.2f} m wide where the route's lanes "
@@ -71,7 +112,96 @@ def route_lanes(net: object, edges: tuple[str, ...]) -> tuple[int, float]:
                     f"route: lane '{lane.getID()}' does not admit passenger cars: choose a route of roads "
                     "for cars"
                 )
-    return n, width
+    n_lanes = max(f + c for f, c in zip(first, count, strict=True))
+    return LaneLayout(first, count, n_lanes, width)
+
+
+def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
+    """Per route edge, (its SUMO lane nearest the middle of the route's lanes, the lateral offset [m] from
+    that lane's centre to the middle, positive to the left): the pieces of the reference line."""
+    c = (layout.n_lanes - 1) / 2
+    out = []
+    for first, count in zip(layout.first, layout.count, strict=True):
+        k = min(range(count), key=lambda j: (abs(first + j - c), j))
+        out.append((k, (c - (first + k)) * layout.width))
+    return out
+
+
+def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> np.ndarray:
+    """The middle of the route's lanes along it: each edge's lane nearest the middle (and the junction
+    lane from it into the same route lane of the next edge), moved sideways onto the middle where it is
+    not there: [P, 2]; for a loop the first point is not repeated at the end."""
+    pieces = reference_lanes(layout)
+    n = len(edges)
+    pts: list[np.ndarray] = []
+    for i, eid in enumerate(edges):
+        k, delta = pieces[i]
+        lane = net.getEdge(eid).getLane(k)  # type: ignore[attr-defined]
+        part = [np.asarray(lane.getShape(), dtype=np.float64)]
+        if i < n - 1 or closed:
+            j = (i + 1) % n
+            want = layout.edge_lane(j, layout.first[i] + k)
+            cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[j]]
+            via = [c for c in cons if c.getToLane().getIndex() == want] or cons
+            via_id = via[0].getViaLaneID() if via else ""
+            if via_id:
+                part.append(np.asarray(net.getLane(via_id).getShape(), dtype=np.float64))  # type: ignore[attr-defined]
+        for p in part:
+            pts.append(p if delta == 0.0 else offset_polyline(p, delta))
+    arr = np.concatenate(pts)
+    keep = np.ones(len(arr), bool)
+    keep[1:] = np.linalg.norm(np.diff(arr, axis=0), axis=1) > 1e-6
+    arr = arr[keep]
+    if closed and np.linalg.norm(arr[0] - arr[-1]) < 1e-6:
+        arr = arr[:-1]
+    return arr
+
+
+def lane_table(
+    ref_s: np.ndarray, bounds: list[tuple[str, float, float]], layout: LaneLayout, closed: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """(lowest, highest) route lane at each reference vertex [M] (int64): each edge's lanes over its
+    stretch ``bounds`` (edge id, s at its start, s at its end); inside a junction the lanes of the edges
+    on both sides; beyond an open route's ends, those of its first and last edge."""
+    m = len(ref_s)
+    lap = float(ref_s[-1]) + 1.0  # any s past the last vertex belongs to nothing
+    lo = np.full(m, -1, dtype=np.int64)
+    hi = np.full(m, -1, dtype=np.int64)
+    for i, (_, a, b) in enumerate(bounds):
+        span = (b - a) % lap if closed else b - a
+        sel = ((ref_s - a) % lap <= span) if closed else ((ref_s >= a) & (ref_s <= b))
+        lo[sel] = layout.first[i]
+        hi[sel] = layout.first[i] + layout.count[i] - 1
+    if (lo >= 0).all() or not (lo >= 0).any():
+        return np.maximum(lo, 0), np.where(hi < 0, layout.n_lanes - 1, hi)
+    idx = np.arange(m)
+    known = lo >= 0
+    if closed:  # fill around the loop: three copies, take the middle
+        k3 = np.tile(known, 3)
+        i3 = np.arange(3 * m)
+        prev = np.maximum.accumulate(np.where(k3, i3, -1))[m : 2 * m] % m
+        nxt = np.minimum.accumulate(np.where(k3, i3, 3 * m)[::-1])[::-1][m : 2 * m] % m
+    else:
+        prev = np.maximum.accumulate(np.where(known, idx, -1))
+        nxt = np.minimum.accumulate(np.where(known, idx, m)[::-1])[::-1]
+        prev = np.where(prev < 0, nxt, prev)
+        nxt = np.where(nxt >= m, prev, nxt)
+    lo = np.where(known, lo, np.minimum(lo[prev], lo[nxt]))
+    hi = np.where(known, hi, np.maximum(hi[prev], hi[nxt]))
+    return lo, hi
+
+
+def offset_polyline(pts: np.ndarray, delta: float) -> np.ndarray:
+    """The polyline moved ``delta`` metres to its left (vertex normals: the mean of the adjacent
+    segments' normals)."""
+    if len(pts) < 2:
+        return pts
+    seg = np.diff(pts, axis=0)
+    seg = seg / np.maximum(np.linalg.norm(seg, axis=1), 1e-12)[:, None]
+    nrm = np.stack([-seg[:, 1], seg[:, 0]], axis=1)
+    vn = np.vstack([nrm[:1], nrm[:-1] + nrm[1:], nrm[-1:]])
+    vn = vn / np.maximum(np.linalg.norm(vn, axis=1), 1e-12)[:, None]
+    return pts + delta * vn
 
 
 def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.ndarray:
@@ -101,7 +231,7 @@ def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.
     return arr
 
 
-def stop_points(net: object, edges: tuple[str, ...], ref_lane: int) -> list[tuple[str, float, float]]:
+def stop_points(net: object, edges: tuple[str, ...], lanes: dict[str, int]) -> list[tuple[str, float, float]]:
     """(node id, x, y) of each all-way stop the route enters: the end of its reference lane there."""
     out = []
     on_route = set(edges)
@@ -111,7 +241,7 @@ def stop_points(net: object, edges: tuple[str, ...], ref_lane: int) -> list[tupl
         inc = [e for e in node.getIncoming() if e.getID() in on_route]
         if not inc:
             continue
-        x, y = inc[0].getLane(ref_lane).getShape()[-1]
+        x, y = inc[0].getLane(lanes[inc[0].getID()]).getShape()[-1]
         out.append((node.getID(), float(x), float(y)))
     return out
 
@@ -140,31 +270,31 @@ def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple
 
 
 def mission_points(
-    net: object, edges: tuple[str, ...], closed: bool, n_lanes: int
+    net: object, edges: tuple[str, ...], closed: bool, layout: LaneLayout
 ) -> list[tuple[float, float, int]]:
-    """Where the route goes on from some of its lanes only: (x, y) of the end of that edge's middle lane
-    and the lane required there (the continuing lane nearest the middle), one per such edge. For an open
-    route also its end, where any lane will do (lane -1)."""
+    """Where the route goes on from some of its lanes only: (x, y) of the end of that edge's lane nearest
+    the middle and the route lane required there (the continuing lane nearest the middle), one per such
+    edge. For an open route also its end, where any lane will do (lane -1)."""
     out = []
     n = len(edges)
-    mid = (n_lanes - 1) // 2
+    c = (layout.n_lanes - 1) / 2
+    pieces = reference_lanes(layout)
     for i, eid in enumerate(edges):
         edge = net.getEdge(eid)  # type: ignore[attr-defined]
+        x, y = edge.getLane(pieces[i][0]).getShape()[-1]
         if i == n - 1 and not closed:
-            x, y = edge.getLane(mid).getShape()[-1]
             out.append((float(x), float(y), -1))
             break
         nxt = edges[(i + 1) % n]
         going = sorted(
             {
-                lane.getIndex()
+                layout.first[i] + lane.getIndex()
                 for lane in edge.getLanes()
-                for c in lane.getOutgoing()
-                if c.getTo().getID() == nxt
+                for con in lane.getOutgoing()
+                if con.getTo().getID() == nxt
             }
         )
-        if len(going) < n_lanes:
-            x, y = edge.getLane(mid).getShape()[-1]
-            req = min(going, key=lambda k: (abs(k - mid), k))
+        if len(going) < layout.count[i]:
+            req = min(going, key=lambda g: (abs(g - c), g))
             out.append((float(x), float(y), int(req)))
     return out

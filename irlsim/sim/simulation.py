@@ -200,6 +200,9 @@ class Simulation:
         self.traffic.add_routes()
         # the ego: inserted where it starts, then placed exactly by moveToXY
         s0, lane0, v0 = self.ego_start(seed)
+        if road.lanes_vary:  # a lane the road lacks there: the nearest one it has
+            lo, hi = road.lane_bounds(np.array(s0))
+            lane0 = int(np.clip(lane0, lo, hi))
         d0 = float(road.lane_center(lane0))
         loc = self._edges.locate(s0, road.lap_length)
         if loc is None:
@@ -209,7 +212,7 @@ class Simulation:
             EGO,
             f"loop@{eid}",
             typeID="ego",
-            departLane=str(lane0),
+            departLane=str(road.layout.edge_lane(road.edges.index(eid), lane0)),
             departPos=f"{pos:.3f}",
             departSpeed=f"{v0:.3f}",
         )

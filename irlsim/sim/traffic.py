@@ -124,13 +124,16 @@ class BackgroundTraffic:
         if loc is None:
             return None
         eid, pos = loc
+        k = self.road.layout.edge_lane(self.road.edges.index(eid), lane)  # the route lane on this edge
+        if k < 0:
+            return None
         vid = f"bg{self.counter}"
         self.counter += 1
         self.api.vehicle.add(
             vid,
             f"loop@{eid}",
             typeID=BG_TYPE,
-            departLane=str(lane),
+            departLane=str(k),
             departPos=f"{pos:.3f}",
             departSpeed=f"{speed:.3f}",
         )

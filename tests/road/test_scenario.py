@@ -231,3 +231,78 @@ def test_scenario_command_lists_shows_and_draws(capsys, tmp_path):
     assert main(["scenario", "show", "nowhere"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "scenario 'nowhere' not found" in err
+
+
+def lane_drop_road(tmp_path: Path) -> Path:
+    """Three lanes for 400 m, then two: the rightmost lane ends (it merges into the middle one)."""
+    edges = (
+        '<edge id="ab" from="a" to="b" numLanes="3" speed="27.8"/>'
+        '<edge id="bc" from="b" to="c" numLanes="2" speed="27.8"/>'
+    )
+    cons = (
+        '<connection from="ab" to="bc" fromLane="1" toLane="0"/>'
+        '<connection from="ab" to="bc" fromLane="2" toLane="1"/>'
+    )
+    return make_scenario(tmp_path / "drop", STRAIGHT_NODES, edges, 'edges = ["ab", "bc"]', connections=cons)
+
+
+def test_a_dropped_lane_exists_only_up_to_where_it_ends(tmp_path):
+    road = load_road(scenario=lane_drop_road(tmp_path))
+    assert road.lanes_vary and road.n_lanes == 3
+    assert road.layout.first == (0, 1) and road.layout.count == (3, 2)
+    b = road.route_begin_s + 400.0
+    lo, hi = road.lane_bounds(np.array([b - 100.0, b + 100.0]))
+    assert lo.tolist() == [0, 1] and hi.tolist() == [2, 2]
+    right, left = road.road_edges(np.array([b - 100.0, b + 100.0]))
+    np.testing.assert_allclose(right, [-4.8, -1.6])
+    np.testing.assert_allclose(left, [4.8, 4.8])
+    # the lanes keep their place across the junction: 'bc' lane 0 lies where 'ab' lane 1 did
+    shape = np.asarray(road.net.getEdge("bc").getLane(0).getShape())
+    _, d = road.to_frenet(shape[:, 0], shape[:, 1])
+    np.testing.assert_allclose(d, 0.0, atol=0.05)
+    # lane 0 of 'ab' does not go on: the route requires a lane that does at the end of 'ab'
+    mission = [c for c in road.checkpoints if c.lane >= 0]
+    assert [c.lane for c in mission] == [1]
+
+
+def test_an_on_ramp_adds_a_lane_on_the_right(tmp_path):
+    nodes = STRAIGHT_NODES + '<node id="r" x="100" y="-120"/>'
+    edges = (
+        '<edge id="ab" from="a" to="b" numLanes="2" speed="27.8"/>'
+        '<edge id="rb" from="r" to="b" numLanes="1" speed="20"/>'
+        '<edge id="bc" from="b" to="c" numLanes="3" speed="27.8"/>'
+    )
+    cons = (
+        '<connection from="ab" to="bc" fromLane="0" toLane="1"/>'
+        '<connection from="ab" to="bc" fromLane="1" toLane="2"/>'
+        '<connection from="rb" to="bc" fromLane="0" toLane="0"/>'
+    )
+    folder = make_scenario(tmp_path / "onramp", nodes, edges, 'edges = ["ab", "bc"]', connections=cons)
+    road = load_road(scenario=folder)
+    assert road.layout.first == (1, 0) and road.n_lanes == 3
+    b = road.route_begin_s + 400.0
+    assert road.lane_bounds(np.array(b - 100.0))[0] == 1 and road.lane_bounds(np.array(b + 100.0))[0] == 0
+    assert [c.lane for c in road.checkpoints] == [-1]  # both lanes go on: no mission but the end
+    assert road.exits == ()  # a lane that joins is no way off the route
+
+
+def test_planner_sends_no_policy_into_a_lane_that_ends(tmp_path):
+    """30 m before the drop at 15 m/s every policy ends in lanes 1-2; those that stay in lane 0 past
+    its end are labelled off the road, and the expert does not choose one."""
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.planner.expert import ExpertDriver
+    from tests.planner.conftest import make_obs
+
+    road = load_road(scenario=lane_drop_road(tmp_path))
+    b = road.route_begin_s + 400.0
+    driver = ExpertDriver(road, PlannerConfig())
+    obs = make_obs(road, b - 30.0, float(road.lane_center(0)), 15.0)
+    ps = driver.planner.plan(obs)
+    final = road.lane_of_d(ps.d[:, -1])
+    assert final.min() >= 1
+    in_lane0 = (ps.d[:, :] < -1.6).all(axis=1)
+    assert not in_lane0.any()
+    offroad = ps.labels[:, 1]
+    assert offroad.any() and not offroad.all()
+    idx = driver.select(ps, obs)
+    assert not offroad[idx]
