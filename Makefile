@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench lint clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -67,6 +67,20 @@ lint: setup
 	$(BIN)/mypy irlsim pipelines
 	$(BIN)/lint-imports
 	$(BIN)/python tools/check_sizes.py irlsim pipelines
+
+$(BIN)/.docs-installed: pyproject.toml $(BIN)/.installed
+	$(BIN)/pip install -q -e '.[docs]'
+	touch $@
+
+# HTML documentation (README, docs/*.md, the API reference from the docstrings) into build/docs; warnings
+# are errors (-W), and -E rebuilds every page so that none is skipped
+docs: setup $(BIN)/.docs-installed
+	$(BIN)/sphinx-build -E -W --keep-going -q -b html docs build/docs
+	@echo "docs: build/docs/index.html"
+
+# redraw docs/img/import_graph.svg after changing imports between irlsim's packages (a test checks it)
+import-graph: setup
+	$(BIN)/python tools/import_graph.py
 
 clean:
 	rm -rf $(VENV) data runs bench build *.egg-info sumo_net/oval/oval.net.xml

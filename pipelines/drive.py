@@ -148,7 +148,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
     )
 
 
-# size-ok: checks, the episode pool and the tables of one command (the executor of issue 14 takes the pool)
+# size-ok: one command's checks, its episode jobs (irlsim.executor) and its tables
 def run(args: argparse.Namespace) -> int:
     device = devices.resolve_device(args.device)  # a missing device is one line, before any work
     with devices.use(device, args.precision):
@@ -221,7 +221,7 @@ def _write_outputs(
         f"{scores}\n"
         "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "
         "mean of TTC >= 0.95 s (5), progress against the expert on the same seed (5), speed limit (4), "
-        "comfort (2) and mission (4); every formula is in the README (section Closed-loop scorecard). "
+        "comfort (2) and mission (4); every formula is in docs/GUIDE.md (section Closed-loop scorecard). "
         "Progress needs the expert's episode on the same seed: without expert in --model it is null ('-') "
         "and the score is the weighted mean of the other terms.\n"
     )

@@ -1,4 +1,4 @@
-"""Why a learned reward fails in closed loop (issue 12): collisions, missed stops, checkpoints off lane.
+"""Why a learned reward fails in closed loop: collisions, missed stops, checkpoints off lane.
 
 A learned model drives exactly as ``irlsim drive`` without ``--safety`` does (argmax over the sampled set
 of V = -theta^T f); every cycle the expert, planning from the same state on the same policy set, says what

@@ -8,8 +8,8 @@ Per dataset and required lane of the target checkpoint, for bands of the remaini
 the planning cycles in the band, how many of them the ego is off the required lane, and how many of those
 it is off the lane at more than 10 m/s (an approach at speed in the wrong lane, what a learned driver that
 keeps its lane too long reaches). The checkpoints (route position, required lane) come from the road
-network; the remaining distance from the cycles table (``ego_s``, ``target_checkpoint``). Issue 12,
-docs/RESULTS.md "The paper-scale mission": a cycle the demonstrator never drives is a state no
+network; the remaining distance from the cycles table (``ego_s``, ``target_checkpoint``). See
+docs/RESULTS.md "DAgger: the paper-scale mission": a cycle the demonstrator never drives is a state no
 demonstration covers, which is what DAgger (``irlsim dagger``) adds.
 
 With ``--model`` (a stage-1 checkpoint) the table also has the model's theta on those cycles (one

@@ -1,4 +1,4 @@
-"""The temporal-attention study of issue 13 (docs/RESULTS.md, "The temporal network").
+"""The temporal-attention study (docs/RESULTS.md, "The temporal network study").
 
 Trains PTACNN+S in stage 2 with every configuration below on ONE frozen stage-1 PACNN+S (stage 2 is
 cheap), evaluates each on the VALIDATION split (with that stage-1 model's H-mean row beside it), and

@@ -44,7 +44,7 @@ def safe_demo_index(
     without having stood (``stop_line`` [C, N], the stop_line feature; > 0 breaks it; None = not
     checked).
 
-    Why (issue 12, docs/RESULTS.md): the demonstrator never collided and stood at every stop line, but
+    Why (docs/RESULTS.md, "Closed loop"): the demonstrator never collided and stood at every stop line, but
     the odometry's closest sampled policy need not: near a standing vehicle it can carry the collision
     label of the planner's prediction, and in the last metres before a stop line, where the expert
     brakes to a standstill, it can be a policy that creeps over the line at 0.3-3 m/s. Such a

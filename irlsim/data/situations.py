@@ -1,4 +1,4 @@
-"""Situation labels: what kind of driving a planning cycle is (issue 13), one int8 per cycle.
+"""Situation labels: what kind of driving a planning cycle is, one int8 per cycle.
 
 Computed at collection time from the scene the expert sees (ego, other vehicles, the road's stop lines,
 exits and the route's next checkpoint) and stored as the ``situation`` column of the cycles table. The

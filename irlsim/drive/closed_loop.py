@@ -162,7 +162,7 @@ class PictureSpec:
     trigger_distance: float = 60.0
     """[m] distance to an active stop line that starts the segment"""
     stills: int = 3
-    """cycles written as cycle_/radar_/temporal_XXXX.png"""
+    """cycles written as ``cycle_/radar_/temporal_XXXX.png``"""
     top_k: int = 10
     """policies with the highest policy attention drawn in blue"""
     max_policies: int = 300

@@ -1,4 +1,4 @@
-"""Table I's breakdowns (issue 13): OPD and ED per situation, and reward stability, per row.
+"""Table I's breakdowns: OPD and ED per situation, and reward stability, per row.
 
 ``CycleContext`` carries what the breakdowns need beyond the split's tensors, read from the cycles table
 (situation, ego s / d, time) and aligned with the split's rows. ``row_breakdown`` turns one row's

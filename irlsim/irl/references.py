@@ -1,4 +1,4 @@
-"""Reference rows of Table I (issue 13): what the learned models' figures should be read against.
+"""Reference rows of Table I: what the learned models' figures should be read against.
 
 - ``expert-theta``: the expert's hand-tuned ``THETA_EXPERT``, argmax V on every cycle (no model-based
   selection, no history): all five metrics.

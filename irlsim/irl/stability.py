@@ -1,4 +1,4 @@
-"""Reward stability on a sequential split (issue 13): how much a model's reward and plan jump per cycle.
+"""Reward stability on a sequential split: how much a model's reward and plan jump per cycle.
 
 For consecutive cycles t, t+1 of the same episode:
 

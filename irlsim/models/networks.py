@@ -245,7 +245,7 @@ def upsample_attention(alpha: torch.Tensor, n: int, pool: int) -> torch.Tensor:
     return (alpha / sizes).repeat_interleave(pool, dim=-1)[..., :n]
 
 
-#: PTACNN per-step inputs: the paper's (context, theta) and the alternatives of the issue-13 study
+#: PTACNN per-step inputs: the paper's (context, theta) and the alternatives of the temporal-attention study
 TAN_INPUTS: tuple[str, ...] = ("context+theta", "context", "theta", "context+theta+delta")
 
 

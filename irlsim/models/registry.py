@@ -56,8 +56,8 @@ class ModelConfig:
     theta_bound: float = 0.0
     """deep stage-1 models (1DCNN, Bi1DCNN, PACNN(+S)): 0 = the paper's theta_n = softplus(output), any
     weight per cycle; B > 1 = theta_n = softplus(b) * B^tanh(output) with a learned situation-independent
-    b [15]: each cycle's weight within a factor B of b's (issue 12: a state the data never showed cannot
-    switch a feature such as proximity off)"""
+    b [15]: each cycle's weight within a factor B of b's (so that a state the data never showed cannot
+    switch a feature such as proximity off; measured in closed loop and left off by default)"""
     drop_newest: float = 0.0
     """PTACNN training only: probability of dropping the newest history entry of a sample (the history
     is shifted one cycle back, the oldest entry repeated), so the net cannot rely on it alone"""

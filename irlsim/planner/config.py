@@ -55,7 +55,8 @@ class PlannerConfig:
     """[m] when the ego can no longer stand at the stop point comfortably (closer to it than
     v^2 / (2 stop_decel_comfort), or past it) while the line itself is still ahead, stop profiles also
     bring the front bumper to rest this far before the line (0 = off). Without them the only standing
-    policies in the last metre brake at the limit, and a policy that creeps over looks smoother (issue 12)"""
+    policies in the last metre brake at the limit, and a policy that creeps over looks smoother (learned
+    rewards found that in closed loop)"""
     stop_decel_comfort: float = 2.5
     """[m/s^2] comfortable braking: the velocity feature's stop-line reference speed sqrt(2 b dist), and
     the reach below which the sampler adds stops at the line itself (``stop_line_gap``)"""
@@ -126,10 +127,10 @@ class PlannerConfig:
     mission_event: float = 2.0
     """[s] mission_lane's event at the checkpoint: where a policy passes its target checkpoint (step
     tc) it adds gamma^tc * mission_urgency_max * mission_event * |d_tc - d_req| / LW, the lanes away at the
-    instant the simulator checks the lane (0 = off, the path integral alone, as before issue 12). Without
+    instant the simulator checks the lane (0 = off: the path integral alone, the paper's feature). Without
     it a lane change started 15-20 m before the checkpoint costs almost nothing (urgency is 0 past it) and
     learned rewards leave the required lane just too early: PACNN+S met 22/40 checkpoints in lane on the
-    development seeds without it, 40/40 with it (docs/RESULTS.md, "Closed loop: why")"""
+    development seeds without it, 40/40 with it (docs/RESULTS.md, "Closed loop: what failed")"""
     progress_lookahead: float = 200.0
     """[m] progress measures the distance to a goal this far beyond the target checkpoint"""
 

@@ -20,6 +20,7 @@
    before the checkpoint), minus ``risk_cost`` per unit of the cluster's least risk, plus
    ``keep_bonus`` for the lane the expert is already heading to (hysteresis);
 5. inside the best cluster execute argmax V = -theta^T f among its least risky policies.
+
 When every policy is off-road or takes an exit (never seen), it falls back to the strongest braking.
 
 ``ThetaDriver(planner, theta_fn)`` executes argmax V for any theta (the learned models use it), with an

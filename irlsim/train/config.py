@@ -49,14 +49,15 @@ class TrainConfig:
     safe_demos: bool = True
     """train on demonstrations that are never labelled as a predicted collision: such a demonstration
     moves to the closest policy (stored distance to the odometry) without the label, or the cycle is
-    dropped when none is within 1.5 m (irlsim.data.demos.safe_demo_index; issue 12). On by default;
+    dropped when none is within 1.5 m (irlsim.data.demos.safe_demo_index; a closed-loop fix). On by default;
     false gives the paper's plain odometry projection. The train split only: validation and test
     metrics are distances to the odometry either way"""
     stop_demos: bool = True
     """train on demonstrations that never cross an active stop line without having stood (stop_line
     feature > 0): the demonstrator stood at every line, but the odometry's closest policy can creep over
     it; such a demonstration moves like a safe_demos one (with safe_demos: to the closest policy breaking
-    neither rule; irlsim.data.demos.safe_demo_index; issue 12). On by default. The train split only"""
+    neither rule; irlsim.data.demos.safe_demo_index; a closed-loop fix). On by default. The train split
+    only"""
     eval_batch: int = 64
     """cycles per forward pass when predicting whole splits (memory bound)"""
     tensorboard: bool = True
@@ -134,7 +135,8 @@ class Stage2Config(TrainConfig):
     """histories per mini-batch"""
     model: ModelConfig = field(default_factory=ModelConfig)
     """sizes of the temporal network (lstm_hidden, lstm_layers, tan_fc_hidden, history = H [cycles]);
-    the context size comes from the frozen PACNN checkpoint; tan_inputs and drop_newest (issue-13 study)"""
+    the context size comes from the frozen PACNN checkpoint; tan_inputs and drop_newest (the
+    temporal-attention study)"""
     target_ahead: int = 1
     """[cycles] training target: the mean NLL of cycles t+1 .. t+target_ahead given the history ending at t
     (1 = the paper's next cycle; pairs leaving the episode or without a demonstration are skipped)"""

@@ -9,7 +9,7 @@ averaged over cycles that have a demonstration. References: each model's OPD at 
 random policy per cycle; ED is the mean distance over the policy set, OPD the distance of the random
 pick, no EVD).
 
-Reference rows (irlsim.irl.references, issue 13): 'expert-theta' (the hand-tuned theta, argmax V),
+Reference rows (irlsim.irl.references): 'expert-theta' (the hand-tuned theta, argmax V),
 'executed' (the policy the demonstrator executed), 'oracle' (a per-cycle linear theta fitted to that
 cycle's own demonstration: an optimistic bound, not a model). On a dataset read from disk every row also
 gets OPD / ED per situation label and its reward stability (irlsim.irl.breakdown).

@@ -148,7 +148,7 @@ class TrainingRun:
 
     def payload(self, stage_payload: Callable[[int], dict[str, Any]], epochs_done: int) -> dict[str, Any]:
         """The checkpoint: the stage's entries, then the identity and resume record every checkpoint
-        carries. Metric rows are stored without their wall times (time/*), which differ between identical
+        carries. Metric rows are stored without their wall times (``time/*``), which differ between identical
         runs: metrics.csv keeps them."""
         out = stage_payload(epochs_done)
         out["metrics"] = [{k: v for k, v in r.items() if not k.startswith("time/")} for r in out["metrics"]]

@@ -68,7 +68,7 @@ def train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) 
         return _train_one_stage1(name, dataset, cfg, out_dir)
 
 
-# size-ok: to be replaced by the one training loop of issue 15 point 3 (wt/reliability)
+# size-ok: stage 1's epoch and checkpoint entries, closures over one TrainingRun (irlsim.train.loop)
 def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path) -> dict[str, Any]:
     meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
     run_dir = out_dir / name

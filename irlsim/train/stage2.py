@@ -95,7 +95,7 @@ def train_one_stage2(
         return _train_one_stage2(name, dataset, cfg, out_dir, out_dir if base_dir is None else base_dir)
 
 
-# size-ok: to be replaced by the one training loop of issue 15 point 3 (wt/reliability)
+# size-ok: stage 2's epoch and checkpoint entries, closures over one TrainingRun (irlsim.train.loop)
 def _train_one_stage2(
     name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path
 ) -> dict[str, Any]:

@@ -1,4 +1,4 @@
-"""The temporal attention as a strip over time (issue 13): :func:`irlsim.viz.frames.draw_temporal`'s bars of
+"""The temporal attention as a strip over time: :func:`irlsim.viz.frames.draw_temporal`'s bars of
 one cycle, stacked for consecutive cycles of a sequential split, with the situation labels on top.
 
 Rows of the strip are the history lags (now at the top, oldest at the bottom), columns the cycles, the

@@ -1,4 +1,4 @@
-"""Situation labels on constructed cycles (issue 13)."""
+"""Situation labels on constructed cycles."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""A dataset opened without irlsim: the README's DuckDB queries, and the ways a split folder is read by
-DuckDB, polars, pyarrow and pandas.
+"""A dataset opened without irlsim: the guide's DuckDB queries (docs/GUIDE.md, "Data"), and the ways a
+split folder is read by DuckDB, polars, pyarrow and pandas.
 
 A split folder holds two tables (cycles and policies files, two schemas) and each episode's
 ``stats.json``, so the folder itself is not one table: ``pd.read_parquet('<ds>/train')`` cannot work. The
@@ -21,23 +21,23 @@ import pytest
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.reader import fixed_list_to_numpy, open_dataset
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "GUIDE.md"
 
 
-def _readme_queries() -> list[str]:
-    """The SQL statements of the README's "Data" section, comments dropped."""
-    text = README.read_text()
+def _guide_queries() -> list[str]:
+    """The SQL statements of the guide's "Data" section, comments dropped."""
+    text = GUIDE.read_text()
     section = text[text.index("\n## Data\n") :]
     section = section[: section.index("\n## ", 1)]
     blocks = re.findall(r"```sql\n(.*?)```", section, flags=re.S)
-    assert len(blocks) == 1, "expected one SQL block in README.md's Data section"
+    assert len(blocks) == 1, "expected one SQL block in docs/GUIDE.md's Data section"
     lines = [line for line in blocks[0].splitlines() if not line.lstrip().startswith("--")]
     return [q.strip() for q in "\n".join(lines).split(";") if q.strip()]
 
 
-def test_readme_duckdb_queries_give_the_numbers_numpy_gives(tiny_dataset: Path) -> None:
+def test_guide_duckdb_queries_give_the_numbers_numpy_gives(tiny_dataset: Path) -> None:
     duckdb = pytest.importorskip("duckdb")
-    queries = _readme_queries()
+    queries = _guide_queries()
     assert len(queries) == 2 and all("'data/default/train/" in q for q in queries)
     queries = [q.replace("'data/default/", f"'{tiny_dataset}/") for q in queries]
 
@@ -59,7 +59,7 @@ def test_readme_duckdb_queries_give_the_numbers_numpy_gives(tiny_dataset: Path) 
     np.testing.assert_allclose(row, expected, rtol=1e-6)
 
     # query 2: feature means of the demonstrated policies vs the others, over cycles with a demonstration;
-    # DuckDB lists count from 1, so features[11] and features[15] are the README's progress and proximity
+    # DuckDB lists count from 1, so features[11] and features[15] are the guide's progress and proximity
     assert FEATURE_NAMES[11 - 1] == "progress" and FEATURE_NAMES[15 - 1] == "proximity"
     n = pol.num_rows // cyc.num_rows  # policies per cycle; both files are in (episode, cycle) order
     for key in ("episode", "cycle"):  # the join by position is the join USING (episode, cycle)

@@ -144,7 +144,7 @@ def test_expert_theta_drives_argmax_of_the_experts_theta(road):
 
 
 def test_expert_lap_meets_the_expert_figures(road):
-    """Issue 6, point 5: the expert driven by 'irlsim drive' meets the planner issue's figures on a lap:
+    """The expert driven by 'irlsim drive' meets the expert's acceptance figures on a lap:
     no collision or exit, a full stop at every stop line, every checkpoint in its lane, >= 50 km/h."""
     # the demo's configuration (configs/collect/default.toml: 500 policies, 15 vehicles) and seed
     from pathlib import Path

@@ -1,4 +1,4 @@
-"""Reference rows of Table I on hand-made cycles (issue 13)."""
+"""Reference rows of Table I on hand-made cycles."""
 
 from __future__ import annotations
 

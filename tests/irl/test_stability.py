@@ -1,4 +1,4 @@
-"""Reward stability metrics on known sequences (issue 13)."""
+"""Reward stability metrics on known sequences."""
 
 from __future__ import annotations
 

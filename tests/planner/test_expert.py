@@ -100,7 +100,7 @@ def _slow_run(seed: int) -> dict:
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", SLOW_SEEDS)
 def test_expert_closed_loop_ten_seeds(seed):
-    """Issue 3 point 5, per episode: 2 laps, 0 collisions, 0 exits, a full stop at every stop line."""
+    """The expert's acceptance, per episode: 2 laps, 0 collisions, 0 exits, a full stop at every stop line."""
     st = _slow_run(seed)
     assert st["sim/laps"] == 2
     _assert_expert_figures(st)
@@ -108,7 +108,7 @@ def test_expert_closed_loop_ten_seeds(seed):
 
 @pytest.mark.slow
 def test_expert_ten_seeds_mission_and_speed():
-    """Issue 3 point 5, over the 10 seeds x 2 laps with 15 vehicles: >= 95 % of the checkpoints passed
+    """The expert's acceptance over the 10 seeds x 2 laps with 15 vehicles: >= 95 % of the checkpoints passed
     in their required lane, mean speed >= 50 km/h (mean of the episodes' mean speeds)."""
     runs = [_slow_run(seed) for seed in SLOW_SEEDS]
     passed = sum(st["sim/checkpoints_passed"] for st in runs)

@@ -1,4 +1,4 @@
-"""The 15 features: non-negative, named, and hand-computed cases (issue 3, point 4)."""
+"""The 15 features: non-negative, named, and hand-computed cases."""
 
 from __future__ import annotations
 
@@ -172,9 +172,10 @@ def test_stop_line_costs_crossing_at_speed_not_stopping(road, planner):
 
 def test_stop_line_counts_a_stand_only_strictly_before_the_crossing_step():
     """The stand must come before the step that crosses the line, as the episode's stop-line compliance
-    counts it (the pass is counted before the stop at a step). Found in closed loop (issue 12): 0.033 m
-    before the line at 0.164 m/s a policy reached 0.0999 m/s at exactly the step that crossed the line and
-    then accelerated; counted as having stood, it cost nothing and the ego crossed without a full stop.
+    counts it (the pass is counted before the stop at a step). Found in closed loop by a learned
+    reward: 0.033 m before the line at 0.164 m/s a policy reached 0.0999 m/s at exactly the step that
+    crossed the line and then accelerated; counted as having stood, it cost nothing and the ego crossed
+    without a full stop.
     Hand-made profiles, T = 4 steps of 0.1 s, gamma from the default config."""
     cfg = PlannerConfig()
     rel = 0.033

@@ -1,5 +1,5 @@
 """Checkpoint identity (model, stage, dataset), finite weights, a folder as checkpoint, byte-identical
-checkpoints, and resume checks: each refusal is one line before any output is written (issue 16)."""
+checkpoints, and resume checks: each refusal is one line before any output is written."""
 
 import dataclasses
 import errno

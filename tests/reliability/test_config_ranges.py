@@ -1,5 +1,5 @@
 """Config and option ranges at parse time, sizes against memory, config files that are not UTF-8 or not
-TOML: one line (exit 2) before any work (issue 16, defect 6)."""
+TOML: one line (exit 2) before any work."""
 
 import pytest
 

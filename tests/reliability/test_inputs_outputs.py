@@ -1,5 +1,5 @@
 """Readers validate the manifest and every file's columns; every command checks its outputs before work
-and turns OS errors into one line; training locks its runs folder (issue 16, defects 4, 5, 7)."""
+and turns OS errors into one line; training locks its runs folder."""
 
 import errno
 import json

@@ -1,6 +1,6 @@
 """Property-based tests (hypothesis): any value for any numeric config field or option is either a valid
 config or one IrlsimError line, never another exception; collection's episode seeds stay in SUMO's range;
-the road's (s, d) -> xy -> (s, d) round trip is exact (issue 16)."""
+the road's (s, d) -> xy -> (s, d) round trip is exact."""
 
 import argparse
 import dataclasses

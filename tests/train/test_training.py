@@ -200,8 +200,8 @@ def test_stage2_target_rows_and_weight_regulariser():
 
 
 def test_stage2_study_options_train(dataset, tmp_path):
-    """Every issue-13 stage-2 option trains and changes the weights; a strong pull to the uniform
-    H-mean makes the temporal weights near-uniform."""
+    """Every stage-2 option of the temporal-attention study trains and changes the weights; a strong pull
+    to the uniform H-mean makes the temporal weights near-uniform."""
     train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path)
     base = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=2)
     variants = {
