@@ -92,6 +92,8 @@ class ScorecardObserver:
             checkpoints_passed=int(stats["sim/checkpoints_passed"]),
             checkpoints_in_lane=int(stats["sim/checkpoints_in_lane"]),
             expert=None if expert is None else (np.asarray(expert[0]), np.asarray(expert[1])),
+            speed_limit=self.sim.road.max_speed_limit,
+            red_crossings=int(stats["sim/red_crossings"]) if "sim/red_crossings" in stats else None,
         )
 
     def cycle_facts(self, steps: int) -> dict[str, float]:
@@ -112,7 +114,9 @@ class ScorecardObserver:
         return {
             "ttc_min": float(ttc.min()) if len(ttc) else float("inf"),
             "ttc_ok": float(np.mean(ttc >= sc.TTC_BOUND)) if len(ttc) else 1.0,
-            "overspeed": float(np.max(np.maximum(ego["v"] - sc.SPEED_LIMIT, 0.0))) if len(ttc) else 0.0,
+            "overspeed": float(np.max(np.maximum(ego["v"] - self.sim.road.max_speed_limit, 0.0)))
+            if len(ttc)
+            else 0.0,
             "intrusion_m": sc.drivable_intrusion(
                 ego["d"], cfg.ego_width, float(self.sim.road.half_road), exempt
             ),

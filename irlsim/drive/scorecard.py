@@ -241,11 +241,14 @@ def episode_scorecard(
     checkpoints_in_lane: int,
     expert: tuple[np.ndarray, np.ndarray] | None = None,
     speed_limit: float = SPEED_LIMIT,
+    red_crossings: int | None = None,
 ) -> dict[str, Any]:
     """The ``score/`` record of one episode from its per-step arrays [S] (and ``vehicles`` [S, M, 6]);
     ``expert``: the expert's (t, s) on the same seed, for progress. Keys: ``score/<multiplier>``,
     ``score/<term>``, ``score/comfort_<quantity>`` (share of steps within that bound), ``score/ttc_min``
-    [s], ``score/drivable_intrusion_m``, ``score/progress`` and ``score/score``."""
+    [s], ``score/drivable_intrusion_m``, ``score/progress`` and ``score/score``. On a road with traffic
+    lights (``red_crossings`` given) crossing one on red is a failure like a collision:
+    ``score/no_red_crossing``."""
     ttc = time_to_collision(np.stack([x, y, yaw, v], axis=1), ego_size, vehicles)
     series = comfort_series(t, v, yaw)
     within = comfort_within(series)
@@ -258,6 +261,8 @@ def episode_scorecard(
         "drivable_area": float(intrusion <= DRIVABLE_TOLERANCE),
         "making_progress": 1.0 if progress is None else float(progress >= MIN_PROGRESS),
     }
+    if red_crossings is not None:
+        mult["no_red_crossing"] = float(red_crossings == 0)
     n = max(len(t), 1)
     terms: dict[str, float | None] = {
         "ttc": float(np.mean(ttc >= TTC_BOUND)) if len(ttc) else 1.0,

@@ -26,7 +26,7 @@ width. ``w_t = gamma^t dt`` [s].
 | 11| progress      | max(0, s_goal - s), s_goal = target checkpoint + ``progress_lookahead``; on an | m * s       |
 |   |               | exit ramp (target unreachable) the route distance is capped at lap_length     |             |
 | 12| stop_line     | event: gamma^tc (1 + v_tc) when crossing an active stop line at step tc      | m/s         |
-|   |               | without having stood (v < v_stopped) before it; 0 otherwise                  |             |
+|   |               | without having stood (v < v_stopped) before it (a red light: at all); else 0 |             |
 | 13| lc_delay      | t |d_dot| (lateral motion weighted by its time in the horizon)               | m * s       |
 | 14| lat_overshoot | relu(sgn (d - d_tgt))^2, sgn = direction from d_0 to the profile's target    | m^2 * s     |
 | 15| proximity     | sum_m exp(-(ds_m / (sigma_s + (L + L_m)/2))^2 - (dd_m / sigma_d)^2), centre  | 1 * s       |
@@ -74,6 +74,7 @@ class Context:
     #: (lowest, highest) lane [T] at each step where lanes are added or dropped (Planner's lane_window);
     #: None on a road with the same lanes throughout
     lanes: tuple[np.ndarray, np.ndarray] | None = None
+    stop_red: bool = False  # the active stop line is a red (or yellow) traffic light: standing allows nothing
 
 
 @dataclass
@@ -163,7 +164,7 @@ def lon_features(
         tc = np.argmax(crossed, axis=1)
         stood = np.minimum.accumulate(v, axis=1) < cfg.v_stopped
         stood_before = stood[np.arange(L), np.maximum(tc - 1, 0)]  # strictly before the crossing step
-        ev = any_cross & ~stood_before & (ctx.stop_rel >= 0)
+        ev = any_cross & (~stood_before | ctx.stop_red) & (ctx.stop_rel >= 0)
         F[:, IDX["stop_line"]] = np.where(ev, cfg.gamma**tc * (1.0 + v[np.arange(L), tc]), 0.0)
     F[:, IDX["velocity"]] = ((v - vref) ** 2) @ w
     prog = np.maximum(ctx.goal - s, 0.0)

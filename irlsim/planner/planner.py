@@ -6,6 +6,7 @@ the 15 features. Sampling is reward-agnostic: the same stored set can be scored 
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -124,7 +125,12 @@ class Planner:
         t0 = time.perf_counter()
         cfg, road, ego = self.cfg, self.road, obs.ego
         lap = obs.lap_length
-        lon = self.sampler.lon_bank(ego.v, ego.a, stop_distances(obs, cfg, road))
+        # the road's speed limit over the reach of the horizon, where it is below the target speed
+        v_cap = road.speed_limit_over(ego.s, ego.s + cfg.horizon * max(ego.v, cfg.v_target))
+        cfg_c = cfg if v_cap >= cfg.v_target else dataclasses.replace(cfg, v_target=v_cap)
+        lon = self.sampler.lon_bank(
+            ego.v, ego.a, stop_distances(obs, cfg, road), None if cfg_c is cfg else v_cap
+        )
         lanes = lane_window(road, ego.s, lon.s) if road.lanes_vary else None
         targets = None if lanes is None else road.lane_centres[lanes[0][-1] : lanes[1][-1] + 1]
         lat = concat_lat(
@@ -145,11 +151,12 @@ class Planner:
             lap_length=lap,
             lane_width=road.lane_width,
             lanes=lanes,
+            stop_red=obs.stop_red,
         )
         # ---- candidate pairs: free lateral profiles x all lon profiles, exit profiles x their bound one.
         # Pairwise terms are vectors over the C candidates (see Pairs), gathered at the picked ones.
         pairs = Pairs.of(lat, L)
-        f_lon, series = lon_features(lon, kappa, ctx, cfg, self.w)
+        f_lon, series = lon_features(lon, kappa, ctx, cfg_c, self.w)
         f_lat = lat_features(lat, lon, series, road, ctx, cfg, self.w)
         f_x = cross_features(lat, lon, series, ctx, self.w, pairs, cfg.yaw_speed_floor)
         veh = vehicle_terms(lat, lon, obs.vehicles, ctx, cfg, self.w, self._stop_lines, pairs)

@@ -31,6 +31,7 @@ evenly; a small set is padded by repeating pairs. Policies are finally sorted by
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -193,13 +194,16 @@ class Sampler:
         return np.stack([1.0 - h1, h1 - h2, h2])
 
     # ------------------------------------------------------------------ longitudinal
-    def lon_bank(self, v0: float, a0: float, stops: tuple[float, ...] = ()) -> LonBank:
+    def lon_bank(
+        self, v0: float, a0: float, stops: tuple[float, ...] = (), v_target: float | None = None
+    ) -> LonBank:
         """Longitudinal profiles from speed ``v0`` [m/s], acceleration ``a0`` [m/s^2].
 
         ``stops`` [m]: distances from the ego's front bumper to points where it may have to stand (the
         active stop line, the tail of a standing queue); each within ``stop_reach`` gets stop profiles.
+        ``v_target`` [m/s]: the speed to reach, below the config's where the road's limit is lower.
         """
-        cfg = self.cfg
+        cfg = self.cfg if v_target is None else dataclasses.replace(self.cfg, v_target=v_target)
         a0 = float(np.clip(a0, cfg.a_min, cfg.a_max))
         b, B = self._b, self._B
         isp = self._i_split

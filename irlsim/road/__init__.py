@@ -1,4 +1,5 @@
-"""Road geometry and topology of the oval course (route frame, lanes, checkpoints, stop lines, exits)."""
+"""Road geometry and topology of a route on a SUMO network (route frame, lanes, checkpoints, stop lines,
+signals, exits), and the scenario files that name them."""
 
 from irlsim.road.geometry import (
     HALF_ROAD,
@@ -8,6 +9,7 @@ from irlsim.road.geometry import (
     Exit,
     LaneCentreline,
     Road,
+    Signal,
     StopLine,
     load_road,
     wrap_angle,
@@ -22,6 +24,7 @@ __all__ = [
     "Exit",
     "LaneCentreline",
     "Road",
+    "Signal",
     "StopLine",
     "load_road",
     "wrap_angle",

@@ -79,6 +79,18 @@ class StopLine:
 
 
 @dataclass(frozen=True)
+class Signal:
+    """A traffic light on the route: its stop line binds while the route's link shows red or yellow."""
+
+    node: str  # the junction
+    s: float  # [m] route frame position of the line (end of the incoming lanes)
+    x: float  # [m] world position of the line on the middle lane
+    y: float
+    tls: str  # SUMO traffic light id
+    link: int  # index of the route's connection in the traffic light's state string
+
+
+@dataclass(frozen=True)
 class Exit:
     """An off-ramp: a trap. ``ramp_s``/``ramp_d`` sample its centreline in the route frame.
 
@@ -187,7 +199,7 @@ class Road:
                 f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
                 f"{MIN_OPEN_LENGTH:.0f} m the planner needs to look ahead: choose a longer route"
             )
-        self.stop_lines = self._stop_lines()
+        self.stop_lines, self.signals = self._stop_lines()
         self.exits = self._exits()
         if checkpoints is None:
             checkpoints = tuple(route.mission_points(self.net, self.edges, self.closed, self.layout))
@@ -204,6 +216,10 @@ class Road:
         self._lane_lo, self._lane_hi = route.lane_table(
             self.ref_s, self._edge_bounds, self.layout, self.closed
         )
+        # the speed limit [m/s] at each reference vertex: its edge's (inside a junction, the lower of both)
+        speeds = [float(self.net.getEdge(e).getSpeed()) for e in self.edges]
+        self._vmax = route.edge_table(self.ref_s, self._edge_bounds, speeds, self.closed)
+        self._vmax_min, self._vmax_max = float(self._vmax.min()), float(self._vmax.max())
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
@@ -332,12 +348,17 @@ class Road:
         self._g_first = np.where(empty, 0, (first - RASTER_PAD) % m).astype(np.int64)
         self._g_width = np.where(empty, 0, width).astype(np.int64)
 
-    def _stop_lines(self) -> tuple[StopLine, ...]:
-        out = []
-        for node, x, y in route.stop_points(self.net, self.edges, self.middle_lane):
+    def _stop_lines(self) -> tuple[tuple[StopLine, ...], tuple[Signal, ...]]:
+        stops, signals = route.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
+        lines = []
+        for node, x, y in stops:
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
-            out.append(StopLine(node, s, x, y))
-        return tuple(sorted(out, key=lambda sl: sl.s))
+            lines.append(StopLine(node, s, x, y))
+        sig = []
+        for node, x, y, tls, link in signals:
+            s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
+            sig.append(Signal(node, s, x, y, tls, link))
+        return tuple(sorted(lines, key=lambda sl: sl.s)), tuple(sorted(sig, key=lambda g: g.s))
 
     def _exits(self) -> tuple[Exit, ...]:
         out = []
@@ -351,6 +372,8 @@ class Road:
             s_keep, d_keep = s_rel[keep], d[keep]
             mono = np.concatenate([[True], np.diff(s_keep) > 1e-6])
             mono = np.cumprod(mono).astype(bool)
+            if d_keep[mono][-1] > d_keep[0]:  # a turn to the left: the lateral planner has no way there
+                continue
             out.append(Exit(eid, float(s0), s0 + s_keep[mono], d_keep[mono]))
         return tuple(sorted(out, key=lambda e: e.s_start))
 
@@ -616,6 +639,20 @@ class Road:
         right = np.broadcast_to(self.lane_center(lo) - self.lane_width / 2, d.shape).copy()
         return dev, right, self.lane_center(hi) + self.lane_width / 2
 
+    @property
+    def max_speed_limit(self) -> float:
+        """[m/s] the highest speed limit on the route (the oval: 27.78, 100 km/h)."""
+        return self._vmax_max
+
+    def speed_limit_over(self, s0: float, s1: float) -> float:
+        """The lowest speed limit [m/s] of the route from ``s0`` to ``s1`` (unwrapped, s1 >= s0)."""
+        if self._vmax_min >= self._vmax_max:  # one limit all along (the oval): no look-up
+            return self._vmax_min
+        m = len(self.ref_s)
+        a = int(self._segment_of_wrapped(np.array([s0 % self.lap_length]))[0])
+        n = int(min(np.ceil((s1 - s0) / self._h) + 2, m))
+        return float(self._vmax[(a + np.arange(n)) % m].min())
+
     def required_lane(self, checkpoint: int, d: float) -> int:
         """The lane checkpoint ``checkpoint`` requires; for an any-lane checkpoint (lane -1, an open
         route's end) the lane at offset ``d``, so staying in one's lane meets it."""
@@ -704,6 +741,7 @@ class Road:
             "lap_length_m": round(self.lap_length, 2),
             "lane_lengths_m": [round(v, 2) for v in self.lane_lengths],
             "stop_lines_s_m": [round(sl.s, 2) for sl in self.stop_lines],
+            "signals_s_m": [round(g.s, 2) for g in self.signals],
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), c.lane) for c in self.checkpoints],
         }

@@ -13,8 +13,8 @@ import numpy as np
 
 from irlsim.errors import IrlsimError
 
-#: SUMO junction types at which every vehicle comes to a full stop
-STOP_TYPES = ("allway_stop",)
+#: SUMO link states at which a vehicle comes to a full stop: a stop sign, an all-way stop
+STOP_STATES = ("s", "w")
 
 
 def resolve_route(net: object, edges: tuple[str, ...], from_edge: str, to_edge: str) -> tuple[str, ...]:
@@ -157,6 +157,18 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
     return arr
 
 
+def edge_table(
+    ref_s: np.ndarray, bounds: list[tuple[str, float, float]], values: list[float], closed: bool
+) -> np.ndarray:
+    """A value per route edge spread over the reference vertices [M]: each edge's over its stretch,
+    inside a junction the lower of the two edges' (the filling of :func:`lane_table`)."""
+    order = sorted(set(values))
+    rank = tuple(order.index(v) for v in values)
+    ranks = LaneLayout(rank, (1,) * len(values), len(order), 0.0)  # a value's rank as a 'lane'
+    lo, _ = lane_table(ref_s, bounds, ranks, closed)
+    return np.asarray(order, dtype=np.float64)[lo]
+
+
 def lane_table(
     ref_s: np.ndarray, bounds: list[tuple[str, float, float]], layout: LaneLayout, closed: bool
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -231,19 +243,35 @@ def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.
     return arr
 
 
-def stop_points(net: object, edges: tuple[str, ...], lanes: dict[str, int]) -> list[tuple[str, float, float]]:
-    """(node id, x, y) of each all-way stop the route enters: the end of its reference lane there."""
-    out = []
-    on_route = set(edges)
-    for node in net.getNodes():  # type: ignore[attr-defined]
-        if node.getType() not in STOP_TYPES:
-            continue
-        inc = [e for e in node.getIncoming() if e.getID() in on_route]
-        if not inc:
-            continue
-        x, y = inc[0].getLane(lanes[inc[0].getID()]).getShape()[-1]
-        out.append((node.getID(), float(x), float(y)))
-    return out
+def junction_controls(
+    net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
+) -> tuple[list[tuple[str, float, float]], list[tuple[str, float, float, str, int]]]:
+    """The junctions the route crosses that make it stop: (stops, signals). A stop is a stop sign or an
+    all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y) at the end of
+    the incoming edge's middle lane. A signal is a traffic light on it: (node id, x, y, traffic light id,
+    link index of the route's connection)."""
+    stops, signals = [], []
+    n = len(edges)
+    for i, eid in enumerate(edges):
+        if i == n - 1 and not closed:
+            break
+        edge = net.getEdge(eid)  # type: ignore[attr-defined]
+        lane = edge.getLane(lanes[eid])
+        cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[(i + 1) % n]]
+        if not cons:  # the middle lane turns elsewhere: any lane's connection into the route
+            cons = [
+                c
+                for ln in edge.getLanes()
+                for c in ln.getOutgoing()
+                if c.getTo().getID() == edges[(i + 1) % n]
+            ]
+        x, y = lane.getShape()[-1]
+        node = edge.getToNode().getID()
+        if cons and cons[0].getTLSID():
+            signals.append((node, float(x), float(y), cons[0].getTLSID(), int(cons[0].getTLLinkIndex())))
+        elif cons and cons[0].getState() in STOP_STATES:
+            stops.append((node, float(x), float(y)))
+    return stops, signals
 
 
 def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray]]:

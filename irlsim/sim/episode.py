@@ -35,6 +35,7 @@ class CourseMarks:
     exit_zones: tuple[tuple[float, float], ...]  # [m] wrapped (start, end) of each exit's ramp zone
     half_road: float  # [m] |d| of the road's edges
     route_end_s: float = math.inf  # [m] an open route's end (wrapped); inf for a loop
+    signal_s: tuple[float, ...] = ()  # [m] wrapped: the traffic lights' stop lines
 
     @staticmethod
     def from_road(road: Road) -> CourseMarks:
@@ -46,6 +47,7 @@ class CourseMarks:
             exit_zones=tuple((float(e.ramp_s[0]), float(e.ramp_s[-1])) for e in road.exits),
             half_road=float(road.half_road),
             route_end_s=float(road.route_end_s),
+            signal_s=tuple(float(g.s) for g in road.signals),
         )
 
     def passes(self, s: float, m: float) -> int:
@@ -117,9 +119,16 @@ class Episode:
 
     # ------------------------------------------------------------------ the update
     def update(
-        self, ego: EgoState, *, collisions: int = 0, sumo_collisions: int = 0, teleports: int = 0
+        self,
+        ego: EgoState,
+        *,
+        collisions: int = 0,
+        sumo_collisions: int = 0,
+        teleports: int = 0,
+        red: tuple[bool, ...] = (),
     ) -> None:
-        """Account for one step ending in state ``ego``; ``collisions`` = new ego collisions this step."""
+        """Account for one step ending in state ``ego``; ``collisions`` = new ego collisions this step;
+        ``red``: per traffic light, whether the route's link shows red (a crossing then is a failure)."""
         if self.start is None:
             self.start = self.last = ego
             self._note_stop(ego)
@@ -146,6 +155,12 @@ class Episode:
                 c["stop_lines_compliant"] += int(self._stopped[i])
                 self.events.append({"t": ego.t, "kind": "stop_line", "index": i, "stopped": self._stopped[i]})
                 self._stopped[i] = False
+        for i, m in enumerate(self.marks.signal_s):
+            for _ in range(self.marks.passes(ego.s, m) - self.marks.passes(prev.s, m)):
+                c["signals_passed"] = c.get("signals_passed", 0) + 1
+                on_red = bool(red[i]) if i < len(red) else False
+                c["red_crossings"] = c.get("red_crossings", 0) + int(on_red)
+                self.events.append({"t": ego.t, "kind": "signal", "index": i, "red": on_red})
         self._note_stop(ego)
         in_zone = self.marks.in_exit_zone(ego.s)
         took_exit = in_zone and ego.d < -(self.marks.half_road + self.exit_margin)
@@ -212,4 +227,8 @@ class Episode:
             # shows in sim/bg_stuck instead
             "sim/teleports": c["teleports"],
             "end_reason": self.end_reason,
-        }
+        } | (  # only on roads with traffic lights: the oval's figures keep their bytes
+            {"sim/signals_passed": c.get("signals_passed", 0), "sim/red_crossings": c.get("red_crossings", 0)}
+            if self.marks.signal_s
+            else {}
+        )

@@ -38,6 +38,9 @@ _START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
 #: [m] a random start on an open route leaves at least this much of the route ahead
 OPEN_START_RESERVE = 300.0
+#: SUMO signal states on a link: red (and red-yellow), and yellow; the stop line binds while either shows
+RED_STATES = ("r", "R", "u")
+YELLOW_STATES = ("y", "Y")
 
 
 def check_seed(seed: object) -> int:
@@ -82,6 +85,9 @@ class Simulation:
         self.ego: EgoState | None = None
         self.vehicles = VehicleStates.empty()
         self.odometry: list[EgoState] = []
+        n_sig = len(self.road.signals)
+        self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
+        self.signal_binding = np.zeros(n_sig, dtype=bool)
         self._colliding: set[str] = set()
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
@@ -305,14 +311,32 @@ class Simulation:
         new_obb = self._ego_collisions(state)
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
+        self._read_signals()
         if bookkeeping:
-            self.episode.update(state, collisions=new_obb, sumo_collisions=new_sumo, teleports=teleports)
+            self.episode.update(
+                state,
+                collisions=new_obb,
+                sumo_collisions=new_sumo,
+                teleports=teleports,
+                red=tuple(self.signal_red.tolist()),
+            )
             self.odometry.append(state)
             self._steps += 1
         self._wall += time.perf_counter() - t0
         if bookkeeping:
             for f in self.step_listeners:
                 f(self)
+
+    def _read_signals(self) -> None:
+        """Each traffic light's state on the route's link: ``signal_red`` (red: crossing is a failure) and
+        ``signal_binding`` (red or yellow: its stop line binds the ego)."""
+        signals = self.road.signals
+        if not signals:
+            return
+        tl = self._api.trafficlight
+        states = [tl.getRedYellowGreenState(g.tls)[g.link] for g in signals]
+        self.signal_red = np.array([c in RED_STATES for c in states], dtype=bool)
+        self.signal_binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
 
     def _read_vehicles(self) -> VehicleStates:
         v_api = self._api.vehicle
@@ -399,17 +423,23 @@ class Simulation:
         self._require_episode()
         assert self.ego is not None and self.episode is not None
         idx, target_s = self.episode.target(self.ego.s)
+        stop_s, red = self.episode.stop_s(self.ego.s), False
+        for g, binding in zip(self.road.signals, self.signal_binding, strict=True):
+            line = self.ego.s + self.marks.ahead(self.ego.s, g.s)
+            if binding and line < stop_s:
+                stop_s, red = line, True
         return Observation(
             ego=self.ego,
             vehicles=self.vehicles,
             target_checkpoint=idx,
             target_s=target_s,
-            stop_s=self.episode.stop_s(self.ego.s),
+            stop_s=stop_s,
             lap_length=self.road.lap_length,
             info={
                 "lane_required": self.road.required_lane(idx, self.ego.d),
                 "laps": self.episode.laps_completed,
             },
+            stop_red=red,
         )
 
     def _require_episode(self) -> None:

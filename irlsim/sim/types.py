@@ -75,6 +75,9 @@ class Observation:
     stop_s: float
     lap_length: float  # [m]
     info: dict = field(default_factory=dict)
+    #: the stop at ``stop_s`` is a traffic light showing red or yellow: no crossing until it turns green,
+    #: whether the ego stood or not (a stop sign is passed once the ego has stood)
+    stop_red: bool = False
 
 
 @dataclass(frozen=True)
