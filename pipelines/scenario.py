@@ -35,8 +35,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"  network: {scn.net_file}")
     for key, value in describe(road).items():
         print(f"  {key}: {value}")
-    if scn.defaults:
-        print(f"  scenario defaults: {scn.defaults}")
     if args.out is not None:
         from irlsim.viz.road_map import draw_scenario  # lazy: matplotlib
 

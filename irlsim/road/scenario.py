@@ -22,9 +22,6 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     y = 0.0
     lane = 2
 
-    [scenario]               # optional: defaults of irlsim.sim.config.ScenarioConfig for this road
-    n_vehicles = 10
-
 A route whose last edge leads back into its first is a loop (laps); any other route is open and the
 episode ends at its end. What the network says (lanes, widths, exits, all-way stops) is derived from it
 by :class:`irlsim.road.Road`.
@@ -38,9 +35,8 @@ import os
 import shutil
 import subprocess
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from irlsim.config import from_dict
 from irlsim.errors import IrlsimError
@@ -48,6 +44,7 @@ from irlsim.road.network import SUMO_NET_DIR, _netconvert_error, strip_header, s
 from irlsim.utils import atomic_path
 
 SCENARIO_FILE = "scenario.toml"
+NETWORK_SOURCES = ("file", "netconvert", "osm", "sumo_tools", "netgenerate")
 DEFAULT_SCENARIO = "oval"
 
 
@@ -63,12 +60,14 @@ class NetworkSpec:
     """an OpenStreetMap extract (.osm / .osm.xml); built once with netconvert into the cache"""
     sumo_tools: str = ""
     """a network inside the installed eclipse-sumo wheel, relative to its ``tools/`` folder"""
+    netgenerate: str = ""
+    """a netgenerate configuration (a grid, spider or random network); built once into the cache"""
 
     def validate(self) -> None:
-        given = [k for k in ("file", "netconvert", "osm", "sumo_tools") if getattr(self, k)]
+        given = [k for k in NETWORK_SOURCES if getattr(self, k)]
         if len(given) != 1:
             raise IrlsimError(
-                "scenario: [network] needs exactly one of file, netconvert, osm, sumo_tools; got "
+                f"scenario: [network] needs exactly one of {', '.join(NETWORK_SOURCES)}; got "
                 f"{', '.join(given) or 'none'}"
             )
 
@@ -107,8 +106,6 @@ class ScenarioFile:
     name: str = ""
     description: str = ""
     checkpoints: tuple[CheckpointSpec, ...] = ()
-    scenario: dict[str, Any] = field(default_factory=dict)
-    """defaults of ScenarioConfig's fields for this road (traffic, ego start, episode)"""
 
 
 @dataclass(frozen=True)
@@ -122,7 +119,6 @@ class Scenario:
     from_edge: str
     to_edge: str
     checkpoints: tuple[tuple[float, float, int], ...]
-    defaults: dict[str, Any]
     description: str = ""
 
     def digest(self) -> str:
@@ -186,7 +182,6 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
         from_edge=sf.route.from_edge,
         to_edge=sf.route.to_edge,
         checkpoints=tuple((c.x, c.y, c.lane) for c in sf.checkpoints),
-        defaults=dict(sf.scenario),
         description=sf.description,
     )
 
@@ -207,6 +202,8 @@ def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:
         if not cfg.is_file():
             raise IrlsimError(f"scenario {path}: netconvert configuration {cfg} not found")
         return build_net(base, config=cfg.name, force=False) if build else base / f"{base.name}.net.xml"
+    if spec.netgenerate:
+        return _generated_cached(base / spec.netgenerate, path, build)
     return _osm_cached(base / spec.osm, path, build)
 
 
@@ -227,6 +224,29 @@ def _gunzip_cached(net: Path, scenario: Path) -> Path:
     if not target.is_file() or target.stat().st_mtime < net.stat().st_mtime:
         with atomic_path(target) as tmp, gzip.open(net, "rb") as src, open(tmp, "wb") as dst:
             shutil.copyfileobj(src, dst)
+    return target
+
+
+def _generated_cached(cfg: Path, scenario: Path, build: bool) -> Path:
+    """The network netgenerate builds from configuration ``cfg`` (byte-identical: header removed)."""
+    if not cfg.is_file():
+        raise IrlsimError(f"scenario {scenario}: netgenerate configuration {cfg} not found")
+    target = cache_dir(scenario) / (cfg.name.split(".")[0] + ".net.xml")
+    if not build or (target.is_file() and target.stat().st_mtime >= cfg.stat().st_mtime):
+        return target
+    with atomic_path(target) as tmp:
+        proc = subprocess.run(
+            [sumo_binary("netgenerate"), "-c", str(cfg), "-o", str(tmp)],
+            cwd=cfg.parent,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "SUMO_HOME": sumo_home()},
+        )
+        if proc.returncode != 0:
+            raise IrlsimError(
+                f"netgenerate failed on {cfg}: {_netconvert_error(proc)}; fix the configuration"
+            )
+        tmp.write_bytes(strip_header(tmp.read_bytes()))
     return target
 
 

@@ -1,5 +1,6 @@
 """Drivers by name for ``irlsim sim --driver``: ``simple`` (:class:`irlsim.sim.drivers.SimpleDriver`) and
-``expert`` (:class:`irlsim.planner.expert.ExpertDriver`). The registry sits above both layers, so the
+``expert`` (:class:`irlsim.planner.expert.ExpertDriver`) and ``sumo`` (SUMO's own driver model,
+:class:`irlsim.sim.drivers.SumoDriver`). The registry sits above both layers, so the
 simulator never imports the planner."""
 
 from __future__ import annotations
@@ -10,12 +11,13 @@ from irlsim.errors import IrlsimError
 from irlsim.planner.expert import make_expert_driver
 from irlsim.road import Road
 from irlsim.sim.config import ScenarioConfig
-from irlsim.sim.drivers import Driver, SimpleDriver
+from irlsim.sim.drivers import Driver, SimpleDriver, SumoDriver
 
 #: driver name -> factory(road, scenario config)
 DRIVERS: dict[str, Callable[[Road, ScenarioConfig], Driver]] = {
     "simple": lambda road, cfg: SimpleDriver(road, cfg),
     "expert": make_expert_driver,
+    "sumo": lambda road, cfg: SumoDriver(road, cfg),
 }
 
 

@@ -186,3 +186,22 @@ class SimpleDriver:
         d_dot = np.where(v > 0.05, d_dot, 0.0)
         d = ego.d + np.concatenate([[0.0], np.cumsum(0.5 * (d_dot[1:] + d_dot[:-1]) * self.cfg.step)])
         return frenet_trajectory(self.road, ego, self.cfg.step, v, d, a=a, d_dot=d_dot, d_ddot=d_ddot)
+
+
+class SumoDriver:
+    """SUMO's own driver model drives the ego (Krauss car following, its lane changes, junction rules,
+    the road's speed limits, at most ``ego_target_speed``): the reference the planner's speed is measured
+    against on a scenario. Its trajectory only marks the cycle ``by_sumo``; the simulation executes none
+    of its states."""
+
+    def __init__(self, road: Road, cfg: ScenarioConfig):
+        self.road = road
+        self.n = cfg.horizon_steps + 1
+        self.dt = cfg.step
+
+    def plan(self, obs: Observation) -> Trajectory:
+        e = obs.ego
+        full = {k: np.full(self.n, float(getattr(e, k))) for k in ("x", "y", "yaw", "v", "a", "s", "d")}
+        zero = np.zeros(self.n)
+        lane = np.full(self.n, e.lane, dtype=np.int8)
+        return Trajectory(t0=e.t, dt=self.dt, d_dot=zero, d_ddot=zero.copy(), lane=lane, by_sumo=True, **full)

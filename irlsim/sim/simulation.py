@@ -85,6 +85,7 @@ class Simulation:
         self.ego: EgoState | None = None
         self.vehicles = VehicleStates.empty()
         self.odometry: list[EgoState] = []
+        self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
@@ -249,6 +250,7 @@ class Simulation:
             end_on_collision=cfg.end_on_collision,
         )
         self.odometry = []
+        self._ego_by_sumo = False
         self._colliding, self._sumo_pairs = set(), set()
         self._wall = self._sumo_wall = 0.0
         self._steps = 0
@@ -296,14 +298,51 @@ class Simulation:
             f"{cfg.ego_start_checkpoint_clearance} m leave no start on the loop: lower them"
         )
 
-    def _advance(self, state: EgoState, bookkeeping: bool = True) -> None:
-        """Place the ego at ``state``, advance SUMO one step, read the vehicles, update the books."""
-        api = self._api
-        t0 = time.perf_counter()
-        api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
+    def _sumo_state(self) -> EgoState:
+        """Let SUMO's own driver model drive the ego for one step (its car following, lane changes,
+        junction rules, the road's speed limits and ``ego_target_speed``) and return where it got to."""
+        api, road, prev = self._api, self.road, self.ego
+        assert prev is not None
+        if not self._ego_by_sumo:
+            api.vehicle.setSpeedMode(EGO, 31)  # every safety check of SUMO's driver model
+            api.vehicle.setSpeedFactor(EGO, 1.0)
+            api.vehicle.setMaxSpeed(EGO, self.cfg.ego_target_speed)
+            self._ego_by_sumo = True
         t1 = time.perf_counter()
         api.simulationStep()
         self._sumo_wall += time.perf_counter() - t1
+        if EGO not in api.vehicle.getIDList():  # SUMO took it off at its route's end: the episode's end
+            return dataclasses.replace(
+                prev, t=float(api.simulation.getTime()), s=max(prev.s, road.route_end_s)
+            )
+        x, y = api.vehicle.getPosition(EGO)
+        yaw = float(wrap_angle(np.radians(90.0 - api.vehicle.getAngle(EGO))))
+        s, d = road.to_frenet(np.array([x]), np.array([y]))
+        s_un = prev.s + float(_wrap(float(s[0]) - prev.s, road.lap_length))
+        return EgoState(
+            t=float(api.simulation.getTime()),
+            x=float(x),
+            y=float(y),
+            yaw=yaw,
+            v=float(api.vehicle.getSpeed(EGO)),
+            a=float(api.vehicle.getAcceleration(EGO)),
+            s=s_un,
+            d=float(d[0]),
+            d_dot=0.0,
+            d_ddot=0.0,
+            lane=int(road.lane_of_d(d)[0]),
+        )
+
+    def _advance(self, state: EgoState, bookkeeping: bool = True, placed: bool = False) -> None:
+        """Place the ego at ``state`` and advance SUMO one step (``placed``: SUMO has already driven it
+        there), read the vehicles, update the books."""
+        api = self._api
+        t0 = time.perf_counter()
+        if not placed:
+            api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
+            t1 = time.perf_counter()
+            api.simulationStep()
+            self._sumo_wall += time.perf_counter() - t1
         self.ego = state = dataclasses.replace(state, t=float(api.simulation.getTime()))
         self.vehicles = self._read_vehicles()
         assert self.traffic is not None and self.episode is not None
@@ -414,7 +453,7 @@ class Simulation:
                 f"{self.ego.t:.3f} s with dt={self.cfg.step}: plan from the latest observation"
             )
         for j in range(1, n + 1):
-            self._advance(traj.state(j))
+            self._advance(self._sumo_state() if traj.by_sumo else traj.state(j), placed=traj.by_sumo)
             if self.done:
                 break
 

@@ -243,8 +243,13 @@ class BackgroundTraffic:
         to_line = (lines - s_new[:, None]) % lap  # [M, L] distance ahead to each stop line
         standing = veh.v < self.cfg.stop_speed
         stopped |= standing[:, None] & (to_line <= self.cfg.stop_zone)
-        # standing in a stop-line queue is normal; anywhere else a vehicle should not stand for long
-        waiting = standing & ~(to_line <= self.cfg.bg_stuck_queue).any(axis=1)
+        # standing in a queue before a stop line or a traffic light is normal; anywhere else a vehicle
+        # should not stand for long
+        queue = to_line <= self.cfg.bg_stuck_queue
+        if self.road.signals:
+            sig = np.array([g.s for g in self.road.signals])
+            queue = np.concatenate([queue, (sig - s_new[:, None]) % lap <= self.cfg.bg_stuck_queue], axis=1)
+        waiting = standing & ~queue.any(axis=1)
         since = np.where(waiting, np.where(np.isnan(since), t, since), np.nan)
         over = waiting & (t - since > self.cfg.bg_stuck_time)
         if over.any():

@@ -100,6 +100,9 @@ class Trajectory:
     d_dot: np.ndarray
     d_ddot: np.ndarray
     lane: np.ndarray
+    #: SUMO's own driver model drives the ego through this cycle (the states are not executed): the
+    #: reference run the planner's speed is compared with (``irlsim sim --driver sumo``)
+    by_sumo: bool = False
 
     def state(self, j: int) -> EgoState:
         return EgoState(

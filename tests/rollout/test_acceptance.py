@@ -1,0 +1,34 @@
+"""The expert on every shipped scenario against SUMO's own driver model on the same seeds (real SUMO):
+a short version in the fast suite (one seed each: the safety bounds), the full bar on 10 seeds in the
+slow one (``make test-slow``), where the mean speed must be within 15 % of SUMO's driver's."""
+
+from __future__ import annotations
+
+import pytest
+
+from irlsim.road.scenario import shipped_scenarios
+from irlsim.rollout.acceptance import MISSION_MIN, check_scenario
+from irlsim.sim.config import ScenarioConfig
+
+OTHER_ROADS = [s for s in shipped_scenarios() if s != "oval"]
+
+
+def test_every_shipped_scenario_is_covered():
+    assert {"oval", "motorway", "ramp", "corridor", "grid"} <= set(shipped_scenarios())
+
+
+@pytest.mark.parametrize("scenario", OTHER_ROADS)
+def test_expert_drives_each_scenario_safely(scenario):
+    acc = check_scenario(scenario, (7,), ScenarioConfig(max_time=120.0))
+    e = acc.expert
+    assert e["collisions"] == 0 and e["exits"] == 0 and e["red_crossings"] == 0
+    assert e["stops_compliant"] == e["stops_passed"]
+    assert e["checkpoints_in_lane"] >= MISSION_MIN * e["checkpoints_passed"]
+    assert e["mean_speed_kmh"] > 10.0 and acc.sumo["mean_speed_kmh"] > 10.0  # both drove
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scenario", shipped_scenarios())
+def test_expert_meets_the_bar_on_ten_seeds(scenario):
+    acc = check_scenario(scenario, tuple(range(1000, 1010)))
+    assert acc.failures == [], acc.row()
