@@ -156,6 +156,9 @@ class Road:
     ):
         net_file = Path(net_file)
         self.net = _read_net(net_file)
+        #: the scenario's own SUMO route files (empty: irlsim's spawner) and its warm-up [s]
+        self.demand: tuple[Path, ...] = ()
+        self.warmup = 0.0
         self.net_file = net_file
         self.name = name
         if name == "oval" and edges == LOOP_EDGES:
@@ -851,7 +854,9 @@ def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: fl
 
     scn = load_scenario(scenario, build=False)
     checkpoints = scn.checkpoints or None
-    return Road(path, scn.edges, checkpoints, from_edge=scn.from_edge, to_edge=scn.to_edge, name=scn.name)
+    road = Road(path, scn.edges, checkpoints, from_edge=scn.from_edge, to_edge=scn.to_edge, name=scn.name)
+    road.demand, road.warmup = scn.demand, scn.warmup
+    return road
 
 
 def load_road(

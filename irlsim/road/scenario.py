@@ -17,6 +17,10 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     # from = "a"
     # to = "c"
 
+    [traffic]                # optional: the scenario's own SUMO demand instead of irlsim's spawner
+    routes = ["demand.rou.xml"]
+    warmup = 60.0            # [s] before the ego enters
+
     [[checkpoints]]          # optional: (x, y) on the route and the lane required there (0 = rightmost)
     x = 250.0
     y = 0.0
@@ -88,6 +92,22 @@ class RouteSpec:
 
 
 @dataclass(frozen=True)
+class TrafficSpec:
+    """The scenario's own SUMO demand instead of irlsim's spawner (which keeps ``n_vehicles`` around the
+    ego): route / flow files whose vehicles enter and leave as SUMO drives them."""
+
+    routes: tuple[str, ...] = ()
+    """SUMO route files (.rou.xml: vehicles, flows, their types), relative to the scenario file; a path
+    starting with ``sumo_tools/`` is inside the installed eclipse-sumo wheel's tools folder"""
+    warmup: float = 0.0
+    """[s] simulated before the ego enters, so the demand has filled the road"""
+
+    def validate(self) -> None:
+        if not 0.0 <= self.warmup <= 3600.0:
+            raise IrlsimError(f"scenario: [traffic] warmup must be in [0, 3600] s, got {self.warmup}")
+
+
+@dataclass(frozen=True)
 class CheckpointSpec:
     x: float
     """[m] world x of a point on the route"""
@@ -106,6 +126,7 @@ class ScenarioFile:
     name: str = ""
     description: str = ""
     checkpoints: tuple[CheckpointSpec, ...] = ()
+    traffic: TrafficSpec = TrafficSpec()
 
 
 @dataclass(frozen=True)
@@ -120,6 +141,8 @@ class Scenario:
     to_edge: str
     checkpoints: tuple[tuple[float, float, int], ...]
     description: str = ""
+    demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
+    warmup: float = 0.0  # [s] before the ego enters
 
     def digest(self) -> str:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
@@ -182,8 +205,20 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
         from_edge=sf.route.from_edge,
         to_edge=sf.route.to_edge,
         checkpoints=tuple((c.x, c.y, c.lane) for c in sf.checkpoints),
+        demand=tuple(_route_file(path, r) for r in sf.traffic.routes),
+        warmup=sf.traffic.warmup,
         description=sf.description,
     )
+
+
+def _route_file(scenario: Path, name: str) -> Path:
+    if name.startswith("sumo_tools/"):
+        p = Path(sumo_home()) / "tools" / name.removeprefix("sumo_tools/")
+    else:
+        p = scenario.parent / name
+    if not p.is_file():
+        raise IrlsimError(f"scenario {scenario}: route file {p} not found: fix [traffic] routes")
+    return p
 
 
 def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:

@@ -27,17 +27,13 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.traffic import BackgroundTraffic, LoopEdges, _wrap
+from irlsim.sim.start import draw_start
+from irlsim.sim.traffic import BackgroundTraffic, LoopEdges, wrap_route
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
 MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
-#: the ego's random start draws from default_rng([seed, 1]), the traffic from default_rng(seed): a start
-#: of its own, and the traffic of a fixed start as before
-_START_STREAM = 1
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
-#: [m] a random start on an open route leaves at least this much of the route ahead
-OPEN_START_RESERVE = 300.0
 #: SUMO signal states on a link: red (and red-yellow), and yellow; the stop line binds while either shows
 RED_STATES = ("r", "R", "u")
 YELLOW_STATES = ("y", "Y")
@@ -108,6 +104,7 @@ class Simulation:
             str(self.road.net_file),
             "--additional-files",
             str(self.vtypes_file),
+            *(["--route-files", ",".join(str(p) for p in self.road.demand)] if self.road.demand else []),
             "--step-length",
             f"{self.cfg.step}",
             "--seed",
@@ -205,6 +202,8 @@ class Simulation:
         route_laps = int(cfg.max_time * 30.0 / road.lap_length) + 3
         self.traffic = BackgroundTraffic(api, road, cfg, rng, route_laps, self._edges)
         self.traffic.add_routes()
+        for _ in range(int(round(road.warmup / cfg.step))):  # the scenario's own demand fills the road
+            api.simulationStep()
         # the ego: inserted where it starts, then placed exactly by moveToXY
         s0, lane0, v0 = self.ego_start(seed)
         if road.lanes_vary:  # a lane the road lacks there: the nearest one it has
@@ -266,37 +265,10 @@ class Simulation:
         return self.observe()
 
     def ego_start(self, seed: int) -> tuple[float, int, float]:
-        """The ego's start for an episode with ``seed``: (route position s [m], lane, speed [m/s]).
-
-        With ``cfg.ego_start_random`` a function of the seed alone (see ScenarioConfig): s is drawn
-        uniformly from the loop edges (1 m clear of their ends, where insertion is fragile) outside the
-        stop-line / exit and checkpoint clearances, by rejection from batches of uniform draws.
-        """
-        cfg, lap = self.cfg, self.road.lap_length
-        if not cfg.ego_start_random:
-            return cfg.ego_start_s, cfg.ego_start_lane, cfg.ego_start_speed
-        rng = np.random.default_rng([int(seed), _START_STREAM])
-        e = self._edges
-        marks = np.array([sl.s for sl in self.road.stop_lines] + [ex.s_start for ex in self.road.exits])
-        cps = np.array([c.s for c in self.road.checkpoints])
-        for _ in range(8):
-            s = rng.uniform(0.0, lap, 256)
-            u = np.stack([s, s + lap], axis=1)[:, :, None]  # [C, 2, 1] e.s0 / e.s1 may exceed lap
-            on_edge = ((u >= e.s0 + 1.0) & (u <= e.s1 - 1.0)).any(axis=(1, 2))
-            gap = np.abs(_wrap(s[:, None] - marks, lap))  # [C, marks]
-            clear = (gap >= cfg.ego_start_clearance).all(axis=1)
-            before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance).any(axis=1)
-            room = s <= self.road.route_end_s - OPEN_START_RESERVE  # always on a loop (inf)
-            ok = np.flatnonzero(on_edge & clear & ~before_cp & room)
-            if len(ok):
-                s0 = float(s[ok[0]])
-                lane = int(rng.integers(0, self.road.n_lanes))
-                speed = float(rng.uniform(cfg.ego_start_speed_min, cfg.ego_start_speed_max))
-                return s0, lane, speed
-        raise IrlsimError(
-            f"ego_start_clearance = {cfg.ego_start_clearance} m and ego_start_checkpoint_clearance = "
-            f"{cfg.ego_start_checkpoint_clearance} m leave no start on the loop: lower them"
-        )
+        """The ego's start for an episode with ``seed``: (route position s [m], lane, speed [m/s]); see
+        :func:`irlsim.sim.start.draw_start`."""
+        occupied = self._read_vehicles() if self.road.demand else None
+        return draw_start(self.road, self.cfg, self._edges, seed, occupied)
 
     def _sumo_state(self) -> EgoState:
         """Let SUMO's own driver model drive the ego for one step (its car following, lane changes,
@@ -318,7 +290,7 @@ class Simulation:
         x, y = api.vehicle.getPosition(EGO)
         yaw = float(wrap_angle(np.radians(90.0 - api.vehicle.getAngle(EGO))))
         s, d = road.to_frenet(np.array([x]), np.array([y]))
-        s_un = prev.s + float(_wrap(float(s[0]) - prev.s, road.lap_length))
+        s_un = prev.s + float(wrap_route(float(s[0]) - prev.s, road.lap_length))
         return EgoState(
             t=float(api.simulation.getTime()),
             x=float(x),

@@ -107,14 +107,14 @@ class BackgroundTraffic:
         """No insertion near the ego, just before a stop line, within ``insert_gap`` of a vehicle in the
         same lane or (``spacing``) within ``insert_spacing`` of a vehicle in any lane."""
         lap = self.road.lap_length
-        if abs(_wrap(s - ego_s, lap)) < self.cfg.spawn_clearance:
+        if abs(wrap_route(s - ego_s, lap)) < self.cfg.spawn_clearance:
             return False
         for sl in self.road.stop_lines:  # a vehicle must have room to stop at the line
             if -2.0 <= (sl.s - s) % lap <= self.cfg.stop_line_keep_out or (s - sl.s) % lap < 2.0:
                 return False
         gap_any = self.cfg.insert_spacing if spacing else 0.0
         for so, ln in occupied:
-            ds = abs(_wrap(s - so, lap))
+            ds = abs(wrap_route(s - so, lap))
             if ds < gap_any or (ln == lane and ds < self.cfg.insert_gap):
                 return False
         return True
@@ -152,7 +152,7 @@ class BackgroundTraffic:
         inside its slot (so they are evenly spread, most of them behind the ego); a slot without a free
         spot hands its vehicle to a draw over the whole span with the same-lane gap only."""
         missing = self.cfg.n_vehicles - (vehicles.count + len(self.pending))
-        if missing <= 0:
+        if missing <= 0 or self.road.demand:  # a scenario's own demand brings its vehicles itself
             return
         occupied = [
             (float(s), int(ln)) for s, ln in zip(vehicles.s, self.road.lane_of_d(vehicles.d), strict=False)
@@ -205,8 +205,8 @@ class BackgroundTraffic:
             self.pending = set()
         lap = self.road.lap_length
         ids = vehicles.ids
-        rel = _wrap(vehicles.s - ego_s, lap)
-        recycle = rel < -self.cfg.recycle_behind
+        rel = wrap_route(vehicles.s - ego_s, lap)
+        recycle = (rel < -self.cfg.recycle_behind) & (not self.road.demand)
         for i in np.flatnonzero(recycle):
             api.vehicle.remove(ids[i])
             self.counts["recycled"] += 1
@@ -230,7 +230,7 @@ class BackgroundTraffic:
         prev = np.array([old[v].s if v in old else s for v, s in zip(veh.ids, veh.s, strict=False)])
         since = np.array([old[v].stand_since if v in old else np.nan for v in veh.ids])
         stopped = np.array([old[v].stopped if v in old else [False] * n_lines for v in veh.ids], dtype=bool)
-        s_new = prev + _wrap(veh.s - prev, lap)
+        s_new = prev + wrap_route(veh.s - prev, lap)
         lines = np.array([sl.s for sl in self.road.stop_lines])  # [L]
         passed = np.ceil((s_new[:, None] - lines) / lap) - np.ceil((prev[:, None] - lines) / lap)  # [M, L]
         if passed.any():
@@ -249,7 +249,7 @@ class BackgroundTraffic:
         if self.road.signals:
             sig = np.array([g.s for g in self.road.signals])
             queue = np.concatenate([queue, (sig - s_new[:, None]) % lap <= self.cfg.bg_stuck_queue], axis=1)
-        waiting = standing & ~queue.any(axis=1)
+        waiting = standing & ~queue.any(axis=1) & (np.abs(veh.d) <= self.road.half_road + 0.3)  # on the route
         since = np.where(waiting, np.where(np.isnan(since), t, since), np.nan)
         over = waiting & (t - since > self.cfg.bg_stuck_time)
         if over.any():
@@ -276,6 +276,6 @@ class BackgroundTraffic:
         }
 
 
-def _wrap(ds: Any, lap: float) -> Any:
+def wrap_route(ds: Any, lap: float) -> Any:
     """Route distance wrapped into [-lap/2, lap/2)."""
     return (np.asarray(ds) + lap / 2) % lap - lap / 2
