@@ -44,7 +44,7 @@ from irlsim import FEATURE_NAMES
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.data.situations import SITUATION_NAMES, situation_of
-from irlsim.drive.closed_loop import load_drive_model
+from irlsim.reward import load_reward
 from irlsim.drive.dagger import DaggerDriver
 from irlsim.planner import LABEL_NAMES
 from irlsim.planner.expert import THETA_EXPERT, mission_lanes_away
@@ -384,7 +384,7 @@ def data_side(data: str, split: str, model: Any, shares: tuple[float, ...], max_
         th = (
             np.array(
                 [
-                    model.predictor.predict(t.features[i], t.control_points[i], t.actions[i])[0][PROX]
+                    model.predict(t.features[i], t.control_points[i], t.actions[i])[PROX]
                     for i in pick
                 ]
             )
@@ -414,7 +414,7 @@ def main() -> int:
     args = p.parse_args()
     cfg = load_config(CollectConfig, args.config)
     road = load_road()
-    model = load_drive_model(args.model, args.runs, cfg.planner.n_policies)
+    model = load_reward(args.model, args.runs, n_policies=cfg.planner.n_policies)
     episodes: dict[int, tuple[list[dict], str]] = {}
     for seed in args.seeds:
         rows, end = drive(model, road, cfg, seed, args.laps)

@@ -14,8 +14,8 @@ from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import evaluate_thetas, summarize
 from irlsim.models import build_model
+from irlsim.reward.predictor import RewardPredictor
 from irlsim.train import (
-    RewardPredictor,
     Stage1Config,
     Stage2Config,
     evaluate_models,
@@ -25,7 +25,7 @@ from irlsim.train import (
 )
 from irlsim.train.batching import predict_split
 from irlsim.train.evaluate import REFERENCE_ROWS
-from irlsim.train.synthetic import make_synthetic_dataset
+from irlsim.bench.synthetic import make_synthetic_dataset
 
 
 @pytest.fixture(scope="module")
