@@ -17,7 +17,7 @@ from irlsim.irl.objectives import (
     optimal_policy_distance,
     summarize,
 )
-from irlsim.train.synthetic import make_split
+from irlsim.bench.synthetic import make_split
 
 torch.manual_seed(0)
 

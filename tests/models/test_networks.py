@@ -14,7 +14,7 @@ from irlsim.models import (
     compute_feature_stats,
     count_parameters,
 )
-from irlsim.train.synthetic import default_theta_true, make_split
+from irlsim.bench.synthetic import default_theta_true, make_split
 
 B, N, K = 3, 64, 10
 CFG = ModelConfig(
