@@ -42,10 +42,7 @@ def predict_theta(ds: Any, split: str, checkpoint: Path) -> np.ndarray:
     assert not model.is_expert, f"{checkpoint} is no learned model"
     print(f"theta of {checkpoint} on {t.n_cycles} {split} cycles ...", flush=True)
     return np.array(
-        [
-            model.predict(t.features[i], t.control_points[i], t.actions[i])
-            for i in range(t.n_cycles)
-        ]
+        [model.predict(t.features[i], t.control_points[i], t.actions[i]) for i in range(t.n_cycles)]
     )
 
 
