@@ -47,3 +47,23 @@ def test_dagger_round_steps_are_the_commands_it_records():
         for cmd, train in zip(plan.commands[1:], plan.train, strict=True):
             assert _request(cmd) == train
         assert plan.train[0].config.epochs == cfg.epochs[r - 1] and plan.train[0].config.seed == 1
+
+
+def test_a_chain_steps_exit_status_is_the_commands(capsys):
+    from irlsim.errors import IrlsimError
+    from irlsim.workflows.steps import exit_status
+
+    def fails(error: BaseException):
+        def step() -> bool:
+            raise error
+
+        return step
+
+    assert exit_status(lambda: True) == 0 and exit_status(lambda: False) == 1
+    assert exit_status(fails(IrlsimError("bad thing: fix it"))) == 2
+    assert capsys.readouterr().err == "irlsim: error: bad thing: fix it\n"
+    assert exit_status(fails(PermissionError(13, "Permission denied", "/x"))) == 1
+    assert "/x" in capsys.readouterr().err
+    assert exit_status(fails(KeyboardInterrupt())) == 130
+    with pytest.raises(ValueError):  # a bug is no user error: it propagates
+        exit_status(fails(ValueError("bug")))
