@@ -2,7 +2,7 @@
 
 Table I (model, trainable parameters, EVD, ED, OPD, DEMO) on the sequential test split with a history of
 H cycles, reference rows, breakdowns, convergence plots and the OPD distribution per model
-(:func:`irlsim.train.evaluate.evaluate_models`), plus temporal-weight strips of temporal models.
+(:func:`irlsim.evaluate.evaluate_models`), plus temporal-weight strips of temporal models.
 """
 
 from __future__ import annotations
@@ -14,8 +14,8 @@ from pathlib import Path
 from irlsim import devices
 from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
+from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
-from irlsim.train.evaluate import evaluate_models
 from irlsim.viz.temporal import save_situation_strips
 
 

@@ -27,8 +27,8 @@ def tiny_config(**scenario) -> CollectConfig:
 @pytest.fixture(scope="session")
 def tiny_runs(tmp_path_factory):
     """A runs folder with PACNN+S (1 epoch) and PTACNN+S (1 epoch, H = 4) for 200-policy cycles."""
-    from irlsim.train import Stage1Config, Stage2Config, train_stage1, train_stage2
     from irlsim.bench.synthetic import make_synthetic_dataset
+    from irlsim.train import Stage1Config, Stage2Config, train_stage1, train_stage2
 
     runs = tmp_path_factory.mktemp("runs")
     data = make_synthetic_dataset(n_train=32, n_eval=16, n_policies=TINY_POLICIES, seed=0)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from irlsim.drive import EPISODE_KEYS, PictureSpec, drive_episode
-from irlsim.reward import load_reward
 from irlsim.errors import IrlsimError
+from irlsim.reward import load_reward
 from tests.drive.conftest import TINY_POLICIES, tiny_config
 
 TINY_TOML = f"""

@@ -9,11 +9,12 @@ from pathlib import Path
 import pytest
 import torch
 
-from irlsim.errors import IrlsimError
-from irlsim.outputs import os_error_message
-from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
-from irlsim.train.layout import stage_dir
 from irlsim.bench.synthetic import make_synthetic_dataset
+from irlsim.errors import IrlsimError
+from irlsim.evaluate import evaluate_models
+from irlsim.outputs import os_error_message
+from irlsim.train import Stage1Config, Stage2Config, load_model, train_stage1, train_stage2
+from irlsim.train.layout import stage_dir
 from tests.conftest import one_line, train_synthetic_runs
 
 

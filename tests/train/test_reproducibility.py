@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from irlsim.train import Stage1Config, load_model, train_stage1
 from irlsim.bench.synthetic import make_synthetic_dataset
+from irlsim.train import Stage1Config, load_model, train_stage1
 
 ROOT = Path(__file__).resolve().parents[2]
 
