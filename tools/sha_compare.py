@@ -67,20 +67,20 @@ def csv_rows(text: str) -> list[list[str]]:
 
 
 def md_equal_but_timings(x: str, y: str) -> bool:
-    """Equal once the table columns whose header names a time are dropped."""
+    """Equal once the table columns whose header (the row above a ``|---`` row) names a time are dropped."""
     lx, ly = x.splitlines(), y.splitlines()
     if len(lx) != len(ly):
         return False
     drop: set[int] = set()
-    for u, v in zip(lx, ly, strict=True):
+    for i, (u, v) in enumerate(zip(lx, ly, strict=True)):
+        if i + 1 < len(lx) and lx[i + 1].startswith("|---") and u == v:
+            drop = {k for k, c in enumerate(u.split("|")) if any(t in c for t in MD_TIMING)}
         if u == v:
-            if u.startswith("|") and not u.startswith("|---"):
-                drop = {i for i, c in enumerate(u.split("|")) if any(t in c for t in MD_TIMING)}
             continue
         cu, cv = u.split("|"), v.split("|")
         if not u.startswith("|") or len(cu) != len(cv):
             return False
-        if any(cu[i] != cv[i] for i in range(len(cu)) if i not in drop):
+        if any(cu[k] != cv[k] for k in range(len(cu)) if k not in drop):
             return False
     return True
 
