@@ -105,6 +105,7 @@ class LearnedReward:
         """theta [15] of one cycle given as arrays (a stored cycle of a dataset, no PolicySet):
         ``features`` [N, 15], ``control_points`` [N, K, 3], ``actions`` [N, K, 2]. Every call is a new
         cycle (a temporal model's history advances); sets :attr:`info`."""
+        self._last_set = None  # the history moved on: a set seen before is predicted anew
         info: dict[str, Any] = {}
         if self.predictor is None:
             theta = THETA_EXPERT.copy()

@@ -73,6 +73,9 @@ def test_temporal_history_advances_once_per_set_and_resets(tiny_runs, policy_set
     reward.reset()
     reward.theta(a)
     np.testing.assert_array_equal(reward.theta(b), after_a)  # reset: the same episode, the same thetas
+    # predict() on a stored cycle's arrays is a cycle too: the same set afterwards is predicted anew
+    reward.predict(a.features, a.control_points, a.actions)
+    assert not np.array_equal(reward.theta(b), after_a)
 
 
 def test_expert_and_expert_theta(policy_sets):
