@@ -2,7 +2,10 @@
 
 Implements Rosbach et al., "Planning on the fast lane", IROS 2020. Packages are split by noun:
 ``road`` (geometry), ``sim`` (SUMO), ``planner`` (sampling + features + expert), ``data`` (Parquet),
-``irl`` (losses, metrics), ``models`` (networks), ``viz`` (pictures). Stages live in ``pipelines``.
+``irl`` (losses, metrics), ``models`` (networks), ``train``, ``reward`` (a trained model's reward:
+``irlsim.reward.load_reward``), ``drive`` (closed loop), ``viz`` (pictures), ``workflows`` (each command's
+work as a function with a typed request), ``bench``. The command line's argument parsing lives in
+``pipelines``.
 """
 
 __version__ = "0.1.0"

@@ -1,7 +1,8 @@
 """``irlsim demo`` (``make demo``): the whole chain on the small default configuration.
 
 net -> collect (configs/collect/default.toml) -> train stage 1 -> train stage 2 -> evaluate -> drive.
-Each step is the same command a user would type (printed before it runs); finished steps resume.
+Each step is a library call (:mod:`irlsim.workflows`), printed before it runs as the command a user would
+type to do the same; finished steps resume.
 ``--preset tiny`` runs the same chain on the smoke configs (configs/collect/tiny.toml,
 configs/train/tiny_stage*.toml) with short drives: a check that every stage connects, in about a minute.
 """
@@ -10,11 +11,21 @@ from __future__ import annotations
 
 import argparse
 import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
-from irlsim.config import int_in
+from irlsim.config import int_in, load_config
+from irlsim.data.collection import CollectConfig
 from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE
-from pipelines.commands import main
+from irlsim.train.config import Stage1Config, Stage2Config
+from irlsim.workflows.collect import CollectRun, collect_dataset
+from irlsim.workflows.drive import DriveRun, drive_models
+from irlsim.workflows.evaluate import EvaluateRun, evaluate_runs
+from irlsim.workflows.net import build_network
+from irlsim.workflows.steps import exit_status
+from irlsim.workflows.train import TrainRun, train_models
 
 HELP = "run the whole chain on the default config: net, collect, train (2 stages), evaluate, drive"
 
@@ -39,67 +50,96 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 DRIVE_MODELS = ("expert", "expert-theta", "LIRL", "PACNN+S", "PTACNN+S")
 
 
-def steps(args: argparse.Namespace) -> list[list[str]]:
+@dataclass(frozen=True)
+class Step:
+    """One step of the chain: the library call ``call(request)``, and the ``irlsim`` command line that
+    does the same (what the demo prints before the step runs, for the user to re-type)."""
+
+    command: tuple[str, ...]
+    request: Any
+    """the workflow's typed request (``CollectRun``, ``TrainRun``, ...; the net has none)"""
+    call: Callable[[Any], bool]
+    """the workflow, True when it finished"""
+
+    def run(self) -> bool:
+        return self.call(self.request)
+
+
+def _built(force: bool) -> bool:
+    return bool(build_network(force))
+
+
+def _collected(run: CollectRun) -> bool:
+    return collect_dataset(run).ok
+
+
+def _trained(run: TrainRun) -> bool:
+    return bool(train_models(run))
+
+
+def _evaluated(run: EvaluateRun) -> bool:
+    return bool(evaluate_runs(run))
+
+
+def _driven(run: DriveRun) -> bool:
+    return drive_models(run) is not None
+
+
+def steps(args: argparse.Namespace) -> list[Step]:
     preset = args.preset
-    data, runs = str(args.data), str(args.runs)
-    # tiny: a few planning cycles per model are enough to show that the checkpoints drive
-    drive_args = (
-        ["--episodes", "1", "--laps", "1", "--max-cycles", "30", "--frames", "3"]
-        if preset == "tiny"
-        else ["--episodes", "3", "--laps", "1"]
-    )
+    data, runs = Path(args.data), Path(args.runs)
+    collect_toml = CONFIGS / "collect" / f"{preset}.toml"
+    stage1_toml = CONFIGS / "train" / f"{_train(preset)}stage1.toml"
+    stage2_toml = CONFIGS / "train" / f"{_train(preset)}stage2.toml"
+    train = ("--data", str(data), "--out", str(runs))
     out = [
-        ["net"],
-        [
-            "collect",
-            "--config",
-            str(CONFIGS / "collect" / f"{preset}.toml"),
-            "--out",
-            data,
-            "--seed",
-            str(args.seed),
-        ],
-        [
-            "train",
-            "--stage",
-            "1",
-            "--config",
-            str(CONFIGS / "train" / f"{_train(preset)}stage1.toml"),
-            "--data",
-            data,
-            "--out",
-            runs,
-        ],
-        [
-            "train",
-            "--stage",
-            "2",
-            "--config",
-            str(CONFIGS / "train" / f"{_train(preset)}stage2.toml"),
-            "--data",
-            data,
-            "--out",
-            runs,
-        ],
-        ["evaluate", "--data", data, "--runs", runs, "--out", f"{runs}/eval"],
+        Step(("net",), False, _built),
+        Step(
+            ("collect", "--config", str(collect_toml), "--out", str(data), "--seed", str(args.seed)),
+            CollectRun(load_config(CollectConfig, collect_toml, {"seed": args.seed}), data),
+            _collected,
+        ),
+        Step(
+            ("train", "--stage", "1", "--config", str(stage1_toml), *train),
+            TrainRun(load_config(Stage1Config, stage1_toml), (data,), runs),
+            _trained,
+        ),
+        Step(
+            ("train", "--stage", "2", "--config", str(stage2_toml), *train),
+            TrainRun(load_config(Stage2Config, stage2_toml), (data,), runs),
+            _trained,
+        ),
+        Step(
+            ("evaluate", "--data", str(data), "--runs", str(runs), "--out", str(runs / "eval")),
+            EvaluateRun((data,), runs, runs / "eval"),
+            _evaluated,
+        ),
     ]
     if not args.skip_drive:
-        drive = [
-            "drive",
-            "--runs",
+        # tiny: a few planning cycles per model are enough to show that the checkpoints drive
+        tiny = preset == "tiny"
+        drive = DriveRun(
+            DRIVE_MODELS,
             runs,
-            "--model",
-            ",".join(DRIVE_MODELS),
-            *drive_args,
-            "--seed",
-            str(100 + args.seed),
-            "--config",
-            str(CONFIGS / "collect" / f"{preset}.toml"),
-        ]
+            episodes=1 if tiny else 3,
+            laps=1,
+            seed=100 + args.seed,
+            config_file=collect_toml,
+            out=runs / "drive",
+            frames=3 if tiny else 40,
+            max_cycles=30 if tiny else 0,
+        )
+        line = ["drive", "--runs", str(runs), "--model", ",".join(DRIVE_MODELS)]
+        line += ["--episodes", "1", "--laps", "1", "--max-cycles", "30", "--frames", "3"] if tiny else []
+        line += [] if tiny else ["--episodes", "3", "--laps", "1"]
+        line += ["--seed", str(100 + args.seed), "--config", str(collect_toml)]
         # as in the paper: the learned reward alone, no model-based collision check ...
-        out.append([*drive, "--out", f"{runs}/drive"])
+        out.append(Step((*line, "--out", str(runs / "drive")), drive, _driven))
         # ... and with the expert's model-based filter (collision / off-road / exit labels) added
-        out.append([*drive, "--safety", "--frames", "0", "--out", f"{runs}/drive_safety"])
+        safety = replace(drive, safety=True, frames=0, out=runs / "drive_safety")
+        out.append(
+            Step((*line, "--safety", "--frames", "0", "--out", str(runs / "drive_safety")), safety, _driven)
+        )
     return out
 
 
@@ -140,10 +180,11 @@ def expand(pattern: str) -> list[Path]:
 def run(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
-    for cmd in steps(args):
+    for step in steps(args):
+        cmd = step.command
         print(f"\n$ irlsim {' '.join(cmd)}", flush=True)
         t_step = time.perf_counter()
-        rc = main(cmd)
+        rc = exit_status(step.run)
         if rc != 0:
             print(f"demo: step 'irlsim {cmd[0]}' failed (exit {rc}); fix it and re-run 'make demo' to resume")
             return rc

@@ -1,19 +1,16 @@
 """``irlsim evaluate``: Table I (model, trainable parameters, EVD, ED, OPD, DEMO) on the sequential test
-split with a history of H cycles, convergence plots and the OPD distribution per model."""
+split with a history of H cycles, convergence plots and the OPD distribution per model: the arguments
+become an :class:`irlsim.workflows.evaluate.EvaluateRun` for
+:func:`irlsim.workflows.evaluate.evaluate_runs`."""
 
 from __future__ import annotations
 
 import argparse
-import functools
 from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import int_in
-from irlsim.data.aggregate import open_datasets
-from irlsim.errors import IrlsimError
-from irlsim.outputs import check_output_dir
-from irlsim.train.evaluate import evaluate_models
-from irlsim.viz.temporal import save_situation_strips
+from irlsim.workflows.evaluate import EvaluateRun, evaluate_runs
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
 
@@ -52,31 +49,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     devices.add_arguments(p, "evaluation")
 
 
-def run(args: argparse.Namespace) -> int:
-
-    if args.history is not None and args.history < 1:
-        raise IrlsimError(f"--history must be >= 1, got {args.history}")
-    if args.threads < 1:
-        raise IrlsimError(f"--threads must be >= 1, got {args.threads}")
-    device = devices.resolve_device(args.device)
-    out = args.out or args.runs / "eval"
-    check_output_dir(out, "--out")
-    if not args.runs.is_dir():
-        raise IrlsimError(f"runs folder {args.runs} not found: train first with 'irlsim train --stage 1'")
-    with devices.use(device, args.precision):
-        evaluate_models(
-            open_datasets(args.data),
-            args.runs,
-            out,
-            H=args.history,
-            split=args.split,
-            threads=args.threads,
-            references=not args.no_references,
-            strips=functools.partial(save_situation_strips, out),
-        )
-    print((out / "results.md").read_text())
-    print(
-        f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png"
-        " (and temporal_<model>_<situation>.png for temporal models)"
+def request(args: argparse.Namespace) -> EvaluateRun:
+    """The parsed arguments as the library's request."""
+    return EvaluateRun(
+        tuple(args.data),
+        args.runs,
+        args.out,
+        args.split,
+        args.history,
+        args.threads,
+        not args.no_references,
+        args.device,
+        args.precision,
     )
+
+
+def run(args: argparse.Namespace) -> int:
+    evaluate_runs(request(args))
     return 0

@@ -1,11 +1,11 @@
-"""``irlsim net``: build the oval's SUMO network from sumo_net/ and describe it."""
+"""``irlsim net``: build the oval's SUMO network from sumo_net/ and describe it
+(:func:`irlsim.workflows.net.build_network`)."""
 
 from __future__ import annotations
 
 import argparse
 
-from irlsim.road import load_road
-from irlsim.road.network import build_net
+from irlsim.workflows.net import build_network
 
 HELP = "build the SUMO network of the oval course (sumo_net/oval.net.xml) and describe it"
 
@@ -15,10 +15,5 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-
-    path = build_net(force=args.force)
-    road = load_road(path)
-    print(f"network: {path}")
-    for key, value in road.describe().items():
-        print(f"  {key}: {value}")
+    build_network(force=args.force)
     return 0

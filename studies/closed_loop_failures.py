@@ -44,10 +44,10 @@ from irlsim import FEATURE_NAMES
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.data.situations import SITUATION_NAMES, situation_of
-from irlsim.drive.closed_loop import load_drive_model
 from irlsim.drive.dagger import DaggerDriver
 from irlsim.planner import LABEL_NAMES
 from irlsim.planner.expert import THETA_EXPERT, mission_lanes_away
+from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.rollout.runner import Cycle, EpisodeRunner, ObserverBase
 from irlsim.sim.simulation import Simulation
@@ -382,12 +382,7 @@ def data_side(data: str, split: str, model: Any, shares: tuple[float, ...], max_
         v = cyc["ego_v"].to_numpy()[md]
         pick = idx if len(idx) <= max_theta else np.sort(rng.choice(idx, max_theta, replace=False))
         th = (
-            np.array(
-                [
-                    model.predictor.predict(t.features[i], t.control_points[i], t.actions[i])[0][PROX]
-                    for i in pick
-                ]
-            )
+            np.array([model.predict(t.features[i], t.control_points[i], t.actions[i])[PROX] for i in pick])
             if len(pick)
             else np.zeros(0)
         )
@@ -414,7 +409,7 @@ def main() -> int:
     args = p.parse_args()
     cfg = load_config(CollectConfig, args.config)
     road = load_road()
-    model = load_drive_model(args.model, args.runs, cfg.planner.n_policies)
+    model = load_reward(args.model, args.runs, n_policies=cfg.planner.n_policies)
     episodes: dict[int, tuple[list[dict], str]] = {}
     for seed in args.seeds:
         rows, end = drive(model, road, cfg, seed, args.laps)

@@ -27,7 +27,7 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES
 from irlsim.data.reader import open_dataset
-from irlsim.drive.closed_loop import load_drive_model
+from irlsim.reward import load_reward
 from irlsim.road.geometry import load_road
 
 BANDS = ((0.0, 50.0), (50.0, 110.0), (110.0, 200.0), (200.0, 400.0))
@@ -38,14 +38,11 @@ def predict_theta(ds: Any, split: str, checkpoint: Path) -> np.ndarray:
     """[C, 15] the checkpoint's theta on every cycle of the split of dataset ``ds``, ordered as its
     cycles table (episode, cycle)."""
     t = ds.split_tensors(split)
-    model = load_drive_model(str(checkpoint), str(checkpoint.parent), int(t.features.shape[1]))
-    assert model.predictor is not None, f"{checkpoint} is no learned model"
+    model = load_reward(str(checkpoint), str(checkpoint.parent), n_policies=int(t.features.shape[1]))
+    assert not model.is_expert, f"{checkpoint} is no learned model"
     print(f"theta of {checkpoint} on {t.n_cycles} {split} cycles ...", flush=True)
     return np.array(
-        [
-            model.predictor.predict(t.features[i], t.control_points[i], t.actions[i])[0]
-            for i in range(t.n_cycles)
-        ]
+        [model.predict(t.features[i], t.control_points[i], t.actions[i]) for i in range(t.n_cycles)]
     )
 
 

@@ -22,6 +22,8 @@ from html import escape
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+if str(ROOT) not in sys.path:  # the top-level packages (studies is not installed) import from the checkout
+    sys.path.insert(0, str(ROOT))
 OUT = ROOT / "docs" / "img" / "import_graph.svg"
 
 ROW = 30  # px between node rows

@@ -2,7 +2,7 @@
 
 Every planning cycle (0.2 s): the planner samples its reward-agnostic policy set from the ego's state, the
 model predicts theta from that set (PTACNN(+S) from its online history of the last H cycles' contexts and
-thetas, kept by :class:`~irlsim.train.predictor.RewardPredictor` and reset per episode), and the ego
+thetas, kept by :class:`~irlsim.reward.predictor.RewardPredictor` and reset per episode), and the ego
 executes the policy of highest value V = -theta^T f for one cycle. As in the paper, learned models drive
 without a model-based collision check; ``safety=True`` adds the planner's label filter (drop policies
 predicted to collide, leave the road or take an exit). ``'expert'`` drives the demonstrator itself
@@ -17,7 +17,7 @@ import time
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -25,118 +25,16 @@ from irlsim.data.collection import CollectConfig
 from irlsim.drive.metrics import episode_metrics
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
-from irlsim.planner.planner import Planner
+from irlsim.planner.expert import THETA_EXPERT
 from irlsim.planner.policy_set import PolicySet
+from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
 from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
 from irlsim.sim.simulation import Simulation
-from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.types import Observation
 from irlsim.utils import progress, seed_everything
 from irlsim.viz.frames import save_animation, save_frame_pictures
 from irlsim.viz.scene import CycleFrame, make_frame
-
-EXPERT = "expert"
-#: the expert's hand-tuned theta alone: argmax V every cycle, without the expert's model-based selection
-#: (the best a single linear reward of these features is known to do; LIRL's reference)
-EXPERT_THETA = "expert-theta"
-
-
-class ThetaPredictor(Protocol):
-    """What drives a learned model: theta [15] (and pictures' info) from one cycle's policy set;
-    :class:`irlsim.train.predictor.RewardPredictor` and :class:`FixedTheta` are ones."""
-
-    name: str
-
-    def predict(
-        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
-    ) -> tuple[np.ndarray, dict[str, Any]]: ...
-
-    def reset(self) -> None: ...
-
-
-class FixedTheta:
-    """A reward 'predictor' that always returns the expert's theta (``expert-theta``)."""
-
-    name = EXPERT_THETA
-
-    def predict(
-        self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
-    ) -> tuple[np.ndarray, dict[str, Any]]:
-        return THETA_EXPERT.copy(), {}
-
-    def reset(self) -> None:
-        pass
-
-
-@dataclass
-class DriveModel:
-    """What drives: the expert (``predictor`` None) or a trained model's online reward predictor."""
-
-    name: str
-    checkpoint: Path | None = None
-    predictor: ThetaPredictor | None = None
-
-    @property
-    def is_expert(self) -> bool:
-        return self.predictor is None
-
-
-def model_names() -> tuple[str, ...]:
-    from irlsim.models.registry import MODEL_NAMES  # lazy: pulls torch (~1.5 s); the expert drives without it
-
-    return (EXPERT, EXPERT_THETA, *MODEL_NAMES)
-
-
-def load_drive_model(
-    spec: str | Path, runs: str | Path | None = None, n_policies: int | None = None, threads: int = 1
-) -> DriveModel:
-    """Resolve ``spec``: 'expert', 'expert-theta', a model name (found in ``runs`` by
-    :func:`irlsim.train.layout.find_checkpoint`: ``<runs>/stage1/<name>/``, ``<runs>/stage2/<name>/`` or
-    ``<runs>/<name>/``) or a checkpoint path.
-
-    ``n_policies``: the planner's policies per cycle; a checkpoint trained on another count is refused
-    (the networks are built for the training set's N, and the features would not match anyway).
-    """
-    # lazy: these import torch (~1.5 s); the expert and expert-theta drive without it
-    from irlsim.models.registry import MODEL_NAMES
-    from irlsim.train.layout import find_checkpoint, model_stage, stage_dir
-    from irlsim.train.predictor import RewardPredictor
-
-    spec = str(spec)
-    if spec == EXPERT:
-        return DriveModel(EXPERT)
-    if spec == EXPERT_THETA:
-        return DriveModel(EXPERT_THETA, predictor=FixedTheta())
-    if spec in MODEL_NAMES:
-        if runs is None:
-            raise IrlsimError(f"model '{spec}' needs --runs (the runs folder 'irlsim train --out' wrote)")
-        found = find_checkpoint(runs, spec)
-        if found is None:
-            stage = model_stage(spec)
-            raise IrlsimError(
-                f"checkpoint {stage_dir(runs, stage) / spec / 'checkpoint.pt'} not found: run 'irlsim train "
-                f"--stage {stage} --out {runs}' first (or point --runs at the folder holding it)"
-            )
-        path = found
-    else:
-        path = Path(spec)
-        if not (path.suffix == ".pt" or "/" in spec):
-            raise IrlsimError(
-                f"unknown model '{spec}': choose from {', '.join(model_names())} or give a checkpoint path"
-            )
-        if not path.is_file():
-            raise IrlsimError(f"checkpoint {path} not found: run 'irlsim train' first (or fix the path)")
-    predictor = RewardPredictor(path, threads=threads)
-    ck = predictor.loaded.checkpoint
-    trained_n = int((ck.get("base") or ck).get("n_policies", 0))
-    if n_policies is not None and trained_n and trained_n != n_policies:
-        raise IrlsimError(
-            f"{predictor.name} ({path}) was trained on {trained_n} policies per cycle, but the planner "
-            f"samples {n_policies}: pass the collect --config the model was trained on"
-        )
-    return DriveModel(predictor.name, path, predictor)
-
 
 # ------------------------------------------------------------------------------------------ pictures
 
@@ -238,62 +136,10 @@ class FrameRecorder:
 # ------------------------------------------------------------------------------------------ the episode
 
 
-class _Decider:
-    """The driver of one model plus per-cycle timing: ``plan(obs)`` returns the trajectory; afterwards
-    ``last_policy_set``, ``last_index``, ``theta``, ``info``, ``plan_ms`` and ``inference_ms`` describe the
-    cycle (a :class:`~irlsim.rollout.PolicyDriver`)."""
-
-    def __init__(
-        self, model: DriveModel, road: Road, cfg: CollectConfig, safety: bool, planner: Planner | None = None
-    ):
-        """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
-        expert's, so the expert labels the very set the learner chose from); default: its own."""
-        self.model = model
-        self.info: dict[str, Any] = {}
-        self.inference_ms = 0.0
-        self.plan_ms = 0.0
-        self.theta: np.ndarray = THETA_EXPERT
-        self.last_policy_set: PolicySet | None = None
-        self.last_index = -1
-        self.driver: ExpertDriver | ThetaDriver
-        if model.is_expert:
-            self.driver = ExpertDriver(road, cfg.planner)
-            self.planner = self.driver.planner
-        else:
-            self.planner = planner if planner is not None else Planner(road, cfg.planner)
-            self.driver = ThetaDriver(self.planner, self._theta, safe=safety)
-
-    def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
-        assert self.model.predictor is not None
-        t0 = time.perf_counter()
-        theta, info = self.model.predictor.predict(ps.features, ps.control_points, ps.actions)
-        self.inference_ms = 1e3 * (time.perf_counter() - t0)
-        self.info = info
-        return theta
-
-    def reset(self) -> None:
-        if self.model.predictor is not None:
-            self.model.predictor.reset()
-
-    def plan(self, obs: Observation) -> Trajectory:
-        t0 = time.perf_counter()
-        traj = self.driver.plan(obs)
-        total_ms = 1e3 * (time.perf_counter() - t0)
-        self.plan_ms = float(self.planner.last_ms)
-        if isinstance(self.driver, ExpertDriver):  # its 'inference' is the model-based selection
-            self.inference_ms = max(total_ms - self.plan_ms, 0.0)
-            self.theta, self.info = THETA_EXPERT, {}
-        else:
-            assert self.driver.last_theta is not None
-            self.theta = self.driver.last_theta
-        self.last_policy_set, self.last_index = self.driver.last_policy_set, self.driver.last_index
-        return traj
-
-
 class _Timing(ObserverBase):
     """Observer: every cycle's planning and inference time [ms]; resets the model's online history."""
 
-    def __init__(self, decider: _Decider):
+    def __init__(self, decider: RewardDriver):
         self.decider = decider
         self.inference_ms: list[float] = []
         self.plan_ms: list[float] = []
@@ -309,7 +155,7 @@ class _Timing(ObserverBase):
 class _Pictures(ObserverBase):
     """Observer: hands the cycles a :class:`FrameRecorder` wants to it."""
 
-    def __init__(self, recorder: FrameRecorder, decider: _Decider):
+    def __init__(self, recorder: FrameRecorder, decider: RewardDriver):
         self.recorder, self.decider = recorder, decider
 
     def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
@@ -332,7 +178,7 @@ class _Progress(ObserverBase):
 
 
 def drive_episode(
-    model: DriveModel | str | Path,
+    model: LearnedReward | str | Path,
     road: Road,
     cfg: CollectConfig,
     seed: int,
@@ -348,8 +194,9 @@ def drive_episode(
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
-    ``model``: a :class:`DriveModel` (load it once with :func:`load_drive_model` to drive several
-    episodes), or a spec string resolved against ``runs``. ``cfg``: the collect config the model was trained
+    ``model``: a :class:`~irlsim.reward.LearnedReward` (load it once with
+    :func:`~irlsim.reward.load_reward` to drive several episodes), or a spec string resolved against
+    ``runs``. ``cfg``: the collect config the model was trained
     with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``). ``max_cycles`` > 0 stops
     early (end reason 'max_cycles'). ``pictures``: write stills and an animation (see :class:`PictureSpec`).
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (see :func:`_scores`).
@@ -361,11 +208,11 @@ def drive_episode(
     """
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
-    if not isinstance(model, DriveModel):
-        model = load_drive_model(model, runs, cfg.planner.n_policies)
+    if not isinstance(model, LearnedReward):
+        model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
     seed_everything(seed)
-    decider = _Decider(model, road, cfg, safety)
+    decider = RewardDriver(model, road, cfg.planner, safety)
     recorder = (
         FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))
         if pictures is not None and pictures.frames > 0

@@ -60,11 +60,11 @@ from gymnasium import spaces
 from irlsim import N_FEATURES
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
-from irlsim.drive.closed_loop import EXPERT, load_drive_model
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.planner import Planner
+from irlsim.reward import EXPERT, LearnedReward, load_reward
 from irlsim.road import LANE_WIDTH, load_road
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim.simulation import MAX_SEED, Simulation
@@ -109,20 +109,19 @@ def _resolve_reward(reward: Any, runs: Any, n_policies: int) -> tuple[str, Any]:
     path = Path(spec)
     if path.is_dir() and (path / "checkpoint.pt").is_file():
         spec = str(path / "checkpoint.pt")
-    model = load_drive_model(spec, runs, n_policies)
-    return model.name, _PredictorReward(model.predictor)
+    model = load_reward(spec, runs, n_policies=n_policies)
+    return model.name, _LoadedReward(model)
 
 
-class _PredictorReward:
-    def __init__(self, predictor: Any):
-        self.predictor = predictor
+class _LoadedReward:
+    def __init__(self, reward: LearnedReward):
+        self.reward = reward
 
     def __call__(self, ps: Any, obs: Any) -> np.ndarray:
-        theta, _ = self.predictor.predict(ps.features, ps.control_points, ps.actions)
-        return np.asarray(theta, dtype=np.float64)
+        return np.asarray(self.reward.theta(ps), dtype=np.float64)
 
     def reset(self) -> None:
-        self.predictor.reset()
+        self.reward.reset()
 
 
 class _CallableReward:

@@ -1,15 +1,13 @@
-"""Training loops of the two stages, evaluation (Table I) and online reward prediction.
+"""Training loops of the two stages (evaluation, Table I, is :mod:`irlsim.evaluate`).
 
 Stage 1 (:func:`train_stage1`): LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S on the train split.
 Stage 2 (:func:`train_stage2`): PTACNN, PTACNN+S on the frozen PACNN / PACNN+S.
-:func:`evaluate_models` writes the results table and plots; :class:`RewardPredictor` drives closed loop.
+A trained model's online reward is :mod:`irlsim.reward`.
 """
 
 from irlsim.train.checkpoint import read_checkpoint
 from irlsim.train.config import Stage1Config, Stage2Config
-from irlsim.train.evaluate import evaluate_models
 from irlsim.train.loading import LoadedModel, load_model
-from irlsim.train.predictor import RewardPredictor
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2
 
@@ -19,8 +17,6 @@ __all__ = [
     "read_checkpoint",
     "Stage1Config",
     "Stage2Config",
-    "evaluate_models",
-    "RewardPredictor",
     "train_stage1",
     "train_stage2",
 ]

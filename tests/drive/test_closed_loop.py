@@ -7,8 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from irlsim.drive import EPISODE_KEYS, PictureSpec, drive_episode, load_drive_model
+from irlsim.drive import EPISODE_KEYS, PictureSpec, drive_episode
 from irlsim.errors import IrlsimError
+from irlsim.reward import load_reward
 from tests.drive.conftest import TINY_POLICIES, tiny_config
 
 TINY_TOML = f"""
@@ -104,7 +105,7 @@ def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
 
 
 def test_ptacnn_keeps_an_online_history(tiny_runs):
-    m = load_drive_model("PTACNN+S", tiny_runs, TINY_POLICIES)
+    m = load_reward("PTACNN+S", tiny_runs, n_policies=TINY_POLICIES)
     rng = np.random.default_rng(0)
     f = rng.exponential(1.0, (TINY_POLICIES, 15)).astype(np.float32)
     cp = rng.normal(0.0, 1.0, (TINY_POLICIES, 10, 3)).astype(np.float32)
@@ -116,13 +117,13 @@ def test_ptacnn_keeps_an_online_history(tiny_runs):
 
 def test_bad_models_fail_with_one_line(tiny_runs, tmp_path):
     with pytest.raises(IrlsimError, match="unknown model 'PACNN-X': choose from expert, expert-theta, LIRL"):
-        load_drive_model("PACNN-X", tiny_runs)
+        load_reward("PACNN-X", tiny_runs)
     with pytest.raises(IrlsimError, match=r"run 'irlsim train --stage 2"):
-        load_drive_model("PTACNN", tmp_path)
+        load_reward("PTACNN", tmp_path)
     with pytest.raises(IrlsimError, match="trained on 200 policies per cycle, but the planner samples 1000"):
-        load_drive_model("PACNN+S", tiny_runs, n_policies=1000)
+        load_reward("PACNN+S", tiny_runs, n_policies=1000)
     with pytest.raises(IrlsimError, match="not found"):
-        load_drive_model(str(tmp_path / "none" / "checkpoint.pt"))
+        load_reward(str(tmp_path / "none" / "checkpoint.pt"))
     from irlsim.cli import main
 
     with pytest.raises(SystemExit) as e:  # refused when parsed (irlsim.config.int_in)
@@ -134,7 +135,7 @@ def test_expert_theta_drives_argmax_of_the_experts_theta(road):
     """'expert-theta': the expert's theta alone, argmax V every cycle, no model-based selection."""
     from irlsim.planner.expert import THETA_EXPERT
 
-    model = load_drive_model("expert-theta")
+    model = load_reward("expert-theta")
     assert not model.is_expert and model.checkpoint is None
     rec = drive_episode(model, road, tiny_config(), seed=100, laps=1, max_cycles=40, show_progress=False)
     assert rec["drive/model"] == "expert-theta" and rec["drive/cycles"] == 40

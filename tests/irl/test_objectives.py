@@ -3,6 +3,7 @@
 import numpy as np
 import torch
 
+from irlsim.bench.synthetic import make_split
 from irlsim.irl.objectives import (
     attention_loss,
     attention_target,
@@ -17,7 +18,6 @@ from irlsim.irl.objectives import (
     optimal_policy_distance,
     summarize,
 )
-from irlsim.train.synthetic import make_split
 
 torch.manual_seed(0)
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from irlsim.bench.synthetic import default_theta_true, make_split
 from irlsim.errors import IrlsimError
 from irlsim.models import (
     MODEL_NAMES,
@@ -14,7 +15,6 @@ from irlsim.models import (
     compute_feature_stats,
     count_parameters,
 )
-from irlsim.train.synthetic import default_theta_true, make_split
 
 B, N, K = 3, 64, 10
 CFG = ModelConfig(

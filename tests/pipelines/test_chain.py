@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from irlsim.cli import main
-from irlsim.train.evaluate import REFERENCE_ROWS
+from irlsim.evaluate import REFERENCE_ROWS
 
 STAGE1 = ("LIRL", "1DCNN", "Bi1DCNN", "PACNN", "PACNN+S")
 STAGE2 = ("PTACNN", "PTACNN+S")

@@ -28,8 +28,8 @@ from irlsim.data.reader import open_dataset
 from irlsim.drive.dagger import dagger_driver_factory
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import ExpertDriver
+from irlsim.reward.predictor import RewardPredictor
 from irlsim.rollout import ObserverBase
-from irlsim.train.predictor import RewardPredictor
 from tests.conftest import TINY_COLLECT
 
 MODEL = "PACNN+S"
@@ -280,14 +280,12 @@ def test_aggregate_refuses_the_same_folder_twice(tiny_dataset):
 
 def test_dagger_config_per_round_recipe(tmp_path):
     """Per-round episodes and epochs, a training seed and stage-2 companions reach each round's commands."""
-    import argparse
-
-    from pipelines.dagger import DaggerConfig, round_commands
+    from irlsim.workflows.dagger import DaggerConfig, DaggerRun, round_commands
 
     cfg = load_config(DaggerConfig, "configs/dagger/paper.toml", {"seed": 1})
-    args = argparse.Namespace(data=Path("D"), runs=Path("R"), out=Path("O"))
+    args = DaggerRun(cfg, Path("D"), Path("R"), Path("O"))
     for r, (episodes, epochs) in enumerate([(6, 20), (20, 10)], start=1):
-        collect, stage1, stage2 = round_commands(cfg, args, r)
+        collect, stage1, stage2 = round_commands(args, r)
         assert f"train_episodes={episodes}" in collect
         assert collect[collect.index("--runs") + 1] == ("R" if r == 1 else str(Path("O/round_1/runs")))
         assert f"epochs={epochs}" in stage1 and "seed=1" in stage1
@@ -301,7 +299,7 @@ def test_dagger_config_per_round_recipe(tmp_path):
     plain = DaggerConfig(rounds=3, episodes=5)
     plain.validate()
     for r in (1, 2, 3):
-        collect, stage1 = round_commands(plain, args, r)
+        collect, stage1 = round_commands(DaggerRun(plain, Path("D"), Path("R"), Path("O")), r)
         assert "train_episodes=5" in collect
         assert not any(a.startswith(("epochs=", "seed=")) for a in stage1)
     # --rounds 1 runs the first entry of a longer list; a shorter list or a wrong companion is refused

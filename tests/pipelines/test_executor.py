@@ -26,7 +26,7 @@ from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.data.layout import episode_paths
 from irlsim.executor import KILL_GRACE_S, RAY_CANCEL_WAIT_S, Job, run_jobs
-from pipelines.collect import default_episode_timeout, episode_timeout
+from irlsim.workflows.collect import default_episode_timeout, episode_timeout
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 

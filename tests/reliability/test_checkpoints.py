@@ -9,11 +9,12 @@ from pathlib import Path
 import pytest
 import torch
 
+from irlsim.bench.synthetic import make_synthetic_dataset
 from irlsim.errors import IrlsimError
+from irlsim.evaluate import evaluate_models
 from irlsim.outputs import os_error_message
-from irlsim.train import Stage1Config, Stage2Config, evaluate_models, load_model, train_stage1, train_stage2
+from irlsim.train import Stage1Config, Stage2Config, load_model, train_stage1, train_stage2
 from irlsim.train.layout import stage_dir
-from irlsim.train.synthetic import make_synthetic_dataset
 from tests.conftest import one_line, train_synthetic_runs
 
 
@@ -59,14 +60,14 @@ def test_a_stage_folder_holds_its_stage(runs, tmp_path):
 
 
 def test_drive_refuses_a_copied_checkpoint(runs, tmp_path):
-    from irlsim.drive.closed_loop import load_drive_model
+    from irlsim.reward import load_reward
 
     r = _copy(runs, tmp_path)
     shutil.copy(r / "stage1" / "LIRL" / "checkpoint.pt", r / "stage1" / "PACNN" / "checkpoint.pt")
     with pytest.raises(IrlsimError) as e:
-        load_drive_model("PACNN", r)
+        load_reward("PACNN", r)
     assert "holds LIRL, not PACNN" in one_line(e)
-    assert load_drive_model("LIRL", r).name == "LIRL"  # the right one still loads
+    assert load_reward("LIRL", r).name == "LIRL"  # the right one still loads
 
 
 def test_stage2_refuses_a_base_trained_on_another_dataset(runs, tmp_path):

@@ -8,12 +8,12 @@ import pytest
 import torch
 
 from irlsim import FEATURE_NAMES
+from irlsim.bench.synthetic import make_synthetic_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
-from irlsim.train import Stage1Config, evaluate_models, load_model, train_stage1
-from irlsim.train.evaluate import REFERENCE_ROWS
+from irlsim.evaluate import REFERENCE_ROWS, evaluate_models
+from irlsim.train import Stage1Config, load_model, train_stage1
 from irlsim.train.layout import find_checkpoint, stage_dir
-from irlsim.train.synthetic import make_synthetic_dataset
 from tests.conftest import one_line, train_synthetic_runs
 
 H = 4  # Stage2Config.smoke()'s history

@@ -10,12 +10,12 @@ import pytest
 import torch
 
 from irlsim import devices
+from irlsim.bench.synthetic import make_synthetic_dataset
 from irlsim.cli import main
 from irlsim.errors import IrlsimError
+from irlsim.reward.predictor import RewardPredictor
 from irlsim.train import Stage1Config, Stage2Config, load_model, train_stage1, train_stage2
 from irlsim.train.batching import predict_split
-from irlsim.train.predictor import RewardPredictor
-from irlsim.train.synthetic import make_synthetic_dataset
 
 
 @pytest.fixture(scope="module")

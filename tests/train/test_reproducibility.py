@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
+from irlsim.bench.synthetic import make_synthetic_dataset
 from irlsim.train import Stage1Config, load_model, train_stage1
-from irlsim.train.synthetic import make_synthetic_dataset
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 TRAIN = """
 import dataclasses, sys
 from irlsim.train import Stage1Config, train_stage1
-from irlsim.train.synthetic import make_synthetic_dataset
+from irlsim.bench.synthetic import make_synthetic_dataset
 ds = make_synthetic_dataset(n_train=40, n_eval=8, n_policies=48, seed=3)
 cfg = dataclasses.replace(Stage1Config.smoke(), models=("PACNN+S",), epochs=2, batch_size=16)
 train_stage1(ds, cfg, sys.argv[1])

@@ -9,23 +9,22 @@ import numpy as np
 import pytest
 import torch
 
+from irlsim.bench.synthetic import make_synthetic_dataset
 from irlsim.config import load_config
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
+from irlsim.evaluate import REFERENCE_ROWS, evaluate_models
 from irlsim.irl.objectives import evaluate_thetas, summarize
 from irlsim.models import build_model
+from irlsim.reward.predictor import RewardPredictor
 from irlsim.train import (
-    RewardPredictor,
     Stage1Config,
     Stage2Config,
-    evaluate_models,
     load_model,
     train_stage1,
     train_stage2,
 )
 from irlsim.train.batching import predict_split
-from irlsim.train.evaluate import REFERENCE_ROWS
-from irlsim.train.synthetic import make_synthetic_dataset
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Benchmarks of collection and inference (docs/DESIGN.md section 9); the planner's is in pipelines/bench.py.
+"""Benchmarks of collection, inference and the Gymnasium env (docs/DESIGN.md section 9).
 
 Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
 """
@@ -23,7 +23,7 @@ from irlsim.road.network import build_net
 PAPER_TRAIN_CYCLES = 17_000
 
 
-def _collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
+def collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
     out, seed, cycles, n_policies = args
     cfg = load_config(
         CollectConfig,
@@ -41,11 +41,11 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     """
     build_net()
     with tempfile.TemporaryDirectory() as tmp:
-        one = _collect_one((tmp + "/one", seed, cycles, n_policies))
+        one = collect_one((tmp + "/one", seed, cycles, n_policies))
         t0 = time.perf_counter()
         jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies)) for i in (1, 2)]
         # as irlsim collect runs its episodes: the local executor's spawned single-threaded workers
-        done = run_jobs(_collect_one, jobs, executor="local", workers=2)
+        done = run_jobs(collect_one, jobs, executor="local", workers=2)
         if done.failed:
             raise RuntimeError(f"benchmark episodes failed: {done.failed}")
         two = [done.results[j.key] for j in jobs]
@@ -72,10 +72,10 @@ def _time_inference(
     """PACNN + PTACNN of sizes ``cfg`` at initial weights: parameters and per-cycle inference [ms] of the
     online predictor (one thread) on one random cycle of ``n_policies`` policies."""
     # lazy: these pull torch (about 1.5 s to import); 'irlsim bench --collect' and its spawned workers
-    # (which import this module for _collect_one) never need it
+    # (which import this module for collect_one) never need it
     from irlsim.models.registry import build_model, count_parameters
+    from irlsim.reward.predictor import RewardPredictor
     from irlsim.train.loading import LoadedModel
-    from irlsim.train.predictor import RewardPredictor
 
     cfg = dataclasses.replace(cfg, history=history)
     pacnn = build_model("PACNN", cfg, n_policies, None).eval()

@@ -1,4 +1,7 @@
-"""A tiny in-memory dataset with a known reward, for tests and smoke runs (no SUMO, no Parquet).
+"""A tiny in-memory dataset with a known reward (no SUMO, no Parquet): what ``irlsim bench --scale``
+trains on, and the tests' and smoke runs' quick dataset. Public: :func:`make_synthetic_dataset`
+(a dataset with the reader's interface: ``manifest``, ``split_tensors(split)``), :func:`make_split`,
+:func:`default_theta_true`.
 
 Each cycle has N policies with random control points / actions; their 15 path-integral feature costs
 are a fixed non-negative function of them plus noise; the demonstration is *sampled* from

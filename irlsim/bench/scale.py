@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.benchmarks import _collect_one
+from irlsim.bench.episodes import collect_one
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, run_jobs
 from irlsim.road.network import build_net
@@ -22,7 +22,7 @@ EPISODES = 4
 
 
 def _collect_job(args: tuple[str, int, int, int]) -> dict[str, Any]:  # top level: picklable
-    return _collect_one(args)
+    return collect_one(args)
 
 
 def _timed_collection(
@@ -118,11 +118,11 @@ def bench_training(
     import torch
 
     from irlsim import devices
+    from irlsim.bench.synthetic import make_synthetic_dataset
     from irlsim.models.normalization import compute_feature_stats
     from irlsim.models.registry import ModelConfig, build_model
     from irlsim.train.batching import gather_batch
     from irlsim.train.repro import num_threads
-    from irlsim.train.synthetic import make_synthetic_dataset
 
     data = make_synthetic_dataset(n_train=batch * 4, n_eval=8, n_policies=n_policies, seed=0)
     train = data.split_tensors("train")

@@ -1,4 +1,4 @@
-"""Online reward prediction for closed-loop driving: one call per planning cycle."""
+"""Online reward prediction of a trained network: one call per planning cycle (imports torch)."""
 
 from __future__ import annotations
 

@@ -1,0 +1,11 @@
+"""The benchmarks of ``irlsim bench`` (docs/DESIGN.md section 9): measured, never asserted.
+
+- :mod:`irlsim.bench.report`: :func:`~irlsim.bench.report.run_benchmarks` with
+  :class:`~irlsim.bench.report.BenchRun`, the sections, bench.md;
+- :mod:`irlsim.bench.planner`: the planner cycle;
+- :mod:`irlsim.bench.episodes`: collection, inference, the Gymnasium env;
+- :mod:`irlsim.bench.scale`: the local pool against Ray, devices and precisions;
+- :mod:`irlsim.bench.synthetic`: a tiny in-memory dataset with a known reward (what ``--scale`` trains on).
+
+Nothing is imported here: ``irlsim bench`` sets one thread before numpy is loaded.
+"""

@@ -1,0 +1,281 @@
+"""DAgger rounds (``irlsim dagger``): :func:`run_dagger` with :class:`DaggerRun` and :class:`DaggerConfig`.
+
+N rounds of (drive -> label -> aggregate -> retrain) on top of a trained model. Round r (1..N), into
+``out/round_<r>/``:
+
+1. **drive + label**: :func:`irlsim.workflows.collect.collect_dataset` with the learned driver of the
+   previous round (round 1: the one in ``runs``, trained on ``data``) into ``out/round_<r>/data``; the
+   expert labels every cycle (``demo_source`` 'expert'); seeds in round r's window, disjoint from
+   ``data``'s;
+2. **aggregate**: the folders stay as they are: training reads ``data`` and every round's data folder so
+   far (:mod:`irlsim.data.aggregate`: their splits concatenated into a memory-mapped cache in ``data``'s
+   ``.cache``);
+3. **retrain** from scratch: :func:`irlsim.workflows.train.train_models`, stage 1 (and stage 2 for a
+   temporal driver or ``stage2_models``) into ``out/round_<r>/runs``.
+
+Each step resumes like the command it equals (printed before it runs, and recorded in the round's
+``round.json`` as that command line); a round is finished once ``out/round_<r>/round.json`` exists and
+is then skipped. The steps are library calls (:func:`round_plan`), the command lines only their record.
+
+DAgger lives here, not in :mod:`irlsim.drive.dagger` (the learner-drives-expert-labels driver), because a
+round composes collection and training workflows, which sit above the driving library.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from irlsim.config import MAX_SEED, load_config, require
+from irlsim.data.collection import CollectConfig
+from irlsim.errors import IrlsimError
+from irlsim.models.registry import MODEL_NAMES, STAGE2_BASE
+from irlsim.train.config import Stage1Config, Stage2Config
+from irlsim.train.layout import find_checkpoint, stage_dir
+from irlsim.utils import write_json
+from irlsim.workflows.collect import CollectRun, collect_dataset
+from irlsim.workflows.steps import exit_status
+from irlsim.workflows.train import TrainRun, train_models
+
+#: written last in a round's folder: the round is finished (skipped when DAgger runs again)
+ROUND_DONE = "round.json"
+
+
+@dataclass(frozen=True)
+class DaggerConfig:
+    """``irlsim dagger`` (``configs/dagger/*.toml``)."""
+
+    rounds: int = 2
+    """DAgger rounds"""
+    model: str = "PACNN+S"
+    """the learned driver of every round (a stage-2 model also retrains its stage-1 base)"""
+    episodes: int | list[int] = 4
+    """learner-driven, expert-labelled train episodes per round: one count for every round, or a list
+    with one count per round (``[6, 20]``; ``--rounds 1`` with it runs round 1 only)"""
+    validation_episodes: int = 0
+    """learner-driven validation episodes per round (0: model choices stay on --data's validation split)"""
+    workers: int = 2
+    """collection worker processes"""
+    collect_config: str = "configs/collect/default.toml"
+    """the collect config of --data (its planner, scenario and base seed; episode counts are replaced)"""
+    stage1_config: str = "configs/train/stage1.toml"
+    """stage-1 training config (only the driver's stage-1 model is trained)"""
+    stage2_config: str = "configs/train/stage2.toml"
+    """stage-2 training config (used when ``model`` is a stage-2 model)"""
+    stage2_models: list[str] = dataclasses.field(default_factory=list)
+    """stage-2 models trained on each round's aggregate beside the driver, on its stage-1 base
+    (``["PTACNN+S"]`` next to a PACNN+S driver); they do not drive"""
+    epochs: list[int] = dataclasses.field(default_factory=list)
+    """stage-1 epochs of each round's retraining, one per round (empty: the stage-1 config's ``epochs``
+    in every round)"""
+    seed: int | None = None
+    """training seed of every round's retraining, stage 1 and 2 (None: the stage configs' ``seed``); the
+    learner's episodes keep the collect config's seeds, so two training seeds drive the same scenarios"""
+
+    def validate(self) -> None:
+        require(1 <= self.rounds <= 23, f"rounds must be in 1..23, got {self.rounds}")
+        require(
+            self.model in MODEL_NAMES, f"model must be one of {', '.join(MODEL_NAMES)}, got {self.model!r}"
+        )
+        counts = self.episodes if isinstance(self.episodes, list) else [self.episodes]
+        if isinstance(self.episodes, list):
+            require(
+                len(self.episodes) >= self.rounds,
+                f"episodes has {len(self.episodes)} entries for {self.rounds} round(s): give one count per "
+                "round, or a single number for every round",
+            )
+        for n in counts:
+            require(1 <= n <= 10_000, f"episodes must be in 1..10000, got {n}")
+        if self.epochs:
+            require(
+                len(self.epochs) >= self.rounds,
+                f"epochs has {len(self.epochs)} entries for {self.rounds} round(s): give one per round, or "
+                "leave it empty to use the stage-1 config's epochs",
+            )
+        for n in self.epochs:
+            require(1 <= n <= 100_000, f"epochs must be in 1..100000, got {n}")
+        on_base = [k for k, v in STAGE2_BASE.items() if v == self.stage1_model]
+        for m in self.stage2_models:
+            require(
+                m in on_base,
+                f"stage2_models entry {m!r} must be a stage-2 model on the driver's stage-1 base "
+                f"{self.stage1_model} ({', '.join(on_base) or 'none'})",
+            )
+        if self.seed is not None:
+            require(0 <= self.seed <= MAX_SEED, f"seed must be in 0..{MAX_SEED}, got {self.seed}")
+        require(
+            0 <= self.validation_episodes <= 10_000,
+            f"validation_episodes must be in 0..10000, got {self.validation_episodes}",
+        )
+        require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
+
+    @property
+    def stage1_model(self) -> str:
+        return STAGE2_BASE.get(self.model, self.model)
+
+    @property
+    def trained_stage2(self) -> list[str]:
+        """The stage-2 models each round trains: the driver if it is one, then ``stage2_models``."""
+        first = [self.model] if self.model in STAGE2_BASE else []
+        return first + [m for m in self.stage2_models if m not in first]
+
+    def round_episodes(self, r: int) -> int:
+        """Learner-driven train episodes of round ``r`` (1-based)."""
+        return self.episodes[r - 1] if isinstance(self.episodes, list) else self.episodes
+
+    def round_train_overrides(self, r: int, stage: int) -> dict[str, Any]:
+        """Round ``r``'s stage-``stage`` config overrides beyond the model names (epochs, seed)."""
+        out: dict[str, Any] = {}
+        if stage == 1 and self.epochs:
+            out["epochs"] = self.epochs[r - 1]
+        if self.seed is not None:
+            out["seed"] = self.seed
+        return out
+
+
+@dataclass(frozen=True)
+class DaggerRun:
+    """DAgger on top of a trained model: what ``irlsim dagger`` parses its arguments into."""
+
+    config: DaggerConfig
+    data: Path
+    """the expert's dataset the ``runs`` model was trained on"""
+    runs: Path
+    """the runs folder of the model trained on ``data``"""
+    out: Path
+    """the DAgger folder: ``out/round_<r>/{data,runs}``"""
+
+
+@dataclass(frozen=True)
+class RoundPlan:
+    """Round r's steps: the collection, then the trainings; ``commands`` are the same steps as the
+    ``irlsim`` command lines a user would type (printed and recorded, never parsed)."""
+
+    collect: CollectRun
+    train: tuple[TrainRun, ...]
+    commands: tuple[tuple[str, ...], ...]
+
+
+def round_dir(out: Path, r: int) -> Path:
+    return out / f"round_{r}"
+
+
+def _sets(overrides: dict[str, Any]) -> list[str]:
+    """``--set`` arguments that give ``overrides`` (ints and lists of names) on a command line."""
+    out = []
+    for key, value in overrides.items():
+        text = "[" + ", ".join(f"'{v}'" for v in value) + "]" if isinstance(value, list) else str(value)
+        out += ["--set", f"{key}={text}"]
+    return out
+
+
+def round_plan(run: DaggerRun, r: int) -> RoundPlan:
+    """The steps of round r: collect (driver from round r - 1), then the training stages."""
+    cfg = run.config
+    prev_runs = run.runs if r == 1 else round_dir(run.out, r - 1) / "runs"
+    here = round_dir(run.out, r)
+    data = (run.data, *(round_dir(run.out, k) / "data" for k in range(1, r + 1)))
+    counts = {
+        "train_episodes": cfg.round_episodes(r),
+        "validation_episodes": cfg.validation_episodes,
+        "test_episodes": 0,
+    }
+    collect_cfg = load_config(
+        CollectConfig, cfg.collect_config, {**counts, "workers": cfg.workers, "dagger_round": r}
+    )
+    collect = CollectRun(collect_cfg, here / "data", driver=cfg.model, runs=prev_runs)
+    paths = [str(p) for p in data]
+    commands = [
+        ["collect", "--config", cfg.collect_config, "--out", str(here / "data")]
+        + ["--workers", str(cfg.workers), "--driver", cfg.model, "--runs", str(prev_runs)]
+        + ["--round", str(r), *_sets(counts)]
+    ]
+    stages: list[tuple[int, str, type, list[str]]] = [
+        (1, cfg.stage1_config, Stage1Config, [cfg.stage1_model])
+    ]
+    if cfg.trained_stage2:
+        stages.append((2, cfg.stage2_config, Stage2Config, cfg.trained_stage2))
+    train = []
+    for stage, path, kind, models in stages:
+        overrides = {"models": models, **cfg.round_train_overrides(r, stage)}
+        train.append(TrainRun(load_config(kind, path, overrides), data, here / "runs"))
+        commands.append(
+            ["train", "--stage", str(stage), "--config", path, "--data", *paths, "--out", str(here / "runs")]
+            + _sets(overrides)
+        )
+    return RoundPlan(collect, tuple(train), tuple(tuple(c) for c in commands))
+
+
+def round_commands(run: DaggerRun, r: int) -> list[list[str]]:
+    """Round r's steps as ``irlsim`` command lines (without the leading 'irlsim')."""
+    return [list(c) for c in round_plan(run, r).commands]
+
+
+def run_dagger(run: DaggerRun) -> int:
+    """Run (or resume) every round of ``run``. Returns 0, or the exit status of the round's step that
+    failed (after its one-line error and a line naming the round and step, as ``irlsim`` prints them;
+    running again resumes). Raises :class:`~irlsim.errors.IrlsimError` (one line) before any work for a
+    missing config file or driver checkpoint, or an ``out`` that is a file."""
+    cfg = run.config
+    for name in ("collect_config", "stage1_config", "stage2_config"):
+        if not Path(getattr(cfg, name)).is_file():
+            raise IrlsimError(f"config: {name} {getattr(cfg, name)} not found: pass an existing TOML file")
+    if find_checkpoint(run.runs, cfg.model) is None:
+        raise IrlsimError(
+            f"{cfg.model} has no checkpoint in {run.runs}: train it on {run.data} first ('irlsim train "
+            f"--data {run.data} --out {run.runs}'), or set model to a trained one"
+        )
+    if run.out.exists() and not run.out.is_dir():
+        raise IrlsimError(f"--out {run.out} is a file: choose a folder for the DAgger rounds")
+    for r in range(1, cfg.rounds + 1):
+        here = round_dir(run.out, r)
+        if (here / ROUND_DONE).is_file():
+            print(f"dagger: round {r} finished before: {here}/data, {here}/runs (skipped)", flush=True)
+            continue
+        rc = _round(run, r)
+        if rc != 0:
+            return rc
+        print(
+            f"dagger: round {r} wrote {here}/data (expert-labelled) and {here}/runs ({cfg.model})", flush=True
+        )
+    last = round_dir(run.out, cfg.rounds) / "runs"
+    final = stage_dir(last, 2 if cfg.model in STAGE2_BASE else 1) / cfg.model
+    print(f"dagger: {cfg.rounds} round(s) in {run.out}; the last round's {cfg.model}: {final}")
+    return 0
+
+
+def _trained(step: TrainRun) -> bool:
+    train_models(step)
+    return True
+
+
+def _round(run: DaggerRun, r: int) -> int:
+    """Round r's steps, then its ``round.json``; the exit status of a failed step, else 0."""
+    t0 = time.perf_counter()
+    here = round_dir(run.out, r)
+    plan = round_plan(run, r)
+    steps: list[Callable[[], bool]] = [lambda: collect_dataset(plan.collect).ok]
+    steps += [functools.partial(_trained, t) for t in plan.train]
+    for step, cmd in zip(steps, plan.commands, strict=True):
+        print(f"\n$ irlsim {' '.join(cmd)}", flush=True)
+        rc = exit_status(step)
+        if rc != 0:
+            print(f"dagger: round {r} step 'irlsim {cmd[0]}' failed (exit {rc}); re-run to resume")
+            return rc
+    record: dict[str, Any] = {
+        "round": r,
+        "model": run.config.model,
+        "data": str(here / "data"),
+        "runs": str(here / "runs"),
+        "driver_runs": str(run.runs if r == 1 else round_dir(run.out, r - 1) / "runs"),
+        "trained_on": [str(run.data), *(str(round_dir(run.out, k) / "data") for k in range(1, r + 1))],
+        "commands": [["irlsim", *c] for c in plan.commands],
+        "wall_s": round(time.perf_counter() - t0, 1),
+    }
+    write_json(here / ROUND_DONE, record)
+    return 0

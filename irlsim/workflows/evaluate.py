@@ -1,0 +1,72 @@
+"""Evaluating trained models (``irlsim evaluate``): :func:`evaluate_runs` with :class:`EvaluateRun`.
+
+Table I (model, trainable parameters, EVD, ED, OPD, DEMO) on the sequential test split with a history of
+H cycles, reference rows, breakdowns, convergence plots and the OPD distribution per model
+(:func:`irlsim.evaluate.evaluate_models`), plus temporal-weight strips of temporal models.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+from irlsim import devices
+from irlsim.data.aggregate import open_datasets
+from irlsim.errors import IrlsimError
+from irlsim.evaluate import evaluate_models
+from irlsim.outputs import check_output_dir
+from irlsim.viz.temporal import save_situation_strips
+
+
+@dataclass(frozen=True)
+class EvaluateRun:
+    """One evaluation: what ``irlsim evaluate`` parses its arguments into."""
+
+    data: tuple[Path, ...]
+    """dataset folder(s): several are the aggregate the models were trained on"""
+    runs: Path
+    """the runs folder (stage1/<model>/, stage2/<model>/checkpoint.pt)"""
+    out: Path | None = None
+    """output folder (None: ``runs/eval``)"""
+    split: str = "test"
+    history: int | None = None
+    """H [cycles] (None: the PTACNN's own H, else 10)"""
+    threads: int = 2
+    """torch CPU threads"""
+    references: bool = True
+    """the reference rows expert-theta, executed and oracle ('random policy' always)"""
+    device: str = "auto"
+    precision: str = "fp32"
+
+
+def evaluate_runs(run: EvaluateRun) -> Path:
+    """Write Table I and the plots of ``run`` (printing the table); returns the output folder. Raises
+    :class:`~irlsim.errors.IrlsimError` (one line) before any work for bad arguments or a missing runs
+    folder."""
+    if run.history is not None and run.history < 1:
+        raise IrlsimError(f"--history must be >= 1, got {run.history}")
+    if run.threads < 1:
+        raise IrlsimError(f"--threads must be >= 1, got {run.threads}")
+    device = devices.resolve_device(run.device)
+    out = run.out or run.runs / "eval"
+    check_output_dir(out, "--out")
+    if not run.runs.is_dir():
+        raise IrlsimError(f"runs folder {run.runs} not found: train first with 'irlsim train --stage 1'")
+    with devices.use(device, run.precision):
+        evaluate_models(
+            open_datasets(list(run.data)),
+            run.runs,
+            out,
+            H=run.history,
+            split=run.split,
+            threads=run.threads,
+            references=run.references,
+            strips=functools.partial(save_situation_strips, out),
+        )
+    print((out / "results.md").read_text())
+    print(
+        f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png"
+        " (and temporal_<model>_<situation>.png for temporal models)"
+    )
+    return out
