@@ -58,9 +58,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
     )
+    parser.add_argument(
+        "--scenario",
+        default="oval",
+        help="road of the planner section: a shipped scenario or a path (default oval)",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     sections = tuple(name for name in SECTIONS if getattr(args, name, False))
-    run_benchmarks(BenchRun(args.out, sections, args.cycles, args.env_steps, args.collect_cycles, args.seed))
+    run_benchmarks(
+        BenchRun(
+            args.out, sections, args.cycles, args.env_steps, args.collect_cycles, args.seed, args.scenario
+        )
+    )
     return 0

@@ -49,6 +49,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="KEY=VALUE",
         help="override a config field, e.g. --set planner.n_policies=500 (repeatable)",
     )
+    p.add_argument(
+        "--scenario",
+        default=None,
+        help="the road: a shipped scenario (irlsim scenario list) or a scenario.toml path (default: the "
+        "config's [scenario] name, the oval)",
+    )
 
 
 def add_executor_arguments(p: argparse.ArgumentParser) -> None:
@@ -97,6 +103,8 @@ def request(args: argparse.Namespace) -> CollectRun:
         if args.round is not None and args.round < 1:
             raise IrlsimError(f"--round must be >= 1 (the DAgger round), got {args.round}")
         overrides["dagger_round"] = args.round if args.round is not None else 1
+    if args.scenario is not None:
+        overrides["scenario.name"] = str(args.scenario)
     cfg = load_config(CollectConfig, args.config, overrides)
     return CollectRun(
         cfg, args.out, args.executor, args.address, args.episode_timeout, args.driver, args.runs

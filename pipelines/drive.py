@@ -78,6 +78,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     add_executor_arguments(p)
     devices.add_arguments(p, "reward inference")
+    p.add_argument(
+        "--scenario",
+        default=None,
+        help="the road: a shipped scenario (irlsim scenario list) or a scenario.toml path (default: the "
+        "config's [scenario] name, the oval)",
+    )
 
 
 def request(args: argparse.Namespace) -> DriveRun:
@@ -105,6 +111,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         args.episode_timeout,
         args.device,
         args.precision,
+        args.scenario,
     )
 
 

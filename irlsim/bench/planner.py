@@ -10,27 +10,30 @@ import numpy as np
 
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
-from irlsim.road import LANE_WIDTH, load_road
+from irlsim.road import load_road
 from irlsim.sim.types import EgoState, Observation, VehicleStates
 
 
-def planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
-    """Synthetic cycles on the real road: 15 vehicles within +-150 m in random lanes at 25-35 km/h,
-    the ego at 5-20 m/s; a third of them before an active stop line, some before an exit in lane 0."""
+def planner_observations(seed: int, n_obs: int = 12, scenario: str = "oval") -> list[Any]:
+    """Synthetic cycles on the scenario's road: 15 vehicles within +-150 m in random lanes at 25-35
+    km/h, the ego at 5-20 m/s; a third of them before an active stop line (if the road has one), some
+    before an exit in the rightmost lane (if it has one), on an open route along its stretch."""
 
-    road = load_road()
+    road = load_road(scenario=scenario)
     rng = np.random.default_rng(seed)
     lap = road.lap_length
     out = []
     for k in range(n_obs):
-        if k % 3 == 0:
-            line = road.stop_lines[k % 2].s
+        lines = [sl.s for sl in road.stop_lines] + [g.s for g in road.signals]
+        if k % 3 == 0 and lines:
+            line = lines[k % len(lines)]
             s0, stop_s = line - rng.uniform(20, 120), line
-        elif k % 3 == 1:
-            s0, stop_s = road.exits[k % 2].s_start - rng.uniform(10, 100), np.inf
+        elif k % 3 == 1 and road.exits:
+            s0, stop_s = road.exits[k % len(road.exits)].s_start - rng.uniform(10, 100), np.inf
         else:
-            s0, stop_s = rng.uniform(0, lap), np.inf
-        d0 = float(road.lane_center(int(rng.integers(0, 3))))
+            hi = lap if road.closed else road.route_end_s - 200.0
+            s0, stop_s = rng.uniform(road.route_begin_s, hi), np.inf
+        d0 = float(road.lane_center(int(rng.integers(0, road.n_lanes))))
         v0 = float(rng.uniform(5, 20))
         x, y = road.to_xy(np.array(s0), np.array(d0))
         ego = EgoState(
@@ -48,7 +51,7 @@ def planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
         )
         m = 15
         s = (s0 + rng.uniform(-150, 150, m)) % lap
-        d = (rng.integers(0, 3, m) - 1.0) * LANE_WIDTH
+        d = road.lane_center(rng.integers(0, road.n_lanes, m))
         vx, vy = road.to_xy(s, d)
         veh = VehicleStates(
             tuple(f"bg{i}" for i in range(m)),
@@ -67,10 +70,10 @@ def planner_observations(seed: int, n_obs: int = 12) -> list[Any]:
     return out
 
 
-def bench_planner(cycles: int = 300, seed: int = 0) -> dict[str, Any]:
+def bench_planner(cycles: int = 300, seed: int = 0, scenario: str = "oval") -> dict[str, Any]:
     """The planner cycle at the default config (2,500 policies) over ``cycles`` synthetic cycles."""
-    planner = Planner(load_road(), PlannerConfig())
-    observations = planner_observations(seed)
+    planner = Planner(load_road(scenario=scenario), PlannerConfig())
+    observations = planner_observations(seed, scenario=scenario)
     for obs in observations:  # warm-up: caches, first-call allocations
         planner.plan(obs)
     ms = []

@@ -41,6 +41,8 @@ class BenchRun:
     """planning cycles per timed collection episode"""
     seed: int = 0
     """seed of the synthetic traffic"""
+    scenario: str = "oval"
+    """the road of the planner section (a shipped scenario or a scenario.toml path)"""
 
 
 #: docs/DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
@@ -53,7 +55,7 @@ TARGETS: dict[str, tuple[str, str, float, str]] = {
 
 
 def _planner(run: BenchRun) -> dict[str, Any]:
-    return bench_planner(cycles=run.cycles, seed=run.seed)
+    return bench_planner(cycles=run.cycles, seed=run.seed, scenario=run.scenario)
 
 
 def _collect(run: BenchRun) -> dict[str, Any]:

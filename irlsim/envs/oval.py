@@ -146,7 +146,8 @@ class OvalEnv(gym.Env):
     ``config``: a collect TOML path or a :class:`~irlsim.data.collection.CollectConfig` (its scenario and
     planner; default: the built-in one); ``overrides``: dotted keys applied on top
     (``{"scenario.max_time": 30, "planner.n_policies": 200}``); ``laps``: laps to drive (default the
-    config's); ``max_cycles`` > 0 truncates earlier.
+    config's); ``max_cycles`` > 0 truncates earlier; ``scenario``: the road (a shipped scenario such as
+    ``"motorway"`` or a scenario.toml path; default the config's, the oval).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 5}
@@ -162,6 +163,7 @@ class OvalEnv(gym.Env):
         max_cycles: int = 0,
         continuous: bool = False,
         render_mode: str | None = None,
+        scenario: str | Path | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise IrlsimError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
@@ -173,19 +175,21 @@ class OvalEnv(gym.Env):
                 raise IrlsimError("overrides apply to a config file: pass config as a path (or None)")
         else:
             cfg = load_config(CollectConfig, config, overrides)
-        scenario = cfg.scenario
+        sc = cfg.scenario
+        if scenario is not None:
+            sc = dataclasses.replace(sc, name=str(scenario))
         if laps is not None:
             if laps < 1:
                 raise IrlsimError(f"laps must be >= 1, got {laps}")
-            scenario = dataclasses.replace(scenario, laps=int(laps))
-        self.cfg, self.scenario = cfg, scenario
+            sc = dataclasses.replace(sc, laps=int(laps))
+        self.cfg, self.scenario = cfg, sc
         self.render_mode = render_mode
         self.continuous = bool(continuous)
-        self.road = load_road()
+        self.road = load_road(scenario=sc.name)
         self.planner = Planner(self.road, cfg.planner)
         n, k = cfg.planner.n_policies, cfg.planner.n_control_points
         self.reward_name, self._theta_fn = _resolve_reward(reward, runs, n)
-        self.sim = Simulation(self.road, scenario)
+        self.sim = Simulation(self.road, sc)
         self.scorer = ScorecardObserver()
         self.runner = EpisodeRunner(
             self.sim, planner=self.planner, observers=[self.scorer], max_cycles=max_cycles

@@ -73,6 +73,9 @@ class DaggerConfig:
     epochs: list[int] = dataclasses.field(default_factory=list)
     """stage-1 epochs of each round's retraining, one per round (empty: the stage-1 config's ``epochs``
     in every round)"""
+    scenario: str = ""
+    """the road the learner drives in every round (a shipped scenario or a scenario.toml path; empty: the
+    collect config's). DAgger on a road the reward was not trained on makes its data in-domain"""
     seed: int | None = None
     """training seed of every round's retraining, stage 1 and 2 (None: the stage configs' ``seed``); the
     learner's episodes keep the collect config's seeds, so two training seeds drive the same scenarios"""
@@ -185,8 +188,9 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
         "validation_episodes": cfg.validation_episodes,
         "test_episodes": 0,
     }
+    scenario = {"scenario.name": cfg.scenario} if cfg.scenario else {}
     collect_cfg = load_config(
-        CollectConfig, cfg.collect_config, {**counts, "workers": cfg.workers, "dagger_round": r}
+        CollectConfig, cfg.collect_config, {**counts, "workers": cfg.workers, "dagger_round": r, **scenario}
     )
     collect = CollectRun(collect_cfg, here / "data", driver=cfg.model, runs=prev_runs)
     paths = [str(p) for p in data]
@@ -194,6 +198,7 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
         ["collect", "--config", cfg.collect_config, "--out", str(here / "data")]
         + ["--workers", str(cfg.workers), "--driver", cfg.model, "--runs", str(prev_runs)]
         + ["--round", str(r), *_sets(counts)]
+        + (["--scenario", cfg.scenario] if cfg.scenario else [])
     ]
     stages: list[tuple[int, str, type, list[str]]] = [
         (1, cfg.stage1_config, Stage1Config, [cfg.stage1_model])

@@ -65,6 +65,8 @@ class DriveRun:
     """[s] limit of one episode attempt (None: :func:`irlsim.workflows.collect.episode_timeout`'s default)"""
     device: str = "auto"
     precision: str = "fp32"
+    scenario: str | None = None
+    """the road to drive (a shipped scenario or a scenario.toml path; None: the collect config's)"""
 
 
 @dataclass
@@ -97,7 +99,7 @@ class DriveJob:
 
 #: per process: models and the road, loaded once by the first episode that needs them
 _MODELS: dict[tuple[Any, ...], Any] = {}
-_ROAD: list[Any] = []
+_ROAD: dict[str, Any] = {}
 
 
 def _model_key(spec: str, runs: str | None, n_policies: int, threads: int) -> tuple[Any, ...]:
@@ -114,11 +116,12 @@ def _drive(job: DriveJob) -> dict[str, Any]:
     if key not in _MODELS:
         n_policies = job.cfg.planner.n_policies
         _MODELS[key] = load_reward(job.spec, job.runs, n_policies=n_policies, threads=job.threads)
-    if not _ROAD:
-        _ROAD.append(load_road())
+    name = job.cfg.scenario.name
+    if name not in _ROAD:
+        _ROAD[name] = load_road(scenario=name)
     return drive_episode(
         _MODELS[key],
-        _ROAD[0],
+        _ROAD[name],
         job.cfg,
         job.seed,
         job.laps,
@@ -224,7 +227,9 @@ def _write_outputs(
                 "max_cycles": run.max_cycles,
                 "device": device,
                 "precision": run.precision,
-            },
+            }
+            # the road, where it is not the oval (the oval's tables keep their bytes)
+            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != "oval" else {}),
             "summary": summaries,
             "episodes": episodes,
         },
@@ -259,7 +264,8 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     else:
         print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
     check_executor(run.executor, run.workers, run.address)
-    cfg = load_config(CollectConfig, run.config_file)
+    scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
+    cfg = load_config(CollectConfig, run.config_file, scenario)
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
