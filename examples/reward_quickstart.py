@@ -31,7 +31,7 @@ args = p.parse_args()
 
 cfg = load_config(CollectConfig, args.config)
 reward = load_reward(args.model, runs=args.runs, n_policies=cfg.planner.n_policies)
-road = load_road()
+road = load_road(scenario=cfg.scenario.name)
 with Simulation(road, cfg.scenario) as sim:
     runner = EpisodeRunner(sim, planner=Planner(road, cfg.planner))
     obs, policy_set = runner.reset(args.seed)  # one real cycle: the ego's state and its sampled policies
