@@ -200,6 +200,12 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
         ),
         "drive/end_reasons": dict(Counter(str(e["drive/end_reason"]) for e in episodes)),
         **(summarize_scores(episodes) if "score/score" in episodes[0] else {}),
+        # on a road with traffic lights only (the oval's summaries keep their keys)
+        **(
+            {"drive/red_crossings": tot("sim/red_crossings")}
+            if all("sim/red_crossings" in e for e in episodes)
+            else {}
+        ),
     }
 
 
@@ -216,6 +222,8 @@ def markdown_table(summaries: Sequence[dict[str, Any]]) -> str:
     rows = [head, "|" + "---|" * 11]
     for s in summaries:
         reasons = ", ".join(f"{k} {v}" for k, v in sorted(s["drive/end_reasons"].items()))
+        if "drive/red_crossings" in s:
+            reasons += f"; red lights crossed {s['drive/red_crossings']}"
         rows.append(
             f"| {s['drive/model']} | {s['drive/episodes']} | {s['drive/laps']} | {s['drive/collisions']} "
             f"| {s['drive/exits']} | {_frac(s['drive/stop_lines_compliant'], s['drive/stop_lines_passed'])} "
