@@ -7,8 +7,8 @@ evaluation seeds, with the expert and the expert's hand-tuned reward in the same
 - leave-one-out: trained on every shipped scenario but X;
 - in-domain: trained on X alone.
 
-Each scenario gets its own dataset (the collect config, its own base seed: 0, 1, 2, ... in the order of shipped_scenarios()), a
-training is ``irlsim train --data D1 --data D2 ...`` (the aggregate of the datasets), and drives use
+Each scenario gets its own dataset (the collect config, its own base seed: 0, 1, 2, ... in the order
+of ``shipped_scenarios()``), a training is ``irlsim train --data D1 --data D2 ...`` (the aggregate of the datasets), and drives use
 ``irlsim drive --scenario X``. Every step is a separate command; a step whose output exists is skipped,
 so the study resumes where it stopped. Run from the repository root:
 
@@ -133,7 +133,8 @@ def main() -> int:
                 expert = next(s for s in summaries if s["drive/model"] == "expert")
                 rows += [row(x, f"{name} seed {seed}", s, expert["drive/mean_speed_kmh"]) for s in summaries]
     (out / "transfer.json").write_text(json.dumps(rows, indent=1) + "\n")
-    cols = "scenario | training | model | episodes | collisions | exits | red | stops | mission | speed / expert"
+    cols = "scenario | training | model | episodes | collisions | exits | red | stops | mission"
+    cols += " | speed / expert"
     lines = [f"| {cols} | score |", "|" + "---|" * 11]
     for r in sorted(rows, key=lambda r: (r["scenario"], r["training"], r["model"])):
         lines.append("| " + " | ".join(str(r[k]) for k in r) + " |")
