@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -51,11 +52,29 @@ def save_checkpoint(path: Path, payload: dict[str, Any]) -> None:
 
     Serialised into memory first: torch.save onto a path stores the file's name inside the archive (the
     temporary name here), which made identical runs differ in their bytes; from a buffer the archive is
-    always named 'archive', so the same run gives the same bytes."""
-    payload = {"format": CHECKPOINT_FORMAT, **payload}
+    always named 'archive', so the same run gives the same bytes. The payload is pickled as its
+    :func:`canonical` copy, so the bytes follow from its values alone, also after a resume."""
+    payload = canonical({"format": CHECKPOINT_FORMAT, **payload})
     buf = io.BytesIO()
     torch.save(payload, buf)
     atomic_write_bytes(path, buf.getvalue())
+
+
+def canonical(obj: Any) -> Any:
+    """A copy of ``obj`` whose pickle depends on its values only: pickle writes an object seen before
+    as a back-reference to it, by identity, so a resumed run (whose optimizer keys 'lr', 'weight_decay'
+    were loaded from the checkpoint, not shared with the config's) pickled the same values to other
+    bytes. Every dict, list and tuple here is a fresh object (never shared) and every string the
+    interned one (shared exactly when equal); tensors are kept (stored by storage)."""
+    if isinstance(obj, dict):
+        return {canonical(k): canonical(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [canonical(v) for v in obj]
+    if isinstance(obj, tuple):
+        return tuple(canonical(v) for v in obj)
+    if type(obj) is str:
+        return sys.intern(obj)
+    return obj
 
 
 def _tensors(entry: Any, prefix: str = "") -> Iterator[tuple[str, torch.Tensor]]:
