@@ -26,14 +26,24 @@ CHECKPOINT_FORMAT = 2
 
 
 def dataset_identity(dataset: Any) -> str | None:
-    """What identifies a dataset in a checkpoint: the sha256 of its manifest (canonical JSON: sorted keys,
-    no spaces), which records the collection config, the episode seeds and splits and the counts. None for
-    an in-memory dataset without a manifest."""
+    """What identifies a dataset in a checkpoint, by content: the sha256 of its manifest (canonical JSON:
+    sorted keys, no spaces), which records the collection config, the episode seeds and splits and the
+    counts; an aggregate's own ``identity`` (its folders' identities in order, no paths). None for an
+    in-memory dataset without a manifest."""
+    own = getattr(dataset, "identity", None)
+    if isinstance(own, str):
+        return own
     manifest = getattr(dataset, "manifest", None)
     if not manifest:
         return None
     text = json.dumps(manifest, sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def legacy_identities(dataset: Any) -> tuple[str, ...]:
+    """Identities an older irlsim recorded for this dataset, still accepted (an aggregate's manifest
+    hash with its paths as typed)."""
+    return tuple(getattr(dataset, "legacy_identities", ()))
 
 
 def dataset_seeds(dataset: Any) -> list[int] | None:
@@ -91,10 +101,12 @@ def read_checkpoint(
     model: str | None = None,
     stage: int | None = None,
     dataset: str | None = None,
+    legacy: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Load a checkpoint written by this package and check what it is: missing, a folder, corrupt, of
     another format or feature set, with non-finite weights, or (when given) of another ``model``, ``stage``
-    or ``dataset`` (identity from :func:`dataset_identity`) -> IrlsimError (one line)."""
+    or ``dataset`` (identity from :func:`dataset_identity`; ``legacy``: its older identities, also
+    accepted) -> IrlsimError (one line)."""
     path = Path(path)
     if path.is_dir():
         raise IrlsimError(f"checkpoint {path} is a folder, not a file: remove it and train again")
@@ -127,7 +139,7 @@ def read_checkpoint(
             f"checkpoint {path} was trained on dataset schema version {ckpt.get('schema_version')}, this "
             f"irlsim reads {SCHEMA_VERSION}: delete it and retrain on a dataset collected by this irlsim"
         )
-    check_identity(path, ckpt, model=model, stage=stage, dataset=dataset)
+    check_identity(path, ckpt, model=model, stage=stage, dataset=dataset, legacy=legacy)
     for key in ("state_dict", "best", "base"):
         for name, t in _tensors(ckpt.get(key)):
             if t.is_floating_point() and not bool(torch.isfinite(t).all()):
@@ -145,6 +157,7 @@ def check_identity(
     model: str | None = None,
     stage: int | None = None,
     dataset: str | None = None,
+    legacy: tuple[str, ...] = (),
 ) -> None:
     """Refuse (one line) a checkpoint that is not the ``model`` / ``stage`` / ``dataset`` asked for."""
     if model is not None and ckpt["model"] != model:
@@ -158,7 +171,7 @@ def check_identity(
             f"to the stage{ckpt.get('stage')}/ folder or train stage {stage}"
         )
     have = ckpt.get("dataset")
-    if dataset is not None and have is not None and have != dataset:
+    if dataset is not None and have is not None and have != dataset and have not in legacy:
         raise IrlsimError(
             f"checkpoint {path} was trained on another dataset ({str(have)[:19]}..., this one is "
             f"{dataset[:19]}...): use the --data it was trained on, or retrain on this one"

@@ -1,0 +1,109 @@
+"""Provenance by content: a dataset or an aggregate of dataset folders is identified by what it holds
+(member identities in order, never paths), and every checkpoint records the episode seeds of everything
+it was trained on, so ``irlsim drive`` refuses them for any model, DAgger's included. Real tiny
+collections, real training, the real CLI."""
+
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+import torch
+
+from irlsim.cli import main
+from irlsim.data.aggregate import open_datasets
+from irlsim.data.reader import CACHE_DIR
+from irlsim.train.checkpoint import dataset_identity
+from tests.conftest import TINY_COLLECT
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def round_data(tmp_path_factory) -> Path:
+    """A second real tiny collection (seed 1: other episode seeds), one train and one validation episode."""
+    out = tmp_path_factory.mktemp("data") / "seed1"
+    sets = ["--set", "seed=1", "--set", "train_episodes=1", "--set", "test_episodes=0"]
+    args = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *sets]
+    assert main(args) == 0
+    return out
+
+
+def _copies(tiny_dataset: Path, round_data: Path, where: Path) -> tuple[Path, Path]:
+    ignore = shutil.ignore_patterns(CACHE_DIR, ".lock")
+    a, b = where / "expert", where / "round"
+    shutil.copytree(tiny_dataset, a, ignore=ignore)
+    shutil.copytree(round_data, b, ignore=ignore)
+    return a, b
+
+
+def _train(data: list[Path | str], out: Path, epochs: int = 1) -> int:
+    return main(
+        [
+            "train",
+            "--stage",
+            "1",
+            "--config",
+            str(ROOT / "configs/train/tiny_stage1.toml"),
+            "--data",
+            *map(str, data),
+            "--set",
+            'models=["LIRL"]',
+            "--set",
+            f"epochs={epochs}",
+            "--out",
+            str(out),
+        ]
+    )
+
+
+def _seeds(path: Path) -> list[int]:
+    import json
+
+    seeds = json.loads((path / "manifest.json").read_text())["seeds"]
+    return sorted(int(x) for split in seeds.values() for x in split)
+
+
+def test_a_model_trained_on_several_folders_records_their_seeds_and_drive_refuses_them(
+    tiny_dataset, round_data, tmp_path, capsys
+):
+    a, b = _copies(tiny_dataset, round_data, tmp_path)
+    assert _train([a, b], tmp_path / "runs") == 0
+    ckpt = tmp_path / "runs" / "stage1" / "LIRL" / "checkpoint.pt"
+    recorded = torch.load(ckpt, weights_only=True)["dataset_seeds"]
+    assert recorded is not None and sorted(recorded) == sorted(_seeds(a) + _seeds(b))
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text("[planner]\nn_policies = 120\n")
+    for seed in (_seeds(a)[0], _seeds(b)[-1]):  # the expert data's seed 0, the round's own seeds
+        capsys.readouterr()
+        args = ["drive", "--model", str(ckpt), "--seed", str(seed), "--config", str(cfg), "--out"]
+        assert main([*args, str(tmp_path / "drive")]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "are seeds of the data" in err[0], err
+    assert not (tmp_path / "drive" / "drive.json").exists()
+
+
+def test_an_aggregate_is_identified_by_its_content_not_its_paths(tiny_dataset, round_data, tmp_path, capsys):
+    a, b = _copies(tiny_dataset, round_data, tmp_path / "first")
+    runs = tmp_path / "runs"
+    assert _train([a, b], runs) == 0
+    # the folders copied byte for byte, moved elsewhere and named by relative paths: the same dataset
+    moved = tmp_path / "elsewhere"
+    c, d = _copies(a, b, moved)
+    assert dataset_identity(open_datasets([c, d])) == dataset_identity(open_datasets([a, b]))
+    cwd = Path.cwd()
+    os.chdir(moved)
+    try:
+        assert _train(["expert", "round"], runs, epochs=2) == 0  # resumed, not "another dataset"
+        capsys.readouterr()
+        # the order is part of what was trained on (rows, episode ids): another order is another dataset
+        assert _train(["round", "expert"], runs, epochs=3) == 2
+        assert "trained on another dataset" in capsys.readouterr().err
+    finally:
+        os.chdir(cwd)
+    ckpt = torch.load(runs / "stage1" / "LIRL" / "checkpoint.pt", weights_only=True)
+    assert ckpt["epoch"] == 2 and ckpt["dataset"] == dataset_identity(open_datasets([c, d]))
+    out = tmp_path / "eval"
+    assert main(["evaluate", "--data", str(c), str(d), "--runs", str(runs), "--out", str(out)]) == 0
