@@ -22,6 +22,7 @@ from irlsim.outputs import check_output_dir
 from irlsim.train import config as tc
 from irlsim.train.checkpoint import dataset_identity
 from irlsim.train.layout import SUMMARY_NAME, find_checkpoint, stage_dir
+from irlsim.train.preflight import check_trainable
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2
 from irlsim.utils import LockBusy, exclusive_lock, write_json
@@ -98,8 +99,9 @@ def _run(args: argparse.Namespace) -> int:
     if args.stage == 2 and not base.is_dir():
         hint = "pass --base" if args.base is not None else f"run 'irlsim train --stage 1 --out {args.out}'"
         raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
-    check_output_dir(args.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     dataset = open_datasets(args.data)
+    check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: before anything is written
+    check_output_dir(args.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     out = stage_dir(args.out, args.stage)
     try:  # one training at a time per runs folder (both stages: stage 2 reads stage 1's checkpoints)
         with exclusive_lock(args.out / LOCK_NAME):
