@@ -186,6 +186,15 @@ class _Missing:
 MISSING: Any = _Missing()
 
 
+def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
+    """Whether two recorded DAgger drivers (manifest ``driver``: model, checkpoint path, sha256, the
+    dataset it was trained on) are the same by content: model and checkpoint sha256, never the path, so a
+    copied or moved DAgger folder resumes its collection."""
+    if old is None or new is None:
+        return old is new
+    return (old.get("model"), old.get("sha256")) == (new.get("model"), new.get("sha256"))
+
+
 def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
     """The first dotted key whose value differs between two nested dicts, with both values (a key
     missing on one side gives ``MISSING`` there), or None when they are equal."""

@@ -107,3 +107,38 @@ def test_an_aggregate_is_identified_by_its_content_not_its_paths(tiny_dataset, r
     assert ckpt["epoch"] == 2 and ckpt["dataset"] == dataset_identity(open_datasets([c, d]))
     out = tmp_path / "eval"
     assert main(["evaluate", "--data", str(c), str(d), "--runs", str(runs), "--out", str(out)]) == 0
+
+
+def test_a_copied_dagger_round_folder_resumes_with_its_copied_driver(tiny_dataset, tmp_path, capsys):
+    """A DAgger round's data and its driver copied elsewhere (another machine, a backup): the collection
+    resumes (nothing re-collected, the manifest and so the identity unchanged); a driver recorded by path
+    refused it as 'another config'."""
+    first = tmp_path / "first"
+    runs = first / "runs"
+    args = [
+        "train",
+        "--stage",
+        "1",
+        "--config",
+        "configs/train/tiny_stage1.toml",
+        "--data",
+        str(tiny_dataset),
+    ]
+    assert main([*args, "--out", str(runs), "--set", "models=['PACNN+S']", "--set", "epochs=1"]) == 0
+    sets = ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0"]
+    sets += TINY_COLLECT
+
+    def collect(root: Path) -> int:
+        driver = root / "runs" / "stage1" / "PACNN+S" / "checkpoint.pt"
+        base = ["collect", "--config", "configs/collect/tiny.toml", "--driver", str(driver)]
+        return main([*base, "--out", str(root / "round"), *sets])
+
+    assert collect(first) == 0
+    copy = tmp_path / "copy"
+    shutil.copytree(first, copy, ignore=shutil.ignore_patterns(CACHE_DIR, ".lock"))
+    manifest = (copy / "round" / "manifest.json").read_bytes()
+    stamps = sorted(p.stat().st_mtime_ns for p in (copy / "round").rglob("*.parquet"))
+    capsys.readouterr()
+    assert collect(copy) == 0, capsys.readouterr().err
+    assert (copy / "round" / "manifest.json").read_bytes() == manifest
+    assert sorted(p.stat().st_mtime_ns for p in (copy / "round").rglob("*.parquet")) == stamps
