@@ -123,6 +123,26 @@ def exclusive_lock(path: str | Path) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
+#: the lock file a command holds in the folder it writes (collect, train, evaluate, drive)
+LOCK_NAME = ".lock"
+
+
+@contextmanager
+def owned_output(folder: str | Path, command: str) -> Iterator[None]:
+    """Hold ``<folder>/.lock`` while ``irlsim <command>`` writes ``folder``: a second command writing the
+    same folder is one line (IrlsimError) instead of two runs that both report success while one
+    result is lost."""
+    folder = Path(folder)
+    try:
+        with exclusive_lock(folder / LOCK_NAME):
+            yield
+    except LockBusy as busy:
+        raise IrlsimError(
+            f"another 'irlsim {command}' is writing {folder} (pid {busy.holder}): wait for it, or choose "
+            "another --out"
+        ) from None
+
+
 def die_with_parent(parent_pid: int) -> None:
     """Worker-process set-up: ignore Ctrl-C (the parent reports it) and die when the parent dies.
 

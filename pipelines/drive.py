@@ -13,6 +13,7 @@ episode of each model the pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXX
 from __future__ import annotations
 
 import argparse
+import hashlib
 import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -28,7 +29,7 @@ from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
-from irlsim.utils import atomic_write_text, write_json
+from irlsim.utils import atomic_write_text, owned_output, write_json
 from pipelines.collect import add_executor_arguments, episode_timeout, timeout_advice
 
 HELP = (
@@ -264,7 +265,7 @@ def _run(args: argparse.Namespace, device: str) -> int:
     specs = [m.strip() for m in args.model.split(",") if m.strip()]
     if not specs:
         raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
-    if len(set(specs)) != len(specs):
+    if len({_folder(s) for s in specs}) != len(specs):  # a checkpoint named twice, relative and absolute
         raise IrlsimError(f"--model names a model twice: {args.model}")
     if args.seed + args.episodes - 1 > MAX_SEED:
         raise IrlsimError(
@@ -287,6 +288,14 @@ def _run(args: argparse.Namespace, device: str) -> int:
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, args.threads)] = model
 
+    with owned_output(out, "drive"):  # one command writes an --out at a time; pictures come first
+        return _drive_into(args, models, specs, cfg, out, runs, device)
+
+
+def _drive_into(
+    args: argparse.Namespace, models: list[Any], specs: list[str], cfg: Any, out: Path, runs: Any, device: str
+) -> int:
+    """The episodes, pictures and tables, while this process holds ``<out>/.lock``."""
     jobs, labels = _episode_jobs(args, models, specs, cfg, out, runs, device)
     limit = episode_timeout(args.episode_timeout, args.executor, args.workers, cfg.scenario, args.max_cycles)
     results = _drive_jobs(args, jobs, out, limit)
@@ -375,13 +384,16 @@ def _drive_jobs(
 
 
 def _folder(name: str) -> str:
-    """A model's picture folder: its registry name, or a checkpoint path as one folder name (its parts
-    joined by '_', e.g. runs_a_stage1_PACNN+S_checkpoint.pt): two checkpoints of one model, or a
-    checkpoint and the registry model of that name, never share a folder."""
+    """A model's picture folder: its registry name, or a checkpoint path as one folder name: its parts
+    joined by '_' for reading and the first 10 hex digits of the sha256 of its resolved path (e.g.
+    runs_a_stage1_PACNN+S_checkpoint.pt-3f0c9a1b2d), so two checkpoints (x_y/checkpoint.pt and
+    x/y/checkpoint.pt), or a checkpoint and the registry model of that name, never share a folder, and
+    one file named two ways (relative, absolute) draws into one."""
     p = Path(name)
     if p.suffix != ".pt" and "/" not in name:
         return name
-    return "_".join(part for part in p.parts if part not in ("/", "..", ".")) or p.name
+    readable = "_".join(part for part in p.parts if part not in ("/", "..", ".")) or p.name
+    return f"{readable}-{hashlib.sha256(str(p.resolve()).encode()).hexdigest()[:10]}"
 
 
 def _line(rec: dict) -> str:
