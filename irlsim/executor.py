@@ -39,7 +39,6 @@ import logging
 import multiprocessing as mp
 import os
 import signal
-import socket
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -49,7 +48,7 @@ from typing import Any
 
 from irlsim import THREAD_VARS
 from irlsim.errors import IrlsimError
-from irlsim.utils import die_with_parent, time_limit
+from irlsim.utils import answers_http2, die_with_parent, time_limit
 
 EXECUTORS = ("local", "ray")
 #: attempts after the first for a job that raises or whose worker dies
@@ -129,7 +128,7 @@ def join_ray(address: str, timeout: float | None = None) -> None:
         found = "no running Ray cluster found" if resolved is None else f"{resolved!r} is not host:port"
         raise IrlsimError(f"--address {address!r}: {found}: {fix}")
     try:
-        answered = _speaks_grpc(host.strip("[]"), int(port), limit)
+        answered = answers_http2(host.strip("[]"), int(port), limit)
     except OSError as exc:
         why = exc.strerror or type(exc).__name__
         raise IrlsimError(f"cannot reach the Ray cluster at {resolved} ({why}): {fix}") from None
@@ -141,27 +140,6 @@ def join_ray(address: str, timeout: float | None = None) -> None:
         except (ConnectionError, RuntimeError, ValueError) as exc:
             raise IrlsimError(f"cannot join the Ray cluster at {resolved} ({one_line(exc)}): {fix}") from None
     _joined.append(str(resolved))
-
-
-#: an HTTP/2 client's first bytes (connection preface, an empty SETTINGS frame): Ray's GCS is a gRPC
-#: server and answers with its own SETTINGS frame
-_H2_HELLO = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
-
-
-def _speaks_grpc(host: str, port: int, timeout: float) -> bool:
-    """Whether ``host:port`` accepts a connection and answers an HTTP/2 greeting within ``timeout``
-    seconds (OSError when it refuses). ``ray.init`` on a port that takes connections but never answers
-    as Ray blocks in C++ where no signal interrupts it, so this is checked first. With RAY_USE_TLS the
-    greeting is not plain: only the connection is checked."""
-    with socket.create_connection((host, port), timeout=timeout) as conn:
-        if os.environ.get("RAY_USE_TLS", "0").lower() in ("1", "true"):
-            return True
-        conn.sendall(_H2_HELLO)
-        try:
-            head = conn.recv(9)
-        except TimeoutError:
-            return False
-        return len(head) == 9 and head[3] == 4  # a SETTINGS frame
 
 
 def _import_ray() -> Any:

@@ -6,6 +6,7 @@ import json
 import os
 import random
 import signal
+import socket
 import sys
 import tempfile
 import threading
@@ -226,3 +227,25 @@ def time_limit(seconds: float, message: str) -> Iterator[None]:
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, previous)
+
+
+#: an HTTP/2 client's first bytes (connection preface, an empty SETTINGS frame): Ray's GCS is a gRPC
+#: server and answers with its own SETTINGS frame
+_H2_HELLO = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+
+
+def answers_http2(host: str, port: int, timeout: float) -> bool:
+    """Whether ``host:port`` accepts a connection and answers an HTTP/2 greeting within ``timeout``
+    seconds (OSError when it refuses), as a gRPC server such as Ray's GCS does: ``ray.init`` on a port
+    that takes connections but never answers as Ray blocks in C++ where no signal interrupts it, so
+    joining checks this first. With RAY_USE_TLS the greeting is not plain: only the connection is
+    checked."""
+    with socket.create_connection((host, port), timeout=timeout) as conn:
+        if os.environ.get("RAY_USE_TLS", "0").lower() in ("1", "true"):
+            return True
+        conn.sendall(_H2_HELLO)
+        try:
+            head = conn.recv(9)
+        except TimeoutError:
+            return False
+        return len(head) == 9 and head[3] == 4  # a SETTINGS frame
