@@ -30,6 +30,7 @@ from irlsim.data.collection import (
     EpisodeJob,
     collect_episode,
     data_config,
+    episode_record,
     estimate_dataset_bytes,
     first_difference,
     same_driver,
@@ -263,6 +264,7 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
     files fail the check is deleted and collected again."""
     jobs: list[Any] = []
     seeds: dict[str, list[int]] = {}
+    vouched = (out / "manifest.json").is_file()  # checked against this config: older files without a record
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
@@ -276,6 +278,8 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                     episode,
                     n_policies=cfg.planner.n_policies,
                     n_control_points=cfg.planner.n_control_points,
+                    record=episode_record(seed, cfg),  # a file of another seed or config: collected again
+                    unrecorded_ok=vouched,
                 )
                 if problem is None:
                     continue

@@ -142,3 +142,56 @@ def test_a_copied_dagger_round_folder_resumes_with_its_copied_driver(tiny_datase
     assert collect(copy) == 0, capsys.readouterr().err
     assert (copy / "round" / "manifest.json").read_bytes() == manifest
     assert sorted(p.stat().st_mtime_ns for p in (copy / "round").rglob("*.parquet")) == stamps
+
+
+def _collect(out: Path, seed: int) -> int:
+    args = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT]
+    return main([*args, "--set", "test_episodes=0", "--seed", str(seed)])
+
+
+def _parquet_sha(folder: Path) -> dict[str, str]:
+    import hashlib
+
+    return {
+        str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in folder.rglob("*.parquet")
+    }
+
+
+def test_a_resume_with_another_seed_and_no_manifest_recollects_instead_of_relabelling(tmp_path, capsys):
+    import json
+
+    import pyarrow.parquet as pq
+
+    out, fresh = tmp_path / "data", tmp_path / "fresh"
+    assert _collect(out, 0) == 0
+    meta = pq.ParquetFile(out / "train" / "episode_00000.policies.parquet").schema_arrow.metadata
+    assert meta[b"irlsim.seed"] == b"0" and meta[b"irlsim.config"].startswith(b"sha256:")
+    (out / "manifest.json").unlink()  # lost
+    capsys.readouterr()
+    assert _collect(out, 1) == 0
+    assert "was collected with seed 0, this run's is 1000000" in capsys.readouterr().err
+    assert _collect(fresh, 1) == 0
+    # the files are seed 1's, as the manifest says: the bytes of a fresh seed-1 collection
+    assert _parquet_sha(out) == _parquet_sha(fresh)
+    assert json.loads((out / "manifest.json").read_text())["seeds"]["train"][0] == 1_000_000
+
+
+def test_files_of_an_older_irlsim_are_kept_with_their_manifest_and_recollected_without(tmp_path):
+    import pyarrow.parquet as pq
+
+    out = tmp_path / "data"
+    assert _collect(out, 0) == 0
+    recorded = _parquet_sha(out)
+    for p in out.rglob("*.parquet"):  # as an irlsim before the seed record wrote them
+        table = pq.read_table(p)
+        meta = {
+            k: v
+            for k, v in (table.schema.metadata or {}).items()
+            if k not in (b"irlsim.seed", b"irlsim.config")
+        }
+        pq.write_table(table.replace_schema_metadata(meta), p)
+    older = _parquet_sha(out)
+    assert _collect(out, 0) == 0 and _parquet_sha(out) == older  # the manifest vouches: kept
+    (out / "manifest.json").unlink()
+    assert _collect(out, 0) == 0 and _parquet_sha(out) == recorded  # nothing vouches: collected again
