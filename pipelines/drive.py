@@ -327,6 +327,16 @@ def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:
     for model in models:
         loaded = getattr(model.predictor, "loaded", None)
         trained = set(loaded.checkpoint.get("dataset_seeds") or ()) if loaded is not None else set()
+        if (
+            loaded is not None
+            and loaded.checkpoint.get("dataset")
+            and loaded.checkpoint.get("dataset_seeds") is None
+        ):
+            print(
+                f"note: {model.name} records no training seeds (trained before they were recorded): "
+                "its seeds are not checked; retrain it to have them refused",
+                file=sys.stderr,
+            )
         overlap = sorted(asked & trained)
         if overlap:
             shown = ", ".join(map(str, sorted(trained)[:8])) + (", ..." if len(trained) > 8 else "")

@@ -83,6 +83,14 @@ def test_a_model_trained_on_several_folders_records_their_seeds_and_drive_refuse
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "are seeds of the data" in err[0], err
     assert not (tmp_path / "drive" / "drive.json").exists()
+    # a checkpoint written before the seeds were recorded cannot be checked: said, not silent
+    from irlsim.train.checkpoint import save_checkpoint
+
+    old = {k: v for k, v in torch.load(ckpt, weights_only=True).items() if k != "format"}
+    save_checkpoint(ckpt, {**old, "dataset_seeds": None})
+    args = ["drive", "--model", str(ckpt), "--seed", "0", "--config", str(cfg), "--max-cycles", "2"]
+    assert main([*args, "--frames", "0", "--out", str(tmp_path / "drive")]) == 0
+    assert "records no training seeds" in capsys.readouterr().err
 
 
 def test_an_aggregate_is_identified_by_its_content_not_its_paths(tiny_dataset, round_data, tmp_path, capsys):
