@@ -48,7 +48,7 @@ from typing import Any
 
 from irlsim import THREAD_VARS
 from irlsim.errors import IrlsimError
-from irlsim.utils import die_with_parent
+from irlsim.utils import answers_http2, die_with_parent, time_limit
 
 EXECUTORS = ("local", "ray")
 #: attempts after the first for a job that raises or whose worker dies
@@ -94,6 +94,52 @@ def check_executor(executor: str, workers: int, address: str | None = None) -> N
         raise IrlsimError("--address joins a Ray cluster: use it with --executor ray")
     if executor == "ray":
         _import_ray()
+        if address is not None:
+            join_ray(address)
+
+
+#: seconds joining a Ray cluster (--address) may take: reaching its port, then Ray's own handshake
+RAY_JOIN_TIMEOUT_S = 30.0
+_RAY_INIT: dict[str, Any] = {
+    "include_dashboard": False,
+    "log_to_driver": False,
+    "logging_level": logging.WARNING,
+}
+_joined: list[str] = []  # the address check_executor joined: the next run_jobs uses it, then leaves it
+
+
+def join_ray(address: str, timeout: float | None = None) -> None:
+    """Join the Ray cluster at ``address`` ('auto' or host:port) within ``timeout`` seconds (default
+    ``RAY_JOIN_TIMEOUT_S``), or one IrlsimError line: a malformed or empty address, no cluster found for
+    'auto', a port nobody listens on, a listener that does not answer as Ray (``ray.init`` alone waits
+    for ever). Done by :func:`check_executor`, before a command writes anything."""
+    ray, limit = _import_ray(), RAY_JOIN_TIMEOUT_S if timeout is None else timeout
+    if ray.is_initialized():
+        return
+    fix = "check --address, or start the cluster ('ray start --head') and pass the address it prints"
+    try:
+        from ray._private.services import get_ray_address_from_environment  # lazy: Ray is optional
+
+        resolved = get_ray_address_from_environment(address, None)
+    except (ImportError, ConnectionError):
+        resolved = None if address == "auto" else address
+    host, _, port = str(resolved or "").removeprefix("ray://").rpartition(":")
+    if not host or not port.isdigit() or not 0 < int(port) < 65536:
+        found = "no running Ray cluster found" if resolved is None else f"{resolved!r} is not host:port"
+        raise IrlsimError(f"--address {address!r}: {found}: {fix}")
+    try:
+        answered = answers_http2(host.strip("[]"), int(port), limit)
+    except OSError as exc:
+        why = exc.strerror or type(exc).__name__
+        raise IrlsimError(f"cannot reach the Ray cluster at {resolved} ({why}): {fix}") from None
+    if not answered:
+        raise IrlsimError(f"{resolved} did not answer as a Ray cluster within {limit:g} s: {fix}")
+    with time_limit(limit, f"the Ray cluster at {resolved} did not answer as Ray within {limit:g} s: {fix}"):
+        try:
+            ray.init(address=resolved, **_RAY_INIT)
+        except (ConnectionError, RuntimeError, ValueError) as exc:
+            raise IrlsimError(f"cannot join the Ray cluster at {resolved} ({one_line(exc)}): {fix}") from None
+    _joined.append(str(resolved))
 
 
 def _import_ray() -> Any:
@@ -364,24 +410,14 @@ def _run_ray(
     fn: Callable[[Any], Any], state: _State, workers: int, address: str | None, timeout: float | None = None
 ) -> None:
     ray = _import_ray()
-    started = False
-    if not ray.is_initialized():
-        kwargs: dict[str, Any] = {
-            "include_dashboard": False,
-            "log_to_driver": False,
-            "logging_level": logging.WARNING,
-        }
-        if address is None:  # a new local Ray, even where another one runs on this machine
-            kwargs.update(address="local", num_cpus=workers)
-        else:
-            kwargs["address"] = address
+    started = bool(_joined) and ray.is_initialized()  # joined by check_executor: left at the end
+    _joined.clear()
+    if not ray.is_initialized():  # a new local Ray, even where another one runs on this machine (an
+        # --address was joined by check_executor, within its time limit)
         try:
-            ray.init(**kwargs)
+            ray.init(address="local", num_cpus=workers, **_RAY_INIT)
         except (ConnectionError, RuntimeError, ValueError) as exc:
-            where = f"the Ray cluster at {address}" if address else "a local Ray"
-            raise IrlsimError(
-                f"cannot start or join {where} ({one_line(exc)}): check --address, or 'ray start --head'"
-            ) from None
+            raise IrlsimError(f"cannot start a local Ray ({one_line(exc)}): use --executor local") from None
         started = True
     task = ray.remote(
         num_cpus=1,

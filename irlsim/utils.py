@@ -6,8 +6,10 @@ import json
 import os
 import random
 import signal
+import socket
 import sys
 import tempfile
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -123,6 +125,26 @@ def exclusive_lock(path: str | Path) -> Iterator[None]:
         os.close(fd)  # releases the lock
 
 
+#: the lock file a command holds in the folder it writes (collect, train, evaluate, drive)
+LOCK_NAME = ".lock"
+
+
+@contextmanager
+def owned_output(folder: str | Path, command: str) -> Iterator[None]:
+    """Hold ``<folder>/.lock`` while ``irlsim <command>`` writes ``folder``: a second command writing the
+    same folder is one line (IrlsimError) instead of two runs that both report success while one
+    result is lost."""
+    folder = Path(folder)
+    try:
+        with exclusive_lock(folder / LOCK_NAME):
+            yield
+    except LockBusy as busy:
+        raise IrlsimError(
+            f"another 'irlsim {command}' is writing {folder} (pid {busy.holder}): wait for it, or choose "
+            "another --out"
+        ) from None
+
+
 def die_with_parent(parent_pid: int) -> None:
     """Worker-process set-up: ignore Ctrl-C (the parent reports it) and die when the parent dies.
 
@@ -182,3 +204,48 @@ def check_output_file(path: Path, option: str, example: str) -> None:
     with a temporary file that is removed at once). Missing folders are fine: the writer creates them.
     ``option`` names the command-line option in the message, ``example`` a file name to suggest."""
     check_output_file_(path, option, example)
+
+
+@contextmanager
+def time_limit(seconds: float, message: str) -> Iterator[None]:
+    """Raise IrlsimError(``message``) when the block runs longer than ``seconds`` (SIGALRM, so only in
+    the main thread; elsewhere the block is not limited). For a library call that can wait for ever
+    (joining a Ray cluster that never answers)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def expire(signum: int, frame: Any) -> None:
+        raise TimeoutError
+
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    except TimeoutError:
+        raise IrlsimError(message) from None
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+#: an HTTP/2 client's first bytes (connection preface, an empty SETTINGS frame): Ray's GCS is a gRPC
+#: server and answers with its own SETTINGS frame
+_H2_HELLO = b"PRI * HTTP/2.0\r\n\r\nSM\r\n\r\n" + bytes([0, 0, 0, 4, 0, 0, 0, 0, 0])
+
+
+def answers_http2(host: str, port: int, timeout: float) -> bool:
+    """Whether ``host:port`` accepts a connection and answers an HTTP/2 greeting within ``timeout``
+    seconds (OSError when it refuses), as a gRPC server such as Ray's GCS does: ``ray.init`` on a port
+    that takes connections but never answers as Ray blocks in C++ where no signal interrupts it, so
+    joining checks this first. With RAY_USE_TLS the greeting is not plain: only the connection is
+    checked."""
+    with socket.create_connection((host, port), timeout=timeout) as conn:
+        if os.environ.get("RAY_USE_TLS", "0").lower() in ("1", "true"):
+            return True
+        conn.sendall(_H2_HELLO)
+        try:
+            head = conn.recv(9)
+        except TimeoutError:
+            return False
+        return len(head) == 9 and head[3] == 4  # a SETTINGS frame

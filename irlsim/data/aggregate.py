@@ -16,8 +16,12 @@ rebuilds it; deleting it (or ``.cache``) is always safe. Old aggregates (earlier
 removed: ``.cache/aggregate-*`` of the first folder can be deleted to free disk. A split only the first
 folder has (the expert data's test split) is that folder's cache itself, nothing is copied.
 
-The aggregate's identity (what a checkpoint records as the dataset it was trained on) is the list of the
-folders' manifest hashes in order; the folders must share the schema, the features and the planner
+The aggregate's identity (what a checkpoint records as the dataset it was trained on) is a hash of the
+folders' manifest hashes in order (:func:`aggregate_identity`), never of their paths: a copied or moved
+folder, or one named by a relative path, is the same dataset. Its manifest's ``seeds`` hold every folder's
+episode seeds per split, so a checkpoint trained on it records them (``irlsim drive`` refuses them). An
+identity written before (a hash of the aggregate's manifest with the paths as typed) is still accepted
+(``legacy_identities``). The folders must share the schema, the features and the planner
 (the policies and features mean the same) and may differ in everything else (seeds, counts, DAgger round).
 """
 
@@ -61,6 +65,13 @@ def manifest_identity(manifest: dict[str, Any]) -> str:
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
+def aggregate_identity(identities: list[str]) -> str:
+    """The identity of an aggregate of folders whose manifest identities are ``identities``, in order
+    (the order is part of what was trained on: it decides the rows and the episode ids)."""
+    text = json.dumps({"aggregate": list(identities)}, separators=(",", ":"))
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
 class AggregateDataset:
     """Several complete datasets as one (see the module docstring); the :class:`Dataset` methods that
     training and evaluation use: ``split_tensors``, ``read_cycles``, ``episodes``, ``splits``,
@@ -93,10 +104,19 @@ class AggregateDataset:
             "splits": {s: self._ids(s) for s in splits},
             "complete": True,
         }
+        #: what identified an aggregate before: its manifest as written above, the paths as typed
+        self.legacy_identities = (manifest_identity(self.manifest),)
+        self.identity = aggregate_identity(self.identities)
+        self.manifest["seeds"] = {s: self._seeds(s) for s in splits}
 
     @property
     def splits(self) -> list[str]:
         return list(self.manifest["splits"])
+
+    def _seeds(self, split: str) -> list[int]:
+        """Every folder's episode seeds of ``split``, in folder order."""
+        seeds = ((d.manifest.get("seeds") or {}).get(split) or () for d in self.datasets)
+        return [int(x) for part in seeds for x in part]
 
     def _ids(self, split: str) -> list[int]:
         return [

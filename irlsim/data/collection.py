@@ -12,6 +12,8 @@ driver is made above this layer (``irlsim.drive.dagger``) and handed in as a fac
 
 from __future__ import annotations
 
+import hashlib
+import json
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -181,6 +183,18 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS and (k, v) != ("dagger_round", 0)}
 
 
+def config_hash(cfg: CollectConfig | dict[str, Any]) -> str:
+    """sha256 of the data config (:func:`data_config`, canonical JSON): what every episode file records
+    beside its seed, so a resumed collection recognises a file collected with another config."""
+    text = json.dumps(data_config(cfg), sort_keys=True, separators=(",", ":"), default=str)
+    return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def episode_record(seed: int, cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
+    """What an episode's files record of their collection (EpisodeWriter ``record``): seed, config hash."""
+    return {"seed": int(seed), "config": config_hash(cfg)}
+
+
 class _Missing:
     def __repr__(self) -> str:
         return "(not set)"
@@ -188,6 +202,15 @@ class _Missing:
 
 #: stands for a key one of two configs lacks
 MISSING: Any = _Missing()
+
+
+def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
+    """Whether two recorded DAgger drivers (manifest ``driver``: model, checkpoint path, sha256, the
+    dataset it was trained on) are the same by content: model and checkpoint sha256, never the path, so a
+    copied or moved DAgger folder resumes its collection."""
+    if old is None or new is None:
+        return old is new
+    return (old.get("model"), old.get("sha256")) == (new.get("model"), new.get("sha256"))
 
 
 def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
@@ -327,7 +350,8 @@ def collect_episode(
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
     with Simulation(road, cfg.scenario) as sim:
-        with EpisodeWriter(out, job.split, job.episode, demo_source=source) as writer:
+        record = episode_record(job.seed, cfg)
+        with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder = CycleRecorder(writer, projector, labeller)
             runner = EpisodeRunner(
                 sim, observers=[_SetupClock(), recorder, *observers], max_cycles=cfg.max_cycles

@@ -14,6 +14,8 @@ import numpy as np
 from irlsim import FEATURE_NAMES, __version__
 from irlsim.data.reader import BadParquetFile, open_parquet, read_parquet
 from irlsim.data.schema import (
+    META_CONFIG,
+    META_SEED,
     SCHEMA_VERSION,
     TABLE_CYCLES,
     TABLE_POLICIES,
@@ -80,6 +82,8 @@ def check_episode(
     *,
     n_policies: int | None = None,
     n_control_points: int | None = None,
+    record: Mapping[str, Any] | None = None,
+    unrecorded_ok: bool = True,
 ) -> str | None:
     """Why a finished episode's pair of files cannot be kept (one line naming the file), or None.
 
@@ -87,7 +91,10 @@ def check_episode(
     both footers (a truncated file has none), the irlsim metadata, the exact schemas, the cycles file's
     episode ids and policy counts (``n_policies`` if given), and that the policies file holds one row per
     policy of its cycles file and ids of this episode (footer statistics). The policies' data pages are
-    not read (the reader checks those).
+    not read (the reader checks those). ``record`` (seed, config hash: what the collection would write,
+    :func:`irlsim.data.collection.episode_record`): both files must record the same (one recorded with
+    another seed or config is named); a file of an older irlsim that records none passes only with
+    ``unrecorded_ok`` (a manifest of this collection vouches for it).
     """
     cycles_path, policies_path = episode_paths(dataset_dir, split, episode)
     try:
@@ -111,6 +118,11 @@ def check_episode(
         table = read_parquet(cpf, cycles_path, columns=["episode", "n_policies"])
     except BadParquetFile as exc:
         return exc.problem
+    if record is not None:
+        for path, pf in ((cycles_path, cpf), (policies_path, ppf)):
+            problem = _record_problem(path, pf.schema_arrow.metadata or {}, record, unrecorded_ok)
+            if problem is not None:
+                return problem
     ids = table.column("episode").to_numpy()
     if (ids != episode).any():
         return f"{cycles_path} holds episode {int(ids[ids != episode][0])}, not {episode}"
@@ -125,6 +137,22 @@ def check_episode(
         stats = ppf.metadata.row_group(i).column(0).statistics  # column 0 is "episode" (schema checked)
         if stats is not None and stats.has_min_max and not stats.min == stats.max == episode:
             return f"{policies_path} holds episodes {stats.min}..{stats.max}, not {episode}"
+    return None
+
+
+def _record_problem(
+    path: Path, meta: Mapping[bytes, bytes], record: Mapping[str, Any], unrecorded_ok: bool
+) -> str | None:
+    """Why a file's episode record (irlsim.seed, irlsim.config) is not ``record``, or None."""
+    keys = {"seed": META_SEED, "config": META_CONFIG}
+    found = {k: meta[m].decode(errors="replace") for k, m in keys.items() if m in meta}
+    if not found:
+        return None if unrecorded_ok else f"{path} records no seed (an older irlsim, its manifest lost)"
+    for key in keys:
+        want = str(record.get(key))
+        if found.get(key) != want:
+            have = found.get(key, "(none)")[:19]
+            return f"{path} was collected with {key} {have}, this run's is {want[:19]}"
     return None
 
 

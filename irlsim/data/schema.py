@@ -18,9 +18,12 @@ table (``pd.read_parquet('<ds>/train')`` fails): name the files, by glob in Duck
 tests/data/test_third_party.py).
 
 Both files carry Parquet key-value metadata ``irlsim.schema_version`` and ``irlsim.table`` (``cycles`` or
-``policies``), so a foreign or outdated Parquet file in a dataset folder is recognised. Row groups hold
-``CYCLES_PER_ROW_GROUP`` whole cycles in both files, so row group i of the cycles file describes the
-cycles of row group i of the policies file.
+``policies``), so a foreign or outdated Parquet file in a dataset folder is recognised, and (files written
+by ``irlsim collect`` since the seed record) ``irlsim.seed``, the episode's seed, and ``irlsim.config``,
+the hash of the data config it was collected with (:func:`irlsim.data.collection.config_hash`), so a
+resumed collection checks every finished file against what it would collect (``check_episode``).
+Row groups hold ``CYCLES_PER_ROW_GROUP`` whole cycles in both files, so row group i of the cycles file
+describes the cycles of row group i of the policies file.
 """
 
 from __future__ import annotations
@@ -50,6 +53,9 @@ POLICIES_DICTIONARY_COLUMNS: tuple[str, ...] = ("episode", "cycle", "policy")
 
 META_VERSION = b"irlsim.schema_version"
 META_TABLE = b"irlsim.table"
+#: the episode record of a collected file: its seed and its data config's hash (absent in older files)
+META_SEED = b"irlsim.seed"
+META_CONFIG = b"irlsim.config"
 TABLE_CYCLES = "cycles"
 TABLE_POLICIES = "policies"
 

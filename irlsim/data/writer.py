@@ -99,12 +99,15 @@ class EpisodeWriter:
         *,
         cycles_per_row_group: int = CYCLES_PER_ROW_GROUP,
         demo_source: str = DEMO_ODOMETRY,
+        record: Mapping[str, Any] | None = None,
     ) -> None:
         if cycles_per_row_group < 1:
             raise ValueError(f"cycles_per_row_group must be >= 1, got {cycles_per_row_group}")
         if demo_source not in DEMO_SOURCES:
             raise ValueError(f"demo_source must be one of {DEMO_SOURCES}, got {demo_source!r}")
         self.demo_source = demo_source
+        # the episode record (seed, config hash) each file's key-value metadata carries as irlsim.<key>
+        self._meta = {f"irlsim.{k}".encode(): str(v).encode() for k, v in (record or {}).items()}
         self.episode = int(episode)
         self.cycles_path, self.policies_path = episode_paths(dataset_dir, split, episode)
         self.cycles_per_row_group = int(cycles_per_row_group)
@@ -215,7 +218,7 @@ class EpisodeWriter:
     def _write_group(self, group: list[_Cycle]) -> None:
         assert self._n is not None and self._k is not None
         if self._pol_writer is None:
-            schema = policies_schema(self._k)
+            schema = self._recorded(policies_schema(self._k))
             self._pol_tmp = self._stack.enter_context(atomic_path(self.policies_path))
             self._pol_writer = self._stack.enter_context(_policies_writer(self._pol_tmp, schema))
         table = build_policies_table(
@@ -258,9 +261,12 @@ class EpisodeWriter:
             if self._pol_writer is None:  # an episode without cycles still gets (empty) files
                 self._pol_tmp = self._stack.enter_context(atomic_path(self.policies_path))
                 self._pol_writer = self._stack.enter_context(
-                    _policies_writer(self._pol_tmp, policies_schema(self._k or N_CONTROL_POINTS))
+                    _policies_writer(
+                        self._pol_tmp, self._recorded(policies_schema(self._k or N_CONTROL_POINTS))
+                    )
                 )
             table = build_cycles_table(self.episode, self._rows, self._n or 0, self.demo_source)
+            table = table.replace_schema_metadata(self._recorded(table.schema).metadata)
             self._stack.close()  # closes the Parquet writer, then renames the policies file
             policies_renamed = True
             with atomic_path(self.cycles_path) as tmp:
@@ -291,6 +297,10 @@ class EpisodeWriter:
         except _Aborted as exc:
             # exiting atomic_path with an exception deletes its temporary file instead of renaming it
             self._stack.__exit__(type(exc), exc, exc.__traceback__)
+
+    def _recorded(self, schema: pa.Schema) -> pa.Schema:
+        """``schema`` with the episode record added to its key-value metadata."""
+        return schema.with_metadata({**(schema.metadata or {}), **self._meta}) if self._meta else schema
 
     def _check_open(self) -> None:
         if self._closed:

@@ -57,7 +57,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from irlsim import N_FEATURES
+from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.drive.recorder import ScorecardObserver
@@ -85,6 +85,55 @@ def normalised_value(value: np.ndarray, index: int) -> float:
     if not hi > lo:
         return 1.0
     return float((value[index] - lo) / (hi - lo))
+
+
+def discrete_index(action: Any, n_policies: int) -> int:
+    """A ``Discrete(n_policies)`` action as the policy index: an integer (Python or numpy, or an integral
+    0-d array) in 0..n_policies-1; anything else (a fraction, NaN, a bool, another shape) is refused in
+    one line rather than truncated to some policy."""
+    a = np.asarray(action) if not isinstance(action, (bool, np.bool_)) else None
+    if a is None or a.shape != () or a.dtype.kind not in "iu":
+        raise IrlsimError(
+            f"action {action!r} is not a policy index: Discrete({n_policies}) takes an integer in "
+            f"0..{n_policies - 1}"
+        )
+    index = int(a)
+    if not 0 <= index < n_policies:
+        raise IrlsimError(f"action {index} outside Discrete({n_policies})")
+    return index
+
+
+def continuous_action(action: Any) -> np.ndarray:
+    """A continuous action as (target acceleration [m/s^2], lateral target [m]): two finite numbers, else
+    one line (NaN would choose policy 0 by argmin; another shape read some other pair of numbers)."""
+    try:
+        a = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (2,) or not np.isfinite(a).all():
+        raise IrlsimError(
+            f"action {action!r} is not two finite numbers: OvalContinuous takes (target acceleration "
+            "[m/s^2], lateral target [m]) of shape (2,)"
+        )
+    return a
+
+
+def check_theta(theta: np.ndarray, reward: str) -> np.ndarray:
+    """A cycle's theta from the reward, refused (one line) unless it holds N_FEATURES finite numbers: a
+    NaN or infinite weight makes every policy's value NaN (or equal), which the normalised reward scored
+    as the maximal 1.0."""
+    theta = np.asarray(theta, dtype=np.float64)
+    if theta.shape != (N_FEATURES,):
+        raise IrlsimError(f"reward {reward} gave theta of shape {theta.shape}, not [{N_FEATURES}]")
+    bad = ~np.isfinite(theta)
+    if bad.any():
+        names = [FEATURE_NAMES[i] for i in np.flatnonzero(bad)[:3]]
+        raise IrlsimError(
+            f"reward {reward} gave a non-finite theta ({', '.join(names)} = "
+            f"{', '.join(str(theta[i]) for i in np.flatnonzero(bad)[:3])}): fix the reward callable, or "
+            "retrain the model (check its checkpoint and the dataset for non-finite features)"
+        )
+    return theta
 
 
 def continuous_to_index(action: np.ndarray, actions: np.ndarray, control_points: np.ndarray) -> int:
@@ -239,11 +288,9 @@ class OvalEnv(gym.Env):
             raise RuntimeError("step() after the episode ended (or before reset()): call reset()")
         ps = self.policy_set
         if self.continuous:
-            index = continuous_to_index(np.asarray(action), ps.actions, ps.control_points)
+            index = continuous_to_index(continuous_action(action), ps.actions, ps.control_points)
         else:
-            index = int(action)
-            if not 0 <= index < ps.n_policies:
-                raise IrlsimError(f"action {index} outside Discrete({ps.n_policies})")
+            index = discrete_index(action, ps.n_policies)
         assert self.values is not None and self.theta is not None
         reward = normalised_value(self.values, index)
         value, value_max = float(self.values[index]), float(self.values.max())
@@ -302,7 +349,7 @@ class OvalEnv(gym.Env):
         if self.policy_set is None:
             self.theta = self.values = None
             return
-        self.theta = self._theta_fn(self.policy_set, self.obs)
+        self.theta = check_theta(self._theta_fn(self.policy_set, self.obs), self.reward_name)
         self.values = self.policy_set.value(self.theta)
 
     def _observation(self) -> dict[str, np.ndarray]:

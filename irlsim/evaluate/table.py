@@ -42,7 +42,7 @@ from irlsim.train.loading import LoadedModel, load_model
 from irlsim.train.metrics_log import read_metrics
 from irlsim.train.repro import num_threads, provenance
 from irlsim.train.stage2 import predict_temporal
-from irlsim.utils import atomic_path, atomic_write_text, write_json
+from irlsim.utils import atomic_path, atomic_write_text, owned_output, write_json
 
 METRIC_KEYS = ("evd", "ed", "opd", "demo")
 #: the reference rows after the trained models, in this order (irlsim.irl.references)
@@ -336,42 +336,42 @@ def evaluate_models(
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
     H = resolve_history(loaded, H)
     ctx = cycle_context(dataset, split, data)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    with num_threads(threads):
-        rows, opd = [], {}
-        for name, lm in loaded.items():
-            thetas, weights = predict_sequential_weights(lm, data, H)
-            metrics = evaluate_thetas(thetas, data)
-            a, b = lm.parameters
-            params = (
-                format_parameters(a)
-                if lm.base is None
-                else f"{format_parameters(a)} + {format_parameters(b)}"
-            )
-            row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
-            untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
-            row["opd_untrained"] = summarize(untrained)["opd"]
-            row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
-            # what the weights were trained with (older checkpoints: unknown)
-            row["provenance"] = lm.checkpoint.get("provenance")
-            if ctx is not None:
-                row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
-            if weights is not None:
-                row["temporal"] = temporal_outputs(name, weights, data, ctx, strips)
-            rows.append(row)
-            opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
-        rows += reference_rows(data, ctx, references)
-        evaluated_with = provenance()
+    with owned_output(out_dir, "evaluate"):  # one command writes an --out at a time
+        with num_threads(threads):
+            rows, opd = [], {}
+            for name, lm in loaded.items():
+                thetas, weights = predict_sequential_weights(lm, data, H)
+                metrics = evaluate_thetas(thetas, data)
+                a, b = lm.parameters
+                params = (
+                    format_parameters(a)
+                    if lm.base is None
+                    else f"{format_parameters(a)} + {format_parameters(b)}"
+                )
+                row = _row(name, params, [a] if lm.base is None else [a, b], metrics)
+                untrained = evaluate_thetas(predict_sequential(untrained_like(lm), data, H), data)
+                row["opd_untrained"] = summarize(untrained)["opd"]
+                row["selected_epoch"] = (lm.checkpoint.get("best") or {}).get("epoch", lm.checkpoint["epoch"])
+                # what the weights were trained with (older checkpoints: unknown)
+                row["provenance"] = lm.checkpoint.get("provenance")
+                if ctx is not None:
+                    row.update(row_breakdown(metrics, data, ctx, thetas=thetas))
+                if weights is not None:
+                    row["temporal"] = temporal_outputs(name, weights, data, ctx, strips)
+                rows.append(row)
+                opd[name] = np.where(metrics["valid"], metrics["opd"], np.nan)
+            rows += reference_rows(data, ctx, references)
+            evaluated_with = provenance()
 
-    demo_index = np.asarray(data.demo_index)
-    demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
+        demo_index = np.asarray(data.demo_index)
+        demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
 
-    out_dir.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
-    write_json(
-        out_dir / "results.json",
-        {"split": split, "history": H, "provenance": evaluated_with, "rows": rows},
-    )
-    plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
-    plot_opd(opd, demo, out_dir / "opd_distribution.png")
-    return rows
+        out_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
+        write_json(
+            out_dir / "results.json",
+            {"split": split, "history": H, "provenance": evaluated_with, "rows": rows},
+        )
+        plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
+        plot_opd(opd, demo, out_dir / "opd_distribution.png")
+        return rows

@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,14 +26,24 @@ CHECKPOINT_FORMAT = 2
 
 
 def dataset_identity(dataset: Any) -> str | None:
-    """What identifies a dataset in a checkpoint: the sha256 of its manifest (canonical JSON: sorted keys,
-    no spaces), which records the collection config, the episode seeds and splits and the counts. None for
-    an in-memory dataset without a manifest."""
+    """What identifies a dataset in a checkpoint, by content: the sha256 of its manifest (canonical JSON:
+    sorted keys, no spaces), which records the collection config, the episode seeds and splits and the
+    counts; an aggregate's own ``identity`` (its folders' identities in order, no paths). None for an
+    in-memory dataset without a manifest."""
+    own = getattr(dataset, "identity", None)
+    if isinstance(own, str):
+        return own
     manifest = getattr(dataset, "manifest", None)
     if not manifest:
         return None
     text = json.dumps(manifest, sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def legacy_identities(dataset: Any) -> tuple[str, ...]:
+    """Identities an older irlsim recorded for this dataset, still accepted (an aggregate's manifest
+    hash with its paths as typed)."""
+    return tuple(getattr(dataset, "legacy_identities", ()))
 
 
 def dataset_seeds(dataset: Any) -> list[int] | None:
@@ -51,11 +62,29 @@ def save_checkpoint(path: Path, payload: dict[str, Any]) -> None:
 
     Serialised into memory first: torch.save onto a path stores the file's name inside the archive (the
     temporary name here), which made identical runs differ in their bytes; from a buffer the archive is
-    always named 'archive', so the same run gives the same bytes."""
-    payload = {"format": CHECKPOINT_FORMAT, **payload}
+    always named 'archive', so the same run gives the same bytes. The payload is pickled as its
+    :func:`canonical` copy, so the bytes follow from its values alone, also after a resume."""
+    payload = canonical({"format": CHECKPOINT_FORMAT, **payload})
     buf = io.BytesIO()
     torch.save(payload, buf)
     atomic_write_bytes(path, buf.getvalue())
+
+
+def canonical(obj: Any) -> Any:
+    """A copy of ``obj`` whose pickle depends on its values only: pickle writes an object seen before
+    as a back-reference to it, by identity, so a resumed run (whose optimizer keys 'lr', 'weight_decay'
+    were loaded from the checkpoint, not shared with the config's) pickled the same values to other
+    bytes. Every dict, list and tuple here is a fresh object (never shared) and every string the
+    interned one (shared exactly when equal); tensors are kept (stored by storage)."""
+    if isinstance(obj, dict):
+        return {canonical(k): canonical(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [canonical(v) for v in obj]
+    if isinstance(obj, tuple):
+        return tuple(canonical(v) for v in obj)
+    if type(obj) is str:
+        return sys.intern(obj)
+    return obj
 
 
 def _tensors(entry: Any, prefix: str = "") -> Iterator[tuple[str, torch.Tensor]]:
@@ -72,10 +101,12 @@ def read_checkpoint(
     model: str | None = None,
     stage: int | None = None,
     dataset: str | None = None,
+    legacy: tuple[str, ...] = (),
 ) -> dict[str, Any]:
     """Load a checkpoint written by this package and check what it is: missing, a folder, corrupt, of
     another format or feature set, with non-finite weights, or (when given) of another ``model``, ``stage``
-    or ``dataset`` (identity from :func:`dataset_identity`) -> IrlsimError (one line)."""
+    or ``dataset`` (identity from :func:`dataset_identity`; ``legacy``: its older identities, also
+    accepted) -> IrlsimError (one line)."""
     path = Path(path)
     if path.is_dir():
         raise IrlsimError(f"checkpoint {path} is a folder, not a file: remove it and train again")
@@ -108,7 +139,7 @@ def read_checkpoint(
             f"checkpoint {path} was trained on dataset schema version {ckpt.get('schema_version')}, this "
             f"irlsim reads {SCHEMA_VERSION}: delete it and retrain on a dataset collected by this irlsim"
         )
-    check_identity(path, ckpt, model=model, stage=stage, dataset=dataset)
+    check_identity(path, ckpt, model=model, stage=stage, dataset=dataset, legacy=legacy)
     for key in ("state_dict", "best", "base"):
         for name, t in _tensors(ckpt.get(key)):
             if t.is_floating_point() and not bool(torch.isfinite(t).all()):
@@ -126,6 +157,7 @@ def check_identity(
     model: str | None = None,
     stage: int | None = None,
     dataset: str | None = None,
+    legacy: tuple[str, ...] = (),
 ) -> None:
     """Refuse (one line) a checkpoint that is not the ``model`` / ``stage`` / ``dataset`` asked for."""
     if model is not None and ckpt["model"] != model:
@@ -139,7 +171,7 @@ def check_identity(
             f"to the stage{ckpt.get('stage')}/ folder or train stage {stage}"
         )
     have = ckpt.get("dataset")
-    if dataset is not None and have is not None and have != dataset:
+    if dataset is not None and have is not None and have != dataset and have not in legacy:
         raise IrlsimError(
             f"checkpoint {path} was trained on another dataset ({str(have)[:19]}..., this one is "
             f"{dataset[:19]}...): use the --data it was trained on, or retrain on this one"

@@ -16,6 +16,10 @@ SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
 """What ``select_by`` may name: a validation metric (lower is better) or 'last' (the final epoch)."""
 
 
+#: the most torch CPU threads a config may ask (the --threads options' bound): more fail to start
+MAX_THREADS = 1024
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """The fields both stages share (the stage configs below add their own)."""
@@ -76,7 +80,10 @@ class TrainConfig:
         require(self.grad_clip >= 0, "grad_clip must be >= 0")
         require(self.validate_every >= 1, "validate_every must be >= 1")
         require(self.select_by in SELECT_METRICS, f"select_by must be one of {', '.join(SELECT_METRICS)}")
-        require(self.threads >= 1, "threads must be >= 1")
+        require(
+            1 <= self.threads <= MAX_THREADS,
+            f"threads must be in 1..{MAX_THREADS} (torch CPU threads, as --threads), got {self.threads}",
+        )
         require(self.max_cycles >= 0, "max_cycles must be >= 0")
         require(self.eval_batch >= 1, "eval_batch must be >= 1")
         self.model.validate()

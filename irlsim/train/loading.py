@@ -16,6 +16,7 @@ from irlsim.train.checkpoint import (
     dataset_identity,
     expected_identity,
     inference_state,
+    legacy_identities,
     model_config_from,
     read_checkpoint,
 )
@@ -65,7 +66,10 @@ def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
     be used with), was trained on another dataset."""
     folder_model, folder_stage = expected_identity(checkpoint_path)
     ident = dataset_identity(dataset) if dataset is not None else None
-    ckpt = read_checkpoint(checkpoint_path, model=folder_model, stage=folder_stage, dataset=ident)
+    legacy = legacy_identities(dataset) if dataset is not None else ()
+    ckpt = read_checkpoint(
+        checkpoint_path, model=folder_model, stage=folder_stage, dataset=ident, legacy=legacy
+    )
     name = ckpt["model"]
     try:
         if name in STAGE2_BASE:

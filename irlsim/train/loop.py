@@ -74,13 +74,17 @@ REFUSED_ON_RESUME = ("seed", "max_cycles", "select_by", "history", "model", "saf
 
 
 def check_resume(
-    path: Path, ckpt: dict[str, Any], config: dict[str, Any], dataset: str | None
+    path: Path,
+    ckpt: dict[str, Any],
+    config: dict[str, Any],
+    dataset: str | None,
+    legacy: tuple[str, ...] = (),
 ) -> dict[str, list[Any]]:
     """Compare an existing checkpoint with what is asked: another dataset or a field of
     ``REFUSED_ON_RESUME`` -> IrlsimError (one line naming the difference); returns the other changed
-    fields as {field: [old, new]}."""
+    fields as {field: [old, new]}. ``legacy``: older identities of the same dataset, also accepted."""
     have = ckpt.get("dataset")
-    if dataset is not None and have != dataset:
+    if dataset is not None and have != dataset and have not in legacy:
         raise IrlsimError(
             f"{path} was trained on another dataset ({str(have)[:19]}..., --data is {dataset[:19]}...): "
             "train into another --out, delete the model's folder, or pass the dataset it was trained on"
@@ -119,6 +123,7 @@ class TrainingRun:
         build: Callable[[], nn.Module],
         dataset: str | None = None,
         seeds: list[int] | None = None,
+        legacy: tuple[str, ...] = (),
     ) -> None:
         self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
         self.dataset = dataset
@@ -130,7 +135,7 @@ class TrainingRun:
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.start_epoch = 0
         if ckpt:
-            changed = check_resume(self.ckpt_path, ckpt, to_dict(cfg), dataset)
+            changed = check_resume(self.ckpt_path, ckpt, to_dict(cfg), dataset, legacy)
             self.model.load_state_dict(ckpt["state_dict"])
             self.optimizer.load_state_dict(ckpt["optimizer"])
             for group in self.optimizer.param_groups:  # the asked values, not the stored ones

@@ -33,10 +33,16 @@ from irlsim.models.networks import PACNN
 from irlsim.models.normalization import FeatureStats, compute_feature_stats
 from irlsim.models.registry import SEMI_SUPERVISED, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, gather_batch, get_split, predict_split
-from irlsim.train.checkpoint import dataset_identity, dataset_seeds, read_checkpoint
+from irlsim.train.checkpoint import (
+    dataset_identity,
+    dataset_seeds,
+    legacy_identities,
+    read_checkpoint,
+)
 from irlsim.train.config import Stage1Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loop import TrainingRun
+from irlsim.train.preflight import check_trainable
 from irlsim.train.repro import deterministic, provenance
 
 
@@ -93,6 +99,7 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
         lambda: build_model(name, cfg.model, n_policies, stats),
         ident,
         dataset_seeds(dataset),
+        legacy_identities(dataset),
     )
     model = run.model
     semi = name in SEMI_SUPERVISED
@@ -146,5 +153,6 @@ def train_stage1(dataset: Any, cfg: Stage1Config, out_dir: str | Path) -> dict[s
     tensorboard/). Resumes from existing checkpoints. ``dataset``: an object with
     ``split_tensors(name)`` (train, validation) or a dataset path. Returns {model: summary}."""
     dataset = as_dataset(dataset)
+    check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: one line, before any work
     out_dir = Path(out_dir)
     return {name: train_one_stage1(name, dataset, cfg, out_dir) for name in cfg.models}

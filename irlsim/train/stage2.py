@@ -34,12 +34,14 @@ from irlsim.train.checkpoint import (
     dataset_seeds,
     expected_identity,
     inference_state,
+    legacy_identities,
     read_checkpoint,
 )
 from irlsim.train.config import Stage2Config
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loading import rebuild_stage1
 from irlsim.train.loop import TrainingRun
+from irlsim.train.preflight import check_trainable
 from irlsim.train.repro import deterministic, provenance
 
 
@@ -114,7 +116,13 @@ def _train_one_stage2(
         )
     ident = dataset_identity(dataset)
     base_model, base_stage = expected_identity(base_path)
-    base_ckpt = read_checkpoint(base_path, model=base_model or base_name, stage=base_stage, dataset=ident)
+    base_ckpt = read_checkpoint(
+        base_path,
+        model=base_model or base_name,
+        stage=base_stage,
+        dataset=ident,
+        legacy=legacy_identities(dataset),
+    )
     base = rebuild_stage1(base_ckpt)
     for p in base.parameters():
         p.requires_grad_(False)
@@ -165,6 +173,7 @@ def _train_one_stage2(
         lambda: build_model(name, model_cfg, 1, fstats),
         ident,
         dataset_seeds(dataset),
+        legacy_identities(dataset),
     )
     model = run.model
 
@@ -230,5 +239,6 @@ def train_stage2(
     2 --out RUNS`` passes ``RUNS/stage2`` and ``RUNS/stage1``). Resumes from existing checkpoints.
     Returns {model: summary}."""
     dataset = as_dataset(dataset)
+    check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: one line, before any work
     out, base = Path(out_dir), Path(base_dir) if base_dir is not None else None
     return {name: train_one_stage2(name, dataset, cfg, out, base) for name in cfg.models}

@@ -53,8 +53,8 @@ def draw_scenario(road: Road, path: str | Path, title: str = "") -> Path:
         x, y = road.to_xy(ex.ramp_s, ex.ramp_d)
         ax.plot(x, y, color="darkorange", lw=1.5, zorder=3)
     for c in road.checkpoints:
-        d = float(road.lane_center(c.lane)) if c.lane >= 0 else 0.0
-        x, y = road.to_xy(np.array(c.s), np.array(d))
+        dc = float(road.lane_center(c.lane)) if c.lane >= 0 else 0.0
+        x, y = road.to_xy(np.array(c.s), np.array(dc))
         ax.plot([float(x)], [float(y)], marker="o", ms=6, color="seagreen", zorder=4)
         ax.annotate(
             f"C{c.index}" + (f" lane {c.lane}" if c.lane >= 0 else ""),

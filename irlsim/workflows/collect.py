@@ -29,8 +29,10 @@ from irlsim.data.collection import (
     EpisodeJob,
     collect_episode,
     data_config,
+    episode_record,
     estimate_dataset_bytes,
     first_difference,
+    same_driver,
 )
 from irlsim.data.layout import (
     check_episode,
@@ -178,8 +180,9 @@ def collect_dataset(run: CollectRun) -> CollectResult:
 
 def _check_resumable(
     manifest_path: Path, config: dict[str, Any], driver: dict[str, Any] | None = None
-) -> None:
-    """Refuse to add to a dataset of another schema version, feature set or data config (one line)."""
+) -> dict[str, Any] | None:
+    """Refuse to add to a dataset of another schema version, feature set or data config (one line);
+    returns the driver as recorded there (the same by content: its path may differ)."""
 
     out = manifest_path.parent
     fix = f"choose another --out or delete {out}"
@@ -197,7 +200,7 @@ def _check_resumable(
     if old.get("feature_names") != list(FEATURE_NAMES):
         raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
     diff = first_difference(data_config(old["config"]), config)
-    if diff is None and old.get("driver") != driver:
+    if diff is None and not same_driver(old.get("driver"), driver):
         was, now = (
             d["checkpoint"] + " " + d["sha256"][:12] if d else "the expert"
             for d in (old.get("driver"), driver)
@@ -208,6 +211,7 @@ def _check_resumable(
         raise IrlsimError(
             f"{out} was collected with another config ({key} = {was!r} there, {now!r} now): {fix}"
         )
+    return old.get("driver")
 
 
 def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[Any], dict[str, list[int]]]:
@@ -215,6 +219,7 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
     files fail the check is deleted and collected again."""
     jobs: list[Any] = []
     seeds: dict[str, list[int]] = {}
+    vouched = (out / "manifest.json").is_file()  # checked against this config: older files without a record
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
@@ -228,6 +233,8 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                     episode,
                     n_policies=cfg.planner.n_policies,
                     n_control_points=cfg.planner.n_control_points,
+                    record=episode_record(seed, cfg),  # a file of another seed or config: collected again
+                    unrecorded_ok=vouched,
                 )
                 if problem is None:
                     continue
@@ -286,8 +293,9 @@ def _collect(
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)
+    recorded = driver  # as the manifest records it: the first collection's, which the identity hashes
     if manifest_path.is_file():
-        _check_resumable(manifest_path, config, driver)
+        recorded = _check_resumable(manifest_path, config, driver)
     build_net()  # once, before the workers start (they only read it)
 
     jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
@@ -296,7 +304,7 @@ def _collect(
     where += f", at most {timeout:g} s per episode" if timeout is not None else ", in this process"
     if driver is not None:
         where += f", {driver['model']} drives and the expert labels (DAgger round {cfg.dagger_round})"
-    ident = {"driver": driver} if driver is not None else {}
+    ident = {"driver": recorded} if driver is not None else {}
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for

@@ -11,6 +11,7 @@ pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXXX.png``, ``temporal_XXXX.p
 
 from __future__ import annotations
 
+import hashlib
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -27,7 +28,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
-from irlsim.utils import atomic_write_text, write_json
+from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
 
 
@@ -253,7 +254,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     specs = list(run.models)
     if not specs:
         raise IrlsimError("--model is empty: name at least one model, e.g. --model expert,PTACNN+S")
-    if len(set(specs)) != len(specs):
+    if len({_folder(s) for s in specs}) != len(specs):  # a checkpoint named twice, relative and absolute
         raise IrlsimError(f"--model names a model twice: {','.join(specs)}")
     if run.seed + run.episodes - 1 > MAX_SEED:
         raise IrlsimError(f"--seed {run.seed} + --episodes {run.episodes} passes the largest seed {MAX_SEED}")
@@ -274,7 +275,14 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     runs = str(run.runs.resolve()) if run.runs else None
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, run.threads)] = model
+    with owned_output(out, "drive"):  # one command writes an --out at a time; pictures come first
+        return _drive_into(run, models, specs, cfg, out, runs, device)
 
+
+def _drive_into(
+    run: DriveRun, models: list[Any], specs: list[str], cfg: Any, out: Path, runs: str | None, device: str
+) -> DriveResult | None:
+    """The episodes, pictures and tables, while this process holds ``<out>/.lock``."""
     jobs, labels = _episode_jobs(run, models, specs, cfg, out, runs, device)
     limit = episode_timeout(run.episode_timeout, run.executor, run.workers, cfg.scenario, run.max_cycles)
     results = _drive_jobs(run, jobs, out, limit)
@@ -304,7 +312,14 @@ def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:
     Checkpoints without them (trained on an in-memory dataset) are not checked."""
     asked = set(range(seed, seed + episodes))
     for model in models:
-        trained = set((model.trained or {}).get("dataset_seeds") or ())
+        recorded = model.trained or {}
+        trained = set(recorded.get("dataset_seeds") or ())
+        if recorded.get("dataset") and recorded.get("dataset_seeds") is None:
+            print(
+                f"note: {model.name} records no training seeds (trained before they were recorded): "
+                "its seeds are not checked; retrain it to have them refused",
+                file=sys.stderr,
+            )
         overlap = sorted(asked & trained)
         if overlap:
             shown = ", ".join(map(str, sorted(trained)[:8])) + (", ..." if len(trained) > 8 else "")
@@ -362,13 +377,16 @@ def _drive_jobs(
 
 
 def _folder(name: str) -> str:
-    """A model's picture folder: its registry name, or a checkpoint path as one folder name (its parts
-    joined by '_', e.g. runs_a_stage1_PACNN+S_checkpoint.pt): two checkpoints of one model, or a
-    checkpoint and the registry model of that name, never share a folder."""
+    """A model's picture folder: its registry name, or a checkpoint path as one folder name: its parts
+    joined by '_' for reading and the first 10 hex digits of the sha256 of its resolved path (e.g.
+    runs_a_stage1_PACNN+S_checkpoint.pt-3f0c9a1b2d), so two checkpoints (x_y/checkpoint.pt and
+    x/y/checkpoint.pt), or a checkpoint and the registry model of that name, never share a folder, and
+    one file named two ways (relative, absolute) draws into one."""
     p = Path(name)
     if p.suffix != ".pt" and "/" not in name:
         return name
-    return "_".join(part for part in p.parts if part not in ("/", "..", ".")) or p.name
+    readable = "_".join(part for part in p.parts if part not in ("/", "..", ".")) or p.name
+    return f"{readable}-{hashlib.sha256(str(p.resolve()).encode()).hexdigest()[:10]}"
 
 
 def _line(rec: dict) -> str:

@@ -23,6 +23,7 @@ from irlsim.outputs import check_output_dir
 from irlsim.train.checkpoint import dataset_identity
 from irlsim.train.config import Stage1Config, Stage2Config
 from irlsim.train.layout import SUMMARY_NAME, find_checkpoint, stage_dir
+from irlsim.train.preflight import check_trainable
 from irlsim.train.stage1 import train_stage1
 from irlsim.train.stage2 import train_stage2
 from irlsim.utils import LockBusy, exclusive_lock, write_json
@@ -89,9 +90,10 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
     if stage == 2 and not base.is_dir():
         hint = "pass --base" if run.base is not None else f"run 'irlsim train --stage 1 --out {run.out}'"
         raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
-    check_output_dir(run.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     data = list(run.data)
     dataset = open_datasets(tuple(data))
+    check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: before anything is written
+    check_output_dir(run.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     out = stage_dir(run.out, stage)
     try:  # one training at a time per runs folder (both stages: stage 2 reads stage 1's checkpoints)
         with exclusive_lock(run.out / LOCK_NAME):

@@ -14,6 +14,7 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
+import torch
 
 from irlsim.cli import main
 from irlsim.config import load_config
@@ -30,6 +31,7 @@ from irlsim.errors import IrlsimError
 from irlsim.planner.expert import ExpertDriver
 from irlsim.reward.predictor import RewardPredictor
 from irlsim.rollout import ObserverBase
+from irlsim.train.checkpoint import save_checkpoint
 from tests.conftest import TINY_COLLECT
 
 MODEL = "PACNN+S"
@@ -228,10 +230,14 @@ def test_dagger_collection_bad_input_is_one_line(learner, dagger_run, tmp_path, 
         err = capsys.readouterr().err.strip()
         assert len(err.splitlines()) == 1 and needle in err, err
     assert not (tmp_path / "x").exists()
-    # resuming a round's folder with another driver is refused (its labels would be mixed)
+    # resuming a round's folder with another driver is refused (its labels would be mixed); another by
+    # content: other weights (a byte-identical copy elsewhere is the same driver, tests/reliability)
     other = tmp_path / "other" / MODEL
     other.mkdir(parents=True)
-    shutil.copy(runs / "stage1" / MODEL / "checkpoint.pt", other / "checkpoint.pt")
+    ckpt = torch.load(runs / "stage1" / MODEL / "checkpoint.pt", weights_only=True)
+    first = next(iter(ckpt["state_dict"]))
+    ckpt["state_dict"][first] = ckpt["state_dict"][first] + 1e-3
+    save_checkpoint(other / "checkpoint.pt", {k: v for k, v in ckpt.items() if k != "format"})
     out, _ = dagger_run
     data = out / "round_1" / "data"
     before = sorted(p.stat().st_mtime_ns for p in data.rglob("*.parquet"))
