@@ -9,8 +9,8 @@ evaluation seeds, with the expert and the expert's hand-tuned reward in the same
 
 Each scenario gets its own dataset (the collect config, its own base seed: 0, 1, 2, ... in the order
 of ``shipped_scenarios()``), a training is ``irlsim train --data D1 --data D2 ...`` (the aggregate of
-the datasets), and drives use ``irlsim drive --scenario X``. Every step is a separate command; a step whose output exists is skipped,
-so the study resumes where it stopped. Run from the repository root:
+the datasets), and drives use ``irlsim drive --scenario X``. Every step is a separate command; a step
+whose output exists is skipped, so the study resumes where it stopped. Run from the repository root:
 
     nice -n 5 .venv/bin/python studies/transfer.py --out runs/transfer [--seeds 0] [--epochs 6]
 

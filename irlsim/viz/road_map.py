@@ -35,8 +35,8 @@ def draw_scenario(road: Road, path: str | Path, title: str = "") -> Path:
     half = road.half_road
     lo, hi = road.lane_bounds(s)
     right, left = road.road_edges(s)  # the lanes that exist at each s (an added lane widens the road)
-    for d in (right, left):
-        x, y = road.to_xy(s, d)
+    for edge_d in (right, left):
+        x, y = road.to_xy(s, edge_d)
         ax.plot(x, y, color="0.2", lw=1.0, zorder=2)
     for k in range(road.n_lanes - 1):  # the divider between lanes k and k + 1 where both exist
         both = (lo <= k) & (hi >= k + 1)
