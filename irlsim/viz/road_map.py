@@ -33,13 +33,13 @@ def draw_scenario(road: Road, path: str | Path, title: str = "") -> Path:
             if inside.any():
                 ax.plot(pts[:, 0], pts[:, 1], color="0.82", lw=0.6, zorder=1)
     half = road.half_road
-    lo, hi = road.lane_bounds(s)
+    lane_lo, lane_hi = road.lane_bounds(s)
     right, left = road.road_edges(s)  # the lanes that exist at each s (an added lane widens the road)
     for edge_d in (right, left):
         x, y = road.to_xy(s, edge_d)
         ax.plot(x, y, color="0.2", lw=1.0, zorder=2)
     for k in range(road.n_lanes - 1):  # the divider between lanes k and k + 1 where both exist
-        both = (lo <= k) & (hi >= k + 1)
+        both = (lane_lo <= k) & (lane_hi >= k + 1)
         x, y = road.to_xy(s, np.full_like(s, float(road.lane_center(k)) + road.lane_width / 2))
         ax.plot(np.where(both, x, np.nan), y, color="0.55", lw=0.5, ls="--", zorder=2)
     for sl in road.stop_lines:
