@@ -67,7 +67,15 @@ class Checkpoint:
     s: float  # [m] route frame
     x: float  # [m]
     y: float  # [m]
-    lane: int  # required lane
+    lane: int  # required lane (-1: any lane)
+    #: every lane that meets it, where several do (the lanes the route goes on from); () = just ``lane``
+    lanes: tuple[int, ...] = ()
+
+    def meets(self, lane: int) -> bool:
+        """True when passing it in ``lane`` keeps the mission."""
+        if self.lanes:
+            return lane in self.lanes
+        return lane == self.lane or (self.lane < 0 <= lane)
 
 
 @dataclass(frozen=True)
@@ -204,10 +212,19 @@ class Road:
             )
         self.stop_lines, self.signals = self._stop_lines()
         self.exits = self._exits()
+        derived = checkpoints is None
+        points = route.mission_points(self.net, self.edges, self.closed, self.layout) if derived else []
         if checkpoints is None:
-            checkpoints = tuple(route.mission_points(self.net, self.edges, self.closed, self.layout))
+            checkpoints = tuple((x, y, lane) for x, y, lane, _ in points)
         self.checkpoints = tuple(
-            Checkpoint(i, float(self.to_frenet(np.array([x]), np.array([y]))[0][0]), x, y, lane)
+            Checkpoint(
+                i,
+                float(self.to_frenet(np.array([x]), np.array([y]))[0][0]),
+                x,
+                y,
+                lane,
+                points[i][3] if derived else (),
+            )
             for i, (x, y, lane) in enumerate(checkpoints)
         )
         if not self.checkpoints:
@@ -657,10 +674,14 @@ class Road:
         return float(self._vmax[(a + np.arange(n)) % m].min())
 
     def required_lane(self, checkpoint: int, d: float) -> int:
-        """The lane checkpoint ``checkpoint`` requires; for an any-lane checkpoint (lane -1, an open
-        route's end) the lane at offset ``d``, so staying in one's lane meets it."""
-        lane = self.checkpoints[checkpoint].lane
-        return int(lane) if lane >= 0 else max(int(self.lane_of_d(np.array(d))), 0)
+        """The lane checkpoint ``checkpoint`` requires of an ego at offset ``d``: its lane; where several
+        lanes meet it, the one of them nearest ``d``; for an any-lane checkpoint (lane -1, an open route's
+        end) the lane at ``d``, so staying in one's lane meets it."""
+        cp = self.checkpoints[checkpoint]
+        here = max(int(self.lane_of_d(np.array(d))), 0)
+        if cp.lanes:
+            return int(min(cp.lanes, key=lambda k: (abs(k - here), k)))
+        return int(cp.lane) if cp.lane >= 0 else here
 
     def lane_centreline(self, lane: int) -> LaneCentreline:
         """The closed centreline of loop lane ``lane`` (0 outer .. 2 inner) with its own arc length.
@@ -746,7 +767,7 @@ class Road:
             "stop_lines_s_m": [round(sl.s, 2) for sl in self.stop_lines],
             "signals_s_m": [round(g.s, 2) for g in self.signals],
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
-            "checkpoints": [(round(c.s, 2), c.lane) for c in self.checkpoints],
+            "checkpoints": [(round(c.s, 2), list(c.lanes) if c.lanes else c.lane) for c in self.checkpoints],
         }
 
 

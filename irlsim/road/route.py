@@ -299,11 +299,12 @@ def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple
 
 def mission_points(
     net: object, edges: tuple[str, ...], closed: bool, layout: LaneLayout
-) -> list[tuple[float, float, int]]:
+) -> list[tuple[float, float, int, tuple[int, ...]]]:
     """Where the route goes on from some of its lanes only: (x, y) of the end of that edge's lane nearest
-    the middle and the route lane required there (the continuing lane nearest the middle), one per such
-    edge. For an open route also its end, where any lane will do (lane -1)."""
-    out = []
+    the middle, the continuing lane nearest the middle, and every continuing lane (the mission lanes:
+    passing in any of them keeps the mission), one per such edge. For an open route also its end, where
+    any lane will do (lane -1, no lanes listed)."""
+    out: list[tuple[float, float, int, tuple[int, ...]]] = []
     n = len(edges)
     c = (layout.n_lanes - 1) / 2
     pieces = reference_lanes(layout)
@@ -311,7 +312,7 @@ def mission_points(
         edge = net.getEdge(eid)  # type: ignore[attr-defined]
         x, y = edge.getLane(pieces[i][0]).getShape()[-1]
         if i == n - 1 and not closed:
-            out.append((float(x), float(y), -1))
+            out.append((float(x), float(y), -1, ()))
             break
         nxt = edges[(i + 1) % n]
         going = sorted(
@@ -324,5 +325,5 @@ def mission_points(
         )
         if len(going) < layout.count[i]:
             req = min(going, key=lambda g: (abs(g - c), g))
-            out.append((float(x), float(y), int(req)))
+            out.append((float(x), float(y), int(req), tuple(int(g) for g in going)))
     return out

@@ -36,6 +36,8 @@ class CourseMarks:
     half_road: float  # [m] |d| of the road's edges
     route_end_s: float = math.inf  # [m] an open route's end (wrapped); inf for a loop
     signal_s: tuple[float, ...] = ()  # [m] wrapped: the traffic lights' stop lines
+    #: per checkpoint, the lanes that meet it where several do (the lanes the route goes on from)
+    checkpoint_lanes: tuple[tuple[int, ...], ...] = ()
 
     @staticmethod
     def from_road(road: Road) -> CourseMarks:
@@ -48,6 +50,7 @@ class CourseMarks:
             half_road=float(road.half_road),
             route_end_s=float(road.route_end_s),
             signal_s=tuple(float(g.s) for g in road.signals),
+            checkpoint_lanes=tuple(c.lanes for c in road.checkpoints),
         )
 
     def passes(self, s: float, m: float) -> int:
@@ -145,7 +148,9 @@ class Episode:
         for i, (m, lane) in enumerate(zip(self.marks.checkpoint_s, self.marks.checkpoint_lane, strict=False)):
             for _ in range(self.marks.passes(ego.s, m) - self.marks.passes(prev.s, m)):
                 c["checkpoints_passed"] += 1
-                c["checkpoints_in_lane"] += int(ego.lane == lane or (lane < 0 <= ego.lane))
+                lanes = self.marks.checkpoint_lanes[i] if i < len(self.marks.checkpoint_lanes) else ()
+                met = ego.lane in lanes if lanes else (ego.lane == lane or lane < 0 <= ego.lane)
+                c["checkpoints_in_lane"] += int(met)
                 self.events.append(
                     {"t": ego.t, "kind": "checkpoint", "index": i, "lane": ego.lane, "required": lane}
                 )

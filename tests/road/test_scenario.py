@@ -136,8 +136,9 @@ def test_a_lane_that_turns_off_makes_a_mission_checkpoint(tmp_path):
     folder = make_scenario(tmp_path / "turn", nodes, edges, 'edges = ["ab", "bc"]', connections=cons)
     road = load_road(scenario=folder)
     mission = [c for c in road.checkpoints if c.lane >= 0]
-    assert [c.lane for c in mission] == [1]
+    assert [c.lane for c in mission] == [1] and mission[0].lanes == (1,)
     assert mission[0].s == pytest.approx(road.route_begin_s + 400.0, abs=15.0)
+    assert mission[0].meets(1) and not mission[0].meets(0)
 
 
 def test_from_to_route_is_the_shortest_path(tmp_path):
@@ -260,9 +261,12 @@ def test_a_dropped_lane_exists_only_up_to_where_it_ends(tmp_path):
     shape = np.asarray(road.net.getEdge("bc").getLane(0).getShape())
     _, d = road.to_frenet(shape[:, 0], shape[:, 1])
     np.testing.assert_allclose(d, 0.0, atol=0.05)
-    # lane 0 of 'ab' does not go on: the route requires a lane that does at the end of 'ab'
+    # lane 0 of 'ab' does not go on: the route requires one of the lanes that do at the end of 'ab'
     mission = [c for c in road.checkpoints if c.lane >= 0]
-    assert [c.lane for c in mission] == [1]
+    assert [c.lane for c in mission] == [1] and mission[0].lanes == (1, 2)
+    assert mission[0].meets(2) and not mission[0].meets(0)
+    i = mission[0].index
+    assert road.required_lane(i, 3.2) == 2 and road.required_lane(i, -3.2) == 1  # the nearest that goes on
 
 
 def test_an_on_ramp_adds_a_lane_on_the_right(tmp_path):
