@@ -136,6 +136,7 @@ class Simulation:
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
         cmd = self.command(check_seed(seed))
+        self._check_inputs()
         module = "traci" if self.gui else "libsumo"
         try:
             api: Any = importlib.import_module(module)
@@ -154,6 +155,23 @@ class Simulation:
         self._api = api
         if not self.gui:
             _ACTIVE = self
+
+    def _check_inputs(self) -> None:
+        """The files SUMO reads besides the network (the vehicle types, a scenario's demand) are
+        well-formed XML: a broken one is named as the file at fault (one line), not blamed on the net."""
+        from xml.etree import ElementTree  # lazy: only at SUMO's start
+
+        for path in (self.vtypes_file, *self.road.demand):
+            try:
+                ElementTree.parse(path)
+            except (ElementTree.ParseError, OSError) as e:
+                what = "vehicle types" if path == self.vtypes_file else "route file"
+                fix = (
+                    "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
+                    if path == self.vtypes_file
+                    else "fix it or the scenario's [traffic] routes"
+                )
+                raise IrlsimError(f"{what} {path} is not valid XML ({e}): {fix}") from None
 
     def close(self) -> None:
         """Stop SUMO; safe to call more than once."""

@@ -39,6 +39,13 @@ from irlsim.train.config import Stage1Config, Stage2Config
 from irlsim.train.layout import find_checkpoint, stage_dir
 from irlsim.utils import write_json
 from irlsim.workflows.collect import CollectRun, collect_dataset
+from irlsim.workflows.dagger_record import (
+    check_driver_and_data,
+    check_round_splits,
+    round_finished,
+    round_inputs,
+    round_outputs,
+)
 from irlsim.workflows.steps import exit_status
 from irlsim.workflows.train import TrainRun, train_models
 
@@ -237,9 +244,12 @@ def run_dagger(run: DaggerRun) -> int:
         )
     if run.out.exists() and not run.out.is_dir():
         raise IrlsimError(f"--out {run.out} is a file: choose a folder for the DAgger rounds")
+    check_driver_and_data(run)  # --runs trained on --data, the collect config the data's: before any work
+    for r in range(1, cfg.rounds + 1):
+        check_round_splits(run, r)  # an empty validation split is named before the round collects
     for r in range(1, cfg.rounds + 1):
         here = round_dir(run.out, r)
-        if (here / ROUND_DONE).is_file():
+        if round_finished(run, r, here, _driver(run, r)):
             print(f"dagger: round {r} finished before: {here}/data, {here}/runs (skipped)", flush=True)
             continue
         rc = _round(run, r)
@@ -254,6 +264,11 @@ def run_dagger(run: DaggerRun) -> int:
     return 0
 
 
+def _driver(run: DaggerRun, r: int) -> Path | None:
+    """The checkpoint that drives round r: ``--runs``' model, then each round's retrained one."""
+    return find_checkpoint(run.runs if r == 1 else round_dir(run.out, r - 1) / "runs", run.config.model)
+
+
 def _trained(step: TrainRun) -> bool:
     train_models(step)
     return True
@@ -264,6 +279,13 @@ def _round(run: DaggerRun, r: int) -> int:
     t0 = time.perf_counter()
     here = round_dir(run.out, r)
     plan = round_plan(run, r)
+    driver = _driver(run, r)
+    if driver is None:
+        raise IrlsimError(
+            f"dagger: round {r} has no driver {run.config.model} in {plan.collect.runs}: re-run"
+        )
+    (here / ROUND_DONE).unlink(missing_ok=True)  # not finished until its record is written again
+    inputs = round_inputs(run, r, driver)
     steps: list[Callable[[], bool]] = [lambda: collect_dataset(plan.collect).ok]
     steps += [functools.partial(_trained, t) for t in plan.train]
     for step, cmd in zip(steps, plan.commands, strict=True):
@@ -281,6 +303,8 @@ def _round(run: DaggerRun, r: int) -> int:
         "trained_on": [str(run.data), *(str(round_dir(run.out, k) / "data") for k in range(1, r + 1))],
         "commands": [["irlsim", *c] for c in plan.commands],
         "wall_s": round(time.perf_counter() - t0, 1),
+        "inputs": inputs,
+        "outputs": round_outputs(run, here),
     }
     write_json(here / ROUND_DONE, record)
     return 0

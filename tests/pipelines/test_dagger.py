@@ -319,3 +319,81 @@ def test_dagger_config_per_round_recipe(tmp_path):
     ]:
         with pytest.raises(IrlsimError, match=needle):
             load_config(DaggerConfig, "configs/dagger/paper.toml", overrides)
+
+
+def _dagger(argv: list[str], capsys) -> tuple[int, str, str]:
+    capsys.readouterr()
+    rc = main(["dagger", "--config", "configs/dagger/tiny.toml", *argv])
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def test_a_round_is_finished_only_as_it_was_asked_and_made(
+    tiny_dataset, learner, dagger_run, tmp_path, capsys
+):
+    """A re-run with another input is one line (it was 'skipped' with exit 0); a round whose checkpoint
+    was deleted runs again (it counted as finished); a copied DAgger folder is the same rounds."""
+    collect_cfg, runs = learner
+    out = tmp_path / "copy"
+    shutil.copytree(dagger_run[0], out)  # by content: the copy is the same rounds
+    base = ["--data", str(tiny_dataset), "--runs", str(runs), "--out", str(out)]
+    base += ["--set", f"collect_config='{collect_cfg}'"]
+    rc, stdout, err = _dagger(base, capsys)
+    assert rc == 0 and "round 1 finished before" in stdout
+    rc, _, err = _dagger([*base, "--set", "seed=5"], capsys)
+    assert rc == 2 and err.count("\n") == 1 and "was run with seed = None, now 5" in err
+    ckpt = out / "round_1" / "runs" / "stage1" / MODEL / "checkpoint.pt"
+    before = ckpt.read_bytes()
+    ckpt.unlink()
+    rc, stdout, err = _dagger(base, capsys)
+    assert rc == 0 and "outputs are missing or changed" in stdout and "finished before" not in stdout
+    assert ckpt.read_bytes() == before  # trained again to the same bytes
+
+
+def test_dagger_checks_its_runs_against_its_data_before_any_work(
+    tiny_dataset, learner, dagger_run, tmp_path, capsys
+):
+    collect_cfg, runs = learner
+    other = dagger_run[0] / "round_1" / "data"  # a dataset the --runs model was not trained on
+    out = tmp_path / "never"
+    rc, _, err = _dagger(
+        [
+            "--data",
+            str(other),
+            "--runs",
+            str(runs),
+            "--out",
+            str(out),
+            "--set",
+            f"collect_config='{collect_cfg}'",
+        ],
+        capsys,
+    )
+    assert rc == 2 and err.count("\n") == 1 and "was trained on another dataset than --data" in err
+    wrong = tmp_path / "collect.toml"
+    wrong.write_text(Path(collect_cfg).read_text().replace("n_policies = ", "n_policies = 1"))
+    rc, _, err = _dagger(
+        [
+            "--data",
+            str(tiny_dataset),
+            "--runs",
+            str(runs),
+            "--out",
+            str(out),
+            "--set",
+            f"collect_config='{wrong}'",
+        ],
+        capsys,
+    )
+    assert rc == 2 and err.count("\n") == 1 and "differs from the config --data" in err
+    assert not out.exists()  # nothing written
+
+
+def test_an_empty_validation_split_is_named_before_a_round_collects(learner, dagger_run):
+    from irlsim.workflows.dagger import DaggerConfig, DaggerRun
+    from irlsim.workflows.dagger_record import check_round_splits
+
+    round_data = dagger_run[0] / "round_1" / "data"  # the learner's round alone: no validation episodes
+    cfg = load_config(DaggerConfig, "configs/dagger/tiny.toml", {"validation_episodes": 0})
+    with pytest.raises(IrlsimError, match="empty validation split"):
+        check_round_splits(DaggerRun(cfg, round_data, learner[1], Path("unused")), 1)

@@ -1,0 +1,152 @@
+"""What a DAgger round was asked and what it made (its ``round.json``), and the checks before any round:
+a round is finished only when its outputs exist and match what it recorded; a re-run with other inputs
+(model, seed, epochs, episodes, configs, the data or the driver) is refused in one line; the ``--runs``
+model must have been trained on ``--data`` and the collect config must be the data's.
+
+Identities are by content (sha256 of files, manifest identities), never paths, so a copied or moved
+DAgger folder is the same rounds.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+from irlsim.config import load_config
+from irlsim.data.aggregate import manifest_identity
+from irlsim.data.collection import CollectConfig, data_config, first_difference
+from irlsim.errors import IrlsimError
+from irlsim.train.checkpoint import read_checkpoint
+from irlsim.train.layout import find_checkpoint
+from irlsim.train.preflight import check_split_sizes
+
+#: collect-config keys a DAgger round sets itself (episode counts, workers, the round): not compared
+ROUND_SET_KEYS = ("train_episodes", "validation_episodes", "test_episodes", "workers", "dagger_round")
+
+
+def file_sha(path: Path) -> str:
+    return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _manifest(folder: Path) -> dict[str, Any] | None:
+    try:
+        data = json.loads((folder / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
+    """Everything round r's outputs depend on, by content."""
+    cfg = run.config
+    manifest = _manifest(run.data)
+    return {
+        "model": cfg.model,
+        "seed": cfg.seed,
+        "epochs": cfg.epochs[r - 1] if cfg.epochs else None,
+        "episodes": cfg.round_episodes(r),
+        "validation_episodes": cfg.validation_episodes,
+        "stage2_models": list(cfg.stage2_models),
+        "scenario": cfg.scenario,
+        "configs": {
+            name: file_sha(Path(getattr(cfg, name)))
+            for name in ("collect_config", "stage1_config", "stage2_config")
+        },
+        "data": manifest_identity(manifest) if manifest is not None else None,
+        "driver": file_sha(driver),
+    }
+
+
+def round_outputs(run: Any, here: Path) -> dict[str, Any] | None:
+    """The round's outputs by content, or None when one is missing: its dataset's manifest identity and
+    every trained model's checkpoint hash."""
+    manifest = _manifest(here / "data")
+    if manifest is None or not manifest.get("complete"):
+        return None
+    names = [run.config.stage1_model, *run.config.trained_stage2]
+    ckpts = {name: find_checkpoint(here / "runs", name) for name in names}
+    if any(p is None for p in ckpts.values()):
+        return None
+    return {
+        "data": manifest_identity(manifest),
+        "checkpoints": {n: file_sha(p) for n, p in ckpts.items() if p},
+    }
+
+
+def round_finished(run: Any, r: int, here: Path, driver: Path | None) -> bool:
+    """True when round r's record is there, was made with these inputs and its outputs match it; False
+    when it has to run (no record, or outputs missing or changed: said in one line); a record of other
+    inputs is refused (one line)."""
+    try:
+        record = json.loads((here / "round.json").read_text())
+    except (OSError, ValueError):
+        return False
+    if driver is None:  # the previous round's model is gone: this one cannot be checked, it runs again
+        return False
+    asked = round_inputs(run, r, driver)
+    had = record.get("inputs") if isinstance(record, dict) else None
+    if not isinstance(had, dict):
+        print(f"dagger: round {r} in {here} records no inputs (an older irlsim): running it again")
+        return False
+    diff = first_difference(had, asked)
+    if diff is not None:
+        key, was, now = diff
+        raise IrlsimError(
+            f"dagger: round {r} in {here} was run with {key} = {was!r}, now {now!r}: choose another --out, "
+            f"or delete {here} to run it again with the new inputs"
+        )
+    made = round_outputs(run, here)
+    if made is None or made != record.get("outputs"):
+        print(
+            f"dagger: round {r} in {here}: its outputs are missing or changed since it finished: "
+            "running it again"
+        )
+        return False
+    return True
+
+
+def check_driver_and_data(run: Any) -> None:
+    """Before any work: the ``--runs`` model was trained on ``--data`` (its checkpoint's dataset identity),
+    and the collect config is the one ``--data`` was collected with (episode counts aside)."""
+    cfg = run.config
+    manifest = _manifest(run.data)
+    if manifest is None:
+        raise IrlsimError(f"--data {run.data} has no readable manifest.json: pass the expert dataset")
+    ckpt = find_checkpoint(run.runs, cfg.model)
+    if ckpt is None:
+        return  # named by run_dagger's own check
+    trained = read_checkpoint(ckpt).get("dataset")
+    if trained is not None and trained != manifest_identity(manifest):
+        raise IrlsimError(
+            f"{ckpt} was trained on another dataset than --data {run.data}: pass the --data it was trained "
+            "on, or train it on this one first"
+        )
+    ours = {
+        k: v
+        for k, v in data_config(load_config(CollectConfig, cfg.collect_config)).items()
+        if k not in ROUND_SET_KEYS
+    }
+    theirs = {k: v for k, v in data_config(manifest.get("config") or {}).items() if k not in ROUND_SET_KEYS}
+    if cfg.scenario:  # the learner's road may be another (DAgger on a road the reward never saw)
+        ours.pop("scenario", None)
+        theirs.pop("scenario", None)
+    diff = first_difference(theirs, ours)
+    if diff is not None:
+        key, was, now = diff
+        raise IrlsimError(
+            f"collect_config {cfg.collect_config} differs from the config --data {run.data} was collected "
+            f"with ({key} = {was!r} there, {now!r} in the file): set collect_config to the data's config"
+        )
+
+
+def check_round_splits(run: Any, r: int) -> None:
+    """Before round r collects: the data its training reads (``--data`` and rounds 1..r) has train and
+    validation episodes."""
+    manifest = _manifest(run.data) or {}
+    splits = manifest.get("splits") or {}
+    counts = {s: len(splits.get(s) or []) for s in ("train", "validation")}
+    counts["train"] += sum(run.config.round_episodes(k) for k in range(1, r + 1))
+    counts["validation"] += run.config.validation_episodes * r
+    check_split_sizes(counts, f"DAgger round {r}'s training data ({run.data} and rounds 1..{r})")
