@@ -26,11 +26,19 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="DAgger folder: OUT/round_<r>/{data,runs}")
     p.add_argument("--rounds", type=int, default=None, help="rounds (overrides the config)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
+    p.add_argument(
+        "--scenario",
+        default=None,
+        help="the road the learner drives (a shipped scenario or a scenario.toml path; default: the collect "
+        "config's); DAgger on a road the reward was not trained on makes its data in-domain",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     overrides = parse_overrides(args.set)
     if args.rounds is not None:
         overrides["rounds"] = args.rounds
+    if args.scenario is not None:
+        overrides["scenario"] = str(args.scenario)
     cfg = load_config(DaggerConfig, args.config, overrides)
     return run_dagger(DaggerRun(cfg, args.data, args.runs, args.out))

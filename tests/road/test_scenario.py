@@ -310,3 +310,38 @@ def test_planner_sends_no_policy_into_a_lane_that_ends(tmp_path):
     assert offroad.any() and not offroad.all()
     idx = driver.select(ps, obs)
     assert not offroad[idx]
+
+
+def crossing(tmp_path: Path, b_type: str, minor_route: bool) -> Path:
+    """A four-way junction at b: the route runs west-east (a -> b -> c) and a side road crosses it
+    north-south (n -> b -> s), priority 10 on the main road, 5 on the side road. ``minor_route``: the
+    route is the side road (n -> b -> s) instead."""
+    nodes = STRAIGHT_NODES.replace('id="b" x="400" y="0"', f'id="b" x="400" y="0" type="{b_type}"')
+    nodes += '<node id="n" x="400" y="300"/><node id="s" x="400" y="-300"/>'
+    edges = (
+        '<edge id="ab" from="a" to="b" numLanes="1" speed="13.9" priority="10"/>'
+        '<edge id="bc" from="b" to="c" numLanes="1" speed="13.9" priority="10"/>'
+        '<edge id="nb" from="n" to="b" numLanes="1" speed="13.9" priority="5"/>'
+        '<edge id="bs" from="b" to="s" numLanes="1" speed="13.9" priority="5"/>'
+    )
+    route = 'edges = ["nb", "bs"]' if minor_route else 'edges = ["ab", "bc"]'
+    return make_scenario(tmp_path / f"{b_type}_{minor_route}", nodes, edges, route)
+
+
+def test_a_traffic_light_on_the_route_is_a_signal(tmp_path):
+    road = load_road(scenario=crossing(tmp_path, "traffic_light", minor_route=False))
+    (sig,) = road.signals
+    assert sig.node == "b" and sig.tls == "b" and sig.link >= 0
+    assert sig.s == pytest.approx(road.route_begin_s + 400.0, abs=15.0)
+    assert road.stop_lines == ()  # a light is no stop sign
+    assert road.max_speed_limit == pytest.approx(13.9)
+
+
+def test_a_stop_sign_binds_the_minor_road_only(tmp_path):
+    """SUMO's priority_stop: the side road stops (link state 's'), the main road does not."""
+    minor = load_road(scenario=crossing(tmp_path, "priority_stop", minor_route=True))
+    (line,) = minor.stop_lines
+    assert line.node == "b" and minor.signals == ()
+    assert line.s == pytest.approx(minor.route_begin_s + 300.0, abs=15.0)
+    major = load_road(scenario=crossing(tmp_path, "priority_stop", minor_route=False))
+    assert major.stop_lines == () and major.signals == ()
