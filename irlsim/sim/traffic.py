@@ -24,6 +24,9 @@ from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import VehicleStates
 
 BG_TYPE = "bg"
+#: [m] no vehicle enters a lane that does not go on along the route closer than this to the lane's end
+#: (SUMO refuses a departure that cannot leave the lane in time: 'junction too close')
+LANE_END_CLEARANCE = 150.0
 
 
 @dataclass
@@ -87,6 +90,16 @@ class BackgroundTraffic:
     def __post_init__(self) -> None:
         for k in ("recycled", "resampled", "stop_lines_passed", "stop_lines_compliant", "collisions"):
             self.counts.setdefault(k, 0)
+        # (edge, SUMO lane) of the route that do not go on into the route's next edge (a lane turning off
+        # or ending): none on the oval
+        route, n = self.road.edges, len(self.road.edges)
+        self._dead_ends = {
+            (eid, lane.getIndex())
+            for i, eid in enumerate(route)
+            if i < n - 1 or self.road.closed
+            for lane in self.road.net.getEdge(eid).getLanes()
+            if not any(c.getTo().getID() == route[(i + 1) % n] for c in lane.getOutgoing())
+        }
 
     # ------------------------------------------------------------------ routes and insertion
     def add_routes(self) -> None:
@@ -124,9 +137,12 @@ class BackgroundTraffic:
         if loc is None:
             return None
         eid, pos = loc
-        k = self.road.layout.edge_lane(self.road.edges.index(eid), lane)  # the route lane on this edge
+        i = self.road.edges.index(eid)
+        k = self.road.layout.edge_lane(i, lane)  # the route lane on this edge
         if k < 0:
             return None
+        if (eid, k) in self._dead_ends and self.road.net.getEdge(eid).getLength() - pos < LANE_END_CLEARANCE:
+            return None  # it could not change out of a lane that does not go on before the lane ends
         vid = f"bg{self.counter}"
         self.counter += 1
         self.api.vehicle.add(
