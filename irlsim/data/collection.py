@@ -177,11 +177,6 @@ class CollectConfig:
         )
         dup = next((n for i, n in enumerate(names) if n in names[:i]), None)
         require(dup is None, f"[[scenarios]] lists '{dup}' twice: give each scenario one entry")
-        require(
-            self.scenario.name == "oval",
-            f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
-            "scenario in [[scenarios]] (and drop --scenario)",
-        )
         for e in self.scenarios:
             for s in SPLITS:
                 n = getattr(e, f"{s}_episodes")
@@ -196,6 +191,15 @@ class CollectConfig:
                 f"{s}_episodes = {n} but [[scenarios]] give {total}: leave the top-level episode counts out "
                 "when [[scenarios]] lists the episodes",
             )
+
+    def check_roads(self) -> None:
+        """Collection only (drive and the environment take one road of such a config with ``--scenario``):
+        ``[scenario] name`` and ``[[scenarios]]`` may not both name the road."""
+        require(
+            not self.scenarios or self.scenario.name == "oval",
+            f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
+            "scenario in [[scenarios]] (and drop --scenario)",
+        )
 
     @property
     def scenario_names(self) -> tuple[str, ...]:

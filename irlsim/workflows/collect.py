@@ -159,6 +159,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     :class:`~irlsim.errors.IrlsimError` (one line) before any work for a config the folder was not
     collected with, a busy folder, a missing driver or an unusable output folder."""
     cfg = run.config
+    cfg.check_roads()
     if cfg.dagger_round and run.driver is None:
         raise IrlsimError(
             f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"

@@ -12,32 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from irlsim.errors import IrlsimError
-from tests.conftest import one_line
-
-MULTI_TOML = """
-seed = 0
-workers = 1
-max_cycles = 40
-
-[scenario]
-n_vehicles = 4
-laps = 1
-max_time = 120.0
-
-[planner]
-n_policies = 120
-
-[[scenarios]]
-name = "oval"
-train_episodes = 1
-test_episodes = 1
-
-[[scenarios]]
-name = "ramp"
-train_episodes = 1
-validation_episodes = 1
-test_episodes = 1
-"""
+from tests.conftest import MULTI_TOML, one_line
 
 
 def refused(capsys, argv: list[str]) -> str:
@@ -49,33 +24,6 @@ def refused(capsys, argv: list[str]) -> str:
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1, err
     return err[0]
-
-
-@pytest.fixture(scope="module")
-def multi(tmp_path_factory):
-    """(config path, dataset folder) of a real two-scenario collection: oval 1 train + 1 test episode,
-    ramp 1 train, 1 validation, 1 test episode, 40 cycles each."""
-    from irlsim.cli import main
-
-    root = tmp_path_factory.mktemp("multi")
-    cfg = root / "multi.toml"
-    cfg.write_text(MULTI_TOML)
-    out = root / "data"
-    assert main(["collect", "--config", str(cfg), "--out", str(out)]) == 0
-    return cfg, out
-
-
-@pytest.fixture(scope="module")
-def ramp_runs(multi, tmp_path_factory):
-    """LIRL and PACNN trained (tiny, real) on the ramp episodes of the two-scenario dataset only."""
-    from irlsim.cli import main
-
-    _, data = multi
-    runs = tmp_path_factory.mktemp("ramp_runs")
-    args = ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", str(data)]
-    args += ["--out", str(runs), "--set", "models=['LIRL','PACNN']", "--set", "epochs=1"]
-    assert main([*args, "--scenario-select", "ramp"]) == 0
-    return runs
 
 
 def test_manifest_records_every_scenario_and_episode(multi):
