@@ -74,6 +74,15 @@ def test_reader_gives_every_cycle_its_scenario_and_selects(multi):
     assert ds.split_tensors("test").n_cycles == len(names)
     assert ramp.identity != open_dataset(data, ("oval",)).identity
 
+    from irlsim.data.info import dataset_info, format_info
+
+    info = dataset_info(data)
+    assert info["scenarios"] == {
+        "oval": {"train": 1, "validation": 0, "test": 1},
+        "ramp": {"train": 1, "validation": 1, "test": 1},
+    }
+    assert "scenarios (episodes): oval (train 1, validation 0, test 1); ramp (" in format_info(info)
+
     with pytest.raises(IrlsimError) as e:
         open_dataset(data, ("motorway",))
     assert "has no scenario 'motorway'" in one_line(e) and "oval, ramp" in one_line(e)
