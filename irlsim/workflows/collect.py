@@ -338,6 +338,8 @@ def _collect(
     recorded = driver  # as the manifest records it: the first collection's, which the identity hashes
     if manifest_path.is_file():
         recorded = _check_resumable(manifest_path, config, driver, roads)
+        if "scenarios" not in json.loads(manifest_path.read_text()):
+            roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
     build_net()  # once, before the workers start (they only read it)
 
     jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)

@@ -166,3 +166,27 @@ def test_evaluate_breaks_table_one_down_by_scenario(multi, ramp_runs, tmp_path, 
     assert main([*args, "--scenario-select", "oval", "--no-references"]) == 0
     rows = json.loads((only / "results.json").read_text())["rows"]
     assert list(next(r for r in rows if r["model"] == "LIRL")["scenarios"]) == ["oval"]
+
+
+def test_one_road_other_than_the_oval_records_it(tmp_path):
+    """A dataset of one scenario other than the oval records ``scenarios`` alone (name and digest); one
+    collected before manifests recorded roads keeps its manifest's bytes when collect runs again."""
+    from irlsim.cli import main
+    from irlsim.data.reader import open_dataset
+    from irlsim.road.scenario import load_scenario
+
+    out = tmp_path / "motorway"
+    args = ["collect", "--config", "configs/collect/tiny.toml", "--scenario", "motorway", "--out", str(out)]
+    tiny = ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0"]
+    tiny += ["--set", "max_cycles=20", "--set", "planner.n_policies=120", "--set", "scenario.n_vehicles=3"]
+    assert main([*args, *tiny]) == 0
+    path = out / "manifest.json"
+    m = json.loads(path.read_text())
+    assert m["scenarios"] == {"motorway": load_scenario("motorway").digest()}
+    assert "episode_scenarios" not in m
+    assert set(open_dataset(out).scenario_of_cycle("train")) == {"motorway"}
+    del m["scenarios"]  # as an older irlsim wrote it
+    path.write_text(json.dumps(m, indent=2) + "\n")
+    before = path.read_bytes()
+    assert main([*args, *tiny]) == 0
+    assert path.read_bytes() == before
