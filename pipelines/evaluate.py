@@ -10,6 +10,7 @@ from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import int_in
+from irlsim.data.scenarios import parse_selection
 from irlsim.workflows.evaluate import EvaluateRun, evaluate_runs
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"
@@ -46,6 +47,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="leave out the reference rows expert-theta, executed and oracle (the oracle's per-cycle fit "
         "is the slow part); 'random policy' stays",
     )
+    p.add_argument(
+        "--scenario-select",
+        default=None,
+        metavar="A,B",
+        help="evaluate on the episodes of these scenarios only (a dataset over several scenarios); models "
+        "trained on any selection of the dataset's scenarios are accepted",
+    )
     devices.add_arguments(p, "evaluation")
 
 
@@ -61,6 +69,7 @@ def request(args: argparse.Namespace) -> EvaluateRun:
         not args.no_references,
         args.device,
         args.precision,
+        parse_selection(args.scenario_select),
     )
 
 

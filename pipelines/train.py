@@ -11,6 +11,7 @@ from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides
+from irlsim.data.scenarios import parse_selection
 from irlsim.errors import IrlsimError
 from irlsim.train import config as tc
 from irlsim.workflows.train import TrainRun, train_models
@@ -44,6 +45,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="stage 2 only: folder with the frozen stage-1 PACNN/ and PACNN+S/ (default: OUT/stage1)",
     )
     p.add_argument("--set", action="append", metavar="KEY=VALUE", help="override a config field, repeatable")
+    p.add_argument(
+        "--scenario-select",
+        default=None,
+        metavar="A,B",
+        help="train on the episodes of these scenarios only (a dataset over several scenarios; the "
+        "checkpoint records the selection: resuming needs the same one)",
+    )
     devices.add_arguments(p, "training")
 
 
@@ -57,7 +65,8 @@ def request(args: argparse.Namespace) -> TrainRun:
         cfg = load_config(tc.Stage1Config, args.config, overrides)
     else:
         cfg = load_config(tc.Stage2Config, args.config, overrides)
-    return TrainRun(cfg, tuple(args.data), args.out, args.base, args.device, args.precision)
+    scenarios = parse_selection(args.scenario_select)
+    return TrainRun(cfg, tuple(args.data), args.out, args.base, args.device, args.precision, scenarios)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -55,6 +55,59 @@ def tiny_dataset(tmp_path_factory):
     return out
 
 
+MULTI_TOML = """
+seed = 0
+workers = 1
+max_cycles = 40
+
+[scenario]
+n_vehicles = 4
+laps = 1
+max_time = 120.0
+
+[planner]
+n_policies = 120
+
+[[scenarios]]
+name = "oval"
+train_episodes = 1
+test_episodes = 1
+
+[[scenarios]]
+name = "ramp"
+train_episodes = 1
+validation_episodes = 1
+test_episodes = 1
+"""
+
+
+@pytest.fixture(scope="session")
+def multi(tmp_path_factory):
+    """(config path, dataset folder) of a real two-scenario collection (collect config ``[[scenarios]]``):
+    oval 1 train + 1 test episode, ramp 1 train, 1 validation, 1 test episode, 40 cycles each."""
+    from irlsim.cli import main
+
+    root = tmp_path_factory.mktemp("multi")
+    cfg = root / "multi.toml"
+    cfg.write_text(MULTI_TOML)
+    out = root / "data"
+    assert main(["collect", "--config", str(cfg), "--out", str(out)]) == 0
+    return cfg, out
+
+
+@pytest.fixture(scope="session")
+def ramp_runs(multi, tmp_path_factory):
+    """LIRL and PACNN trained (tiny, real) on the ramp episodes of the two-scenario dataset only."""
+    from irlsim.cli import main
+
+    _, data = multi
+    runs = tmp_path_factory.mktemp("ramp_runs")
+    args = ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", str(data)]
+    args += ["--out", str(runs), "--set", "models=['LIRL','PACNN']", "--set", "epochs=1"]
+    assert main([*args, "--scenario-select", "ramp"]) == 0
+    return runs
+
+
 def train_synthetic_runs(dataset, runs):
     """The layout 'irlsim train --out RUNS' writes, from an in-memory dataset: RUNS/stage1/{LIRL,PACNN}/
     and RUNS/stage2/PTACNN/, one epoch each (smoke configs)."""

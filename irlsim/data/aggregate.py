@@ -47,6 +47,7 @@ from irlsim.data.reader import (
     read_cache_meta,
     write_cache_meta,
 )
+from irlsim.data.scenarios import check_selection, selection_identity, selections
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 
@@ -89,7 +90,8 @@ class AggregateDataset:
                     "aggregate only datasets of one planner (same policies and features)"
                 )
         self.datasets = datasets
-        self.identities = [manifest_identity(d.manifest) for d in datasets]
+        # a folder read for some of its scenarios is identified with its selection
+        self.identities = [getattr(d, "identity", None) or manifest_identity(d.manifest) for d in datasets]
         self.path = first.path
         self.paths = [d.path for d in datasets]
         splits = sorted({s for d in datasets for s in d.splits})
@@ -112,6 +114,16 @@ class AggregateDataset:
     @property
     def splits(self) -> list[str]:
         return list(self.manifest["splits"])
+
+    @property
+    def scenarios(self) -> list[str]:
+        """The folders' scenarios, each once, in folder order."""
+        return list(dict.fromkeys(n for d in self.datasets for n in d.scenarios))
+
+    def scenario_of_cycle(self, split: str) -> np.ndarray:
+        """[C] the scenario of every cycle of ``split``, rows as ``split_tensors`` orders them."""
+        parts = [d.scenario_of_cycle(split) for _, d in self._parts(split)]
+        return np.concatenate(parts) if parts else np.asarray([], dtype=str)
 
     def _seeds(self, split: str) -> list[int]:
         """Every folder's episode seeds of ``split``, in folder order."""
@@ -222,9 +234,12 @@ class AggregateDataset:
         return pd.concat(frames, ignore_index=True)
 
 
-def open_datasets(paths: list[str | Path] | tuple[str | Path, ...]) -> Dataset | AggregateDataset:
+def open_datasets(
+    paths: list[str | Path] | tuple[str | Path, ...], scenarios: tuple[str, ...] | None = None
+) -> Dataset | AggregateDataset:
     """One dataset folder (a :class:`Dataset`, memory-mapped) or several (an :class:`AggregateDataset`).
-    The same folder twice is refused (its cycles would count twice)."""
+    The same folder twice is refused (its cycles would count twice). ``scenarios``: only the episodes of
+    these scenarios (``--scenario-select``; a name no folder has is refused in one line)."""
     resolved = [Path(p).resolve() for p in paths]
     if not resolved:
         raise IrlsimError("no dataset given: pass --data FOLDER [FOLDER ...]")
@@ -232,5 +247,23 @@ def open_datasets(paths: list[str | Path] | tuple[str | Path, ...]) -> Dataset |
     if dup is not None:
         raise IrlsimError(f"dataset {dup} is given twice: name each folder once")
     if len(paths) == 1:
-        return open_dataset(paths[0])
-    return AggregateDataset([open_dataset(p) for p in paths])
+        return open_dataset(paths[0], scenarios)
+    datasets = [open_dataset(p) for p in paths]
+    if scenarios is not None:
+        known = list(dict.fromkeys(n for d in datasets for n in d.scenarios))
+        chosen = check_selection(", ".join(map(str, paths)), known, scenarios)
+        datasets = [Dataset(d.path, d.manifest, chosen) for d in datasets]
+    return AggregateDataset(datasets)
+
+
+def any_selection_identities(dataset: Dataset | AggregateDataset) -> tuple[str, ...]:
+    """The identities of the dataset(s) read whole or for any selection of their scenarios: a model
+    trained on any of them is evaluated on ``dataset`` (``irlsim evaluate``)."""
+    parts = dataset.datasets if isinstance(dataset, AggregateDataset) else [dataset]
+    whole = [manifest_identity(d.manifest) for d in parts]
+    options = [whole] + [
+        [selection_identity(d.manifest, chosen) for d in parts] for chosen in selections(dataset.scenarios)
+    ]
+    if isinstance(dataset, AggregateDataset):
+        return tuple(aggregate_identity(ids) for ids in options)
+    return tuple(ids[0] for ids in options)

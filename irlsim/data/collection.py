@@ -16,7 +16,7 @@ import hashlib
 import json
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
@@ -67,6 +67,21 @@ class DemoConfig:
 
 
 @dataclass(frozen=True)
+class ScenarioEpisodes:
+    """One entry of a collect config's ``[[scenarios]]``: a scenario and its episodes per split."""
+
+    name: str = ""
+    """a shipped scenario (``irlsim scenario list``) or the path of a scenario.toml"""
+    train_episodes: int = 0
+    validation_episodes: int = 0
+    test_episodes: int = 0
+
+
+#: the top-level episode counts when a config leaves them out
+_DEFAULT_COUNTS = {"train": 4, "validation": 1, "test": 1}
+
+
+@dataclass(frozen=True)
 class CollectConfig:
     """``irlsim collect``: which episodes to drive and how. Nested tables: [scenario], [planner], [demo]."""
 
@@ -93,9 +108,23 @@ class CollectConfig:
     """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
     demo: DemoConfig = field(default_factory=DemoConfig)
     """demonstration projection"""
+    scenarios: tuple[ScenarioEpisodes, ...] = ()
+    """a dataset over several scenarios: ``[[scenarios]]`` tables ``{name, train_episodes,
+    validation_episodes, test_episodes}``; each split's episodes are numbered over the list in order (the
+    first entry's first), so the seed rule of ``episodes`` keeps them disjoint; the top-level counts are
+    then their sums (leave them out). Empty: the one scenario ``[scenario] name``"""
+
+    def __post_init__(self) -> None:
+        counts = {s: getattr(self, f"{s}_episodes") for s in SPLITS}
+        if self.scenarios and counts == _DEFAULT_COUNTS:  # left out: the sums over [[scenarios]]
+            for s in SPLITS:
+                object.__setattr__(
+                    self, f"{s}_episodes", sum(getattr(e, f"{s}_episodes") for e in self.scenarios)
+                )
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
+        self._validate_scenarios()
         for s in SPLITS:
             n = getattr(self, f"{s}_episodes")
             require(0 <= n < 100_000, f"{s}_episodes must be in 0..99999, got {n}")
@@ -139,6 +168,50 @@ class CollectConfig:
             "use fewer policies per cycle or fewer --workers",
         )
 
+    def _validate_scenarios(self) -> None:
+        if not self.scenarios:
+            return
+        names = [e.name for e in self.scenarios]
+        require(
+            all(names), "every [[scenarios]] entry needs a name: a shipped scenario or a scenario.toml path"
+        )
+        dup = next((n for i, n in enumerate(names) if n in names[:i]), None)
+        require(dup is None, f"[[scenarios]] lists '{dup}' twice: give each scenario one entry")
+        for e in self.scenarios:
+            for s in SPLITS:
+                n = getattr(e, f"{s}_episodes")
+                require(
+                    0 <= n < 100_000, f"[[scenarios]] '{e.name}': {s}_episodes must be in 0..99999, got {n}"
+                )
+        for s in SPLITS:
+            total = sum(getattr(e, f"{s}_episodes") for e in self.scenarios)
+            n = getattr(self, f"{s}_episodes")
+            require(
+                n == total,
+                f"{s}_episodes = {n} but [[scenarios]] give {total}: leave the top-level episode counts out "
+                "when [[scenarios]] lists the episodes",
+            )
+
+    def check_roads(self) -> None:
+        """Collection only (drive and the environment take one road of such a config with ``--scenario``):
+        ``[scenario] name`` and ``[[scenarios]]`` may not both name the road."""
+        require(
+            not self.scenarios or self.scenario.name == "oval",
+            f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
+            "scenario in [[scenarios]] (and drop --scenario)",
+        )
+
+    @property
+    def scenario_names(self) -> tuple[str, ...]:
+        """The scenarios of the dataset, in order: the ``[[scenarios]]`` names, else ``[scenario] name``."""
+        return tuple(e.name for e in self.scenarios) or (self.scenario.name,)
+
+    def episode_scenarios(self, split: str) -> list[str]:
+        """The scenario of every episode of ``split``, in the order of ``episodes``."""
+        if not self.scenarios:
+            return [self.scenario.name] * getattr(self, f"{split}_episodes")
+        return [e.name for e in self.scenarios for _ in range(getattr(e, f"{split}_episodes"))]
+
     def episodes(self, split: str) -> list[tuple[int, int]]:
         """(episode id, seed) of every episode of ``split``: seed * 1e6 + split offset + i for the
         expert's data; seed * 1e6 + 300,000 + (round - 1) * 30,000 + split index * 10,000 + i for DAgger
@@ -179,8 +252,12 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     if isinstance(scn, dict) and scn.get("name") == "oval":
         # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
         d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
-    # dagger_round 0 is left out: an expert dataset's manifest keeps its bytes (and identity) of before
-    return {k: v for k, v in d.items() if k not in DATA_NEUTRAL_FIELDS and (k, v) != ("dagger_round", 0)}
+    # dagger_round 0 and no [[scenarios]] are left out: a manifest keeps its bytes (and identity) of before
+    return {
+        k: v
+        for k, v in d.items()
+        if k not in DATA_NEUTRAL_FIELDS and (k, v) not in (("dagger_round", 0), ("scenarios", []))
+    }
 
 
 def config_hash(cfg: CollectConfig | dict[str, Any]) -> str:
@@ -190,9 +267,15 @@ def config_hash(cfg: CollectConfig | dict[str, Any]) -> str:
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
-def episode_record(seed: int, cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
-    """What an episode's files record of their collection (EpisodeWriter ``record``): seed, config hash."""
-    return {"seed": int(seed), "config": config_hash(cfg)}
+def episode_record(
+    seed: int, cfg: CollectConfig | dict[str, Any], scenario: str | None = None
+) -> dict[str, Any]:
+    """What an episode's files record of their collection (EpisodeWriter ``record``): seed, config hash,
+    and in a dataset over several scenarios (``scenario`` given) the episode's scenario."""
+    out: dict[str, Any] = {"seed": int(seed), "config": config_hash(cfg)}
+    if scenario is not None:
+        out["scenario"] = scenario
+    return out
 
 
 class _Missing:
@@ -235,6 +318,8 @@ class EpisodeJob:
     driver: str | None = None
     """None: the expert drives (odometry demonstrations); a checkpoint path: that learned reward drives
     and the expert labels every cycle (DAgger, ``irlsim collect --driver``)"""
+    scenario: str | None = None
+    """the episode's scenario in a dataset over several (``[[scenarios]]``); None: ``[scenario] name``"""
 
 
 @runtime_checkable
@@ -329,7 +414,8 @@ def collect_episode(
     t_start = time.perf_counter()
     cfg = job.config
     seed_everything(job.seed)
-    road = load_road(scenario=cfg.scenario.name)
+    scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
+    road = load_road(scenario=scenario.name)
     driver: Any = ExpertDriver(road, cfg.planner) if make_driver is None else make_driver(road, cfg)
     labeller = driver if make_driver is not None else None
     projector = DemoProjector(
@@ -349,8 +435,8 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with Simulation(road, cfg.scenario) as sim:
-        record = episode_record(job.seed, cfg)
+    with Simulation(road, scenario) as sim:
+        record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder = CycleRecorder(writer, projector, labeller)
             runner = EpisodeRunner(
@@ -366,6 +452,7 @@ def collect_episode(
             "collect/split": job.split,
             "collect/episode": job.episode,
             "collect/seed": job.seed,
+            **({"collect/scenario": job.scenario} if job.scenario is not None else {}),
             "collect/cycles": n_cycles,
             "collect/setup_s": round(setup, 3),
             "collect/wall_s": round(wall, 3),

@@ -12,6 +12,7 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.reader import CACHE_DIR, fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
+from irlsim.data.scenarios import episode_scenario, records_scenarios
 from irlsim.data.schema import TABLE_POLICIES
 
 
@@ -61,7 +62,8 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
     Keys: ``path``, ``schema_version``, ``splits`` {split: {episodes, cycles, cycles_with_demo,
     policies_per_cycle, demo_distance {mean, median, p90} [m], random_policy_distance [m]}},
     ``features`` {name: {mean, std, min, max}} over all policies of all splits, ``disk_bytes`` (Parquet
-    and manifest) and ``cache_bytes``. ``random_policy_distance`` is the mean d(zeta, pi) over all policies
+    and manifest) and ``cache_bytes``; ``scenarios`` {name: {split: episodes}} where the manifest records
+    its roads. ``random_policy_distance`` is the mean d(zeta, pi) over all policies
     of the cycles with a demonstration, i.e. the expected distance of a uniformly random policy, to compare
     with the DEMO mean.
     """
@@ -98,6 +100,14 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
             "random_policy_distance": rand_sum / rand_n if rand_n else float("nan"),
         }
     stats = moments.summary()
+    roads: dict[str, Any] = {}
+    if records_scenarios(ds.manifest):  # a dataset over several scenarios, or one other than the oval
+        roads["scenarios"] = {
+            name: {
+                s: sum(episode_scenario(ds.manifest, s, e) == name for e in ds.episodes(s)) for s in ds.splits
+            }
+            for name in ds.scenarios
+        }
     return {
         "path": str(ds.path),
         "schema_version": ds.manifest["schema_version"],
@@ -108,6 +118,7 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
         },
         "disk_bytes": _dir_size(ds.path, skip=CACHE_DIR),
         "cache_bytes": _dir_size(ds.path / CACHE_DIR) if (ds.path / CACHE_DIR).is_dir() else 0,
+        **roads,
     }
 
 
@@ -128,6 +139,11 @@ def format_info(info: dict[str, Any]) -> str:
             f"{name:<12}{s['episodes']:>9}{s['cycles']:>9}{s['cycles_with_demo']:>9}{s['policies_per_cycle']:>9}"
             f"{d['mean']:>11.3f}{d['median']:>9.3f}{d['p90']:>8.3f}{s['random_policy_distance']:>9.3f}"
         )
+    if "scenarios" in info:
+        per = [
+            f"{k} ({', '.join(f'{s} {n}' for s, n in eps.items())})" for k, eps in info["scenarios"].items()
+        ]
+        lines += ["", "scenarios (episodes): " + "; ".join(per)]
     lines += [
         "",
         "distances in m; random = mean distance of a uniformly random policy (cycles with a demo)",

@@ -13,7 +13,6 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Iterator
-from contextlib import ExitStack
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -24,6 +23,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from irlsim import N_FEATURES
+from irlsim.data import scenarios as by_scenario
+from irlsim.data.npy import AtomicNpys as AtomicNpys  # re-exported: the aggregate's caches use it
 from irlsim.data.schema import (
     DEMO_EXPERT,
     DEMO_SOURCES,
@@ -219,7 +220,9 @@ def check_complete(path: Path, manifest: dict[str, Any]) -> None:
 class Dataset:
     """A validated, complete dataset folder. Use ``open_dataset``."""
 
-    def __init__(self, path: Path, manifest: dict[str, Any]) -> None:
+    def __init__(
+        self, path: Path, manifest: dict[str, Any], scenarios: tuple[str, ...] | None = None
+    ) -> None:
         self.path = path
         self.manifest = manifest
         check_complete(path, manifest)
@@ -227,6 +230,23 @@ class Dataset:
         #: K and N the collection was configured with (None: not recorded, taken from the files)
         self.n_control_points: int | None = planner.get("n_control_points")
         self.n_policies: int | None = planner.get("n_policies")
+        #: the scenarios read (None: all); a selection has its own identity and cache
+        self.selection = scenarios
+        self.legacy_identities: tuple[str, ...] = ()
+        if scenarios is not None:
+            self.identity = by_scenario.selection_identity(manifest, scenarios)
+
+    @property
+    def scenarios(self) -> list[str]:
+        """The scenarios the dataset was collected on (all of them, whatever the selection)."""
+        return by_scenario.manifest_scenarios(self.manifest)
+
+    def scenario_of_cycle(self, split: str) -> np.ndarray:
+        """[C] the scenario name of every cycle of ``split``, rows as ``split_tensors`` orders them."""
+        eps = self.episodes(split)
+        rows = [open_parquet(self.cycles_path(split, e), TABLE_CYCLES).metadata.num_rows for e in eps]
+        names = [by_scenario.episode_scenario(self.manifest, split, e) for e in eps]
+        return np.repeat(np.asarray(names, dtype=str), rows)
 
     @property
     def splits(self) -> list[str]:
@@ -239,7 +259,10 @@ class Dataset:
             raise IrlsimError(
                 f"dataset {self.path} has no split {split!r}: choose one of {', '.join(splits) or '(none)'}"
             )
-        return sorted(int(e) for e in splits[split])
+        eps = sorted(int(e) for e in splits[split])
+        if self.selection is None:
+            return eps
+        return [e for e in eps if by_scenario.episode_scenario(self.manifest, split, e) in self.selection]
 
     def cycles_path(self, split: str, episode: int) -> Path:
         return self.path / split / cycles_name(episode)
@@ -305,6 +328,8 @@ class Dataset:
         return out
 
     def cache_dir(self, split: str) -> Path:
+        if self.selection is not None:
+            return self.path / CACHE_DIR / by_scenario.selection_key(self.selection) / split
         return self.path / CACHE_DIR / split
 
     def _cache_valid(self, split: str, sources: list[list[Any]]) -> bool:
@@ -449,36 +474,9 @@ def open_cache(folder: Path) -> SplitTensors:
     return SplitTensors(**{n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in ARRAY_NAMES})
 
 
-class AtomicNpys:
-    """Memory-mapped .npy files opened under unique temporary names (``atomic_path``), renamed into place
-    on success and removed on failure, so two processes building the same cache never share a file."""
-
-    def __init__(self, folder: Path, specs: dict[str, tuple[tuple[int, ...], Any]]) -> None:
-        self.folder = folder
-        self.specs = specs
-        self.stack = ExitStack()
-        self.maps: dict[str, np.memmap] = {}
-
-    def __enter__(self) -> dict[str, np.memmap]:
-        try:
-            for name, (shape, dtype) in self.specs.items():
-                tmp = self.stack.enter_context(atomic_path(self.folder / f"{name}.npy"))
-                self.maps[name] = np.lib.format.open_memmap(tmp, mode="w+", dtype=dtype, shape=shape)
-        except BaseException as exc:
-            self.maps.clear()
-            self.stack.__exit__(type(exc), exc, exc.__traceback__)  # with an exception: delete, not rename
-            raise
-        return self.maps
-
-    def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
-        for m in self.maps.values():
-            m.flush()
-        self.maps.clear()  # unmapped before the rename
-        self.stack.__exit__(exc_type, exc, tb)
-
-
-def open_dataset(path: str | Path) -> Dataset:
-    """Open and validate a dataset folder (manifest, schema version, feature names)."""
+def open_dataset(path: str | Path, scenarios: tuple[str, ...] | None = None) -> Dataset:
+    """Open and validate a dataset folder (manifest, schema version, feature names); ``scenarios``: read
+    only the episodes of these (refused in one line when one is not the dataset's)."""
     path = Path(path)
     if not path.is_dir():
         raise IrlsimError(
@@ -497,4 +495,6 @@ def open_dataset(path: str | Path) -> Dataset:
     if not isinstance(manifest, dict):
         raise IrlsimError(f"{manifest_path} is not a JSON object: {_REGENERATE}")
     validate_manifest(manifest, manifest_path)
-    return Dataset(path, manifest)
+    if scenarios is not None:
+        scenarios = by_scenario.check_selection(path, by_scenario.manifest_scenarios(manifest), scenarios)
+    return Dataset(path, manifest, scenarios)

@@ -17,6 +17,7 @@ gets OPD / ED per situation label and its reward stability (irlsim.irl.breakdown
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from pathlib import Path
@@ -25,6 +26,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim.data.scenarios import records_scenarios
 from irlsim.data.situations import SITUATION_NAMES
 from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
@@ -252,7 +254,14 @@ def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
     if not hasattr(dataset, "read_cycles"):
         return None
     horizon = float(((dataset.manifest.get("config") or {}).get("planner") or {}).get("horizon", 5.0))
-    return CycleContext.from_cycles(dataset.read_cycles(split), data, horizon, SITUATION_NAMES)
+    ctx = CycleContext.from_cycles(dataset.read_cycles(split), data, horizon, SITUATION_NAMES)
+    # a dataset that records its roads (several scenarios, or one other than the oval): a breakdown by
+    # scenario beside the one by situation (an oval dataset's results keep their bytes)
+    parts = getattr(dataset, "datasets", [dataset])
+    if any(records_scenarios(d.manifest) for d in parts):
+        scenario = np.asarray(dataset.scenario_of_cycle(split))[: data.features.shape[0]]
+        ctx = dataclasses.replace(ctx, scenario=scenario)
+    return ctx
 
 
 def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> list[dict[str, Any]]:

@@ -32,6 +32,7 @@ class CycleContext:
     t: np.ndarray  # [s]
     horizon: float  # [s] planning horizon (control points at horizon * k / K)
     names: tuple[str, ...] = ()  # situation code -> name (irlsim.data.situations.SITUATION_NAMES)
+    scenario: np.ndarray | None = None  # [C] scenario names; None: no breakdown by scenario
 
     @staticmethod
     def from_cycles(cycles: Any, split: Any, horizon: float, names: tuple[str, ...]) -> CycleContext:
@@ -88,6 +89,22 @@ def per_situation(
     return out
 
 
+def per_scenario(metrics: dict[str, np.ndarray], scenario: np.ndarray) -> dict[str, dict[str, float]]:
+    """{scenario name: {'opd', 'ed', 'cycles'}} over cycles with a demonstration, names in order of
+    first appearance (the split's episode order)."""
+    out = {}
+    valid = metrics["valid"]
+    for name in dict.fromkeys(np.asarray(scenario).tolist()):
+        m = valid & (scenario == name)
+        n = int(m.sum())
+        out[str(name)] = {
+            "opd": float(metrics["opd"][m].mean()) if n else float("nan"),
+            "ed": float(metrics["ed"][m].mean()) if n else float("nan"),
+            "cycles": n,
+        }
+    return out
+
+
 def row_breakdown(
     metrics: dict[str, np.ndarray],
     split: Any,
@@ -95,7 +112,8 @@ def row_breakdown(
     thetas: np.ndarray | None = None,
     chosen: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """{'situations': per_situation(...), 'stability': stability_summary(...)} of one row. ``thetas``
+    """{'situations': per_situation(...), 'stability': stability_summary(...)} of one row, and
+    'scenarios': per_scenario(...) when ``ctx`` has the cycles' scenarios. ``thetas``
     [C, 15] (None: a row without a reward, e.g. 'executed'); ``chosen`` [C] policy per cycle (default:
     argmax V of ``thetas``; None for both: no plan stability, e.g. 'random policy')."""
     episode = np.asarray(split.episode)
@@ -112,14 +130,38 @@ def row_breakdown(
     plan[bad | np.concatenate([[False], bad[:-1]])] = np.nan
     theta = theta_change(thetas, episode) if thetas is not None else None
     sit = ctx.situation if (ctx.situation >= 0).all() else None
-    return {
+    out = {
         "situations": per_situation(metrics, ctx.situation, ctx.names),
         "stability": stability_summary(theta, plan, sit, episode, SWITCH_WINDOW),
     }
+    if ctx.scenario is not None:
+        out["scenarios"] = per_scenario(metrics, ctx.scenario)
+    return out
 
 
 def _f(v: Any, digits: int = 3) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def _scenario_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """The per-scenario table (Table I by scenario) of rows that carry a 'scenarios' entry."""
+    rows = [r for r in rows if "scenarios" in r]
+    if not rows:
+        return []
+    counts = rows[0]["scenarios"]
+    head = " | ".join(f"{n} ({counts[n]['cycles']})" for n in counts)
+    lines = ["## OPD / ED per scenario [m]", "", f"| model | {head} |", "|---|" + "---|" * len(counts)]
+    for r in rows:
+        s = r["scenarios"]
+        lines.append(
+            f"| {r['model']} | " + " | ".join(f"{_f(s[n]['opd'])} / {_f(s[n]['ed'])}" for n in counts) + " |"
+        )
+    return [
+        *lines,
+        "",
+        "OPD / ED per scenario the cycles were collected on (cycles with a demonstration in brackets).",
+        "",
+    ]
 
 
 def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
@@ -145,6 +187,7 @@ def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
         "",
         "OPD / ED per situation label (irlsim.data.situations; cycles with a demonstration in brackets).",
         "",
+        *_scenario_lines(rows),
         "## Reward stability",
         "",
         "| model | theta change | theta change at switches | plan change [m] | plan change at switches [m] |",

@@ -49,6 +49,7 @@ from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
 from irlsim.road.network import build_net
+from irlsim.road.scenario import load_scenario
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
 
@@ -158,6 +159,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     :class:`~irlsim.errors.IrlsimError` (one line) before any work for a config the folder was not
     collected with, a busy folder, a missing driver or an unusable output folder."""
     cfg = run.config
+    cfg.check_roads()
     if cfg.dagger_round and run.driver is None:
         raise IrlsimError(
             f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"
@@ -178,8 +180,40 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     return CollectResult(out, failed)
 
 
+def scenario_records(cfg: CollectConfig) -> dict[str, Any]:
+    """The manifest's record of the roads (refused in one line, before any work, for a scenario that
+    does not load): ``scenarios`` {name: sha256 of its scenario file and network} for a dataset over
+    several scenarios or one other than the oval, and ``episode_scenarios`` {split: {episode: name}} for
+    several; nothing for the oval alone (its manifest keeps the bytes of before)."""
+    if not cfg.scenarios and cfg.scenario.name == "oval":
+        return {}
+    out: dict[str, Any] = {"scenarios": {n: load_scenario(n).digest() for n in cfg.scenario_names}}
+    if cfg.scenarios:
+        out["episode_scenarios"] = {
+            s: {str(e): n for (e, _), n in zip(cfg.episodes(s), cfg.episode_scenarios(s), strict=True)}
+            for s in SPLITS
+        }
+    return out
+
+
+def _scenario_problem(old: dict[str, Any], roads: dict[str, Any]) -> str | None:
+    """Why a dataset recorded over other scenarios (or roads changed since) cannot be resumed, or None."""
+    was, now = old.get("scenarios"), roads.get("scenarios")
+    if not isinstance(was, dict) or now is None:  # older manifests record no roads: the config decides
+        return None
+    if list(was) != list(now):
+        return f"was collected over the scenarios {', '.join(was)}, this config lists {', '.join(now)}"
+    changed = [n for n in now if was[n] != now[n]]
+    if changed:
+        return f"was collected on another version of scenario {changed[0]} (its scenario file or network)"
+    return None
+
+
 def _check_resumable(
-    manifest_path: Path, config: dict[str, Any], driver: dict[str, Any] | None = None
+    manifest_path: Path,
+    config: dict[str, Any],
+    driver: dict[str, Any] | None = None,
+    roads: dict[str, Any] | None = None,
 ) -> dict[str, Any] | None:
     """Refuse to add to a dataset of another schema version, feature set or data config (one line);
     returns the driver as recorded there (the same by content: its path may differ)."""
@@ -199,6 +233,11 @@ def _check_resumable(
         )
     if old.get("feature_names") != list(FEATURE_NAMES):
         raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
+    problem = _scenario_problem(old, roads or {})
+    if problem is None and config.get("scenarios") != old["config"].get("scenarios"):
+        problem = "was collected with another [[scenarios]] list (names or episodes per split)"
+    if problem is not None:
+        raise IrlsimError(f"{out} {problem}: {fix}")
     diff = first_difference(data_config(old["config"]), config)
     if diff is None and not same_driver(old.get("driver"), driver):
         was, now = (
@@ -223,7 +262,9 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
     for split in SPLITS:
         remove_partial(out, split)
         seeds[split] = [s for _, s in cfg.episodes(split)]
-        for episode, seed in cfg.episodes(split):
+        # a dataset over several scenarios: each episode's own road (None: [scenario] name)
+        roads = cfg.episode_scenarios(split) if cfg.scenarios else [None] * len(seeds[split])
+        for (episode, seed), road in zip(cfg.episodes(split), roads, strict=True):
             if episode_done(out, split, episode):
                 # a finished episode is trusted only after a look at its files: a truncated or foreign
                 # pair would otherwise be kept, and break the manifest's counts or a later reader
@@ -233,7 +274,7 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                     episode,
                     n_policies=cfg.planner.n_policies,
                     n_control_points=cfg.planner.n_control_points,
-                    record=episode_record(seed, cfg),  # a file of another seed or config: collected again
+                    record=episode_record(seed, cfg, road),  # another seed or config: collected again
                     unrecorded_ok=vouched,
                 )
                 if problem is None:
@@ -241,7 +282,7 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
-            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt)  # ckpt: DAgger's driver
+            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt, road)  # ckpt: DAgger's
             jobs.append(ExecutorJob(f"{split}/{episode}", job))
     return jobs, seeds
 
@@ -293,9 +334,12 @@ def _collect(
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)
+    roads = scenario_records(cfg)  # a scenario that does not load: one line, before any work
     recorded = driver  # as the manifest records it: the first collection's, which the identity hashes
     if manifest_path.is_file():
-        recorded = _check_resumable(manifest_path, config, driver)
+        recorded = _check_resumable(manifest_path, config, driver, roads)
+        if "scenarios" not in json.loads(manifest_path.read_text()):
+            roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
     build_net()  # once, before the workers start (they only read it)
 
     jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
@@ -304,7 +348,7 @@ def _collect(
     where += f", at most {timeout:g} s per episode" if timeout is not None else ", in this process"
     if driver is not None:
         where += f", {driver['model']} drives and the expert labels (DAgger round {cfg.dagger_round})"
-    ident = {"driver": recorded} if driver is not None else {}
+    ident = {**({"driver": recorded} if driver is not None else {}), **roads}
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for

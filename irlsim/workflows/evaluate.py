@@ -12,10 +12,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim import devices
-from irlsim.data.aggregate import open_datasets
+from irlsim.data.aggregate import any_selection_identities, open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
+from irlsim.train.checkpoint import dataset_identity, legacy_identities
 from irlsim.viz.temporal import save_situation_strips
 
 
@@ -38,6 +39,8 @@ class EvaluateRun:
     """the reference rows expert-theta, executed and oracle ('random policy' always)"""
     device: str = "auto"
     precision: str = "fp32"
+    scenarios: tuple[str, ...] | None = None
+    """evaluate on the episodes of these scenarios only (``--scenario-select``); None: all"""
 
 
 def evaluate_runs(run: EvaluateRun) -> Path:
@@ -53,9 +56,15 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     check_output_dir(out, "--out")
     if not run.runs.is_dir():
         raise IrlsimError(f"runs folder {run.runs} not found: train first with 'irlsim train --stage 1'")
+    dataset = open_datasets(list(run.data), run.scenarios)
+    # a model trained on the whole dataset or on any selection of its scenarios is evaluated on it
+    accepted = {dataset_identity(dataset), *legacy_identities(dataset)}
+    dataset.legacy_identities = tuple(
+        [*legacy_identities(dataset), *(i for i in any_selection_identities(dataset) if i not in accepted)]
+    )
     with devices.use(device, run.precision):
         evaluate_models(
-            open_datasets(list(run.data)),
+            dataset,
             run.runs,
             out,
             H=run.history,

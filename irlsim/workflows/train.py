@@ -51,6 +51,8 @@ class TrainRun:
     """torch device (:func:`irlsim.devices.resolve_device`)"""
     precision: str = "fp32"
     """fp32 or bf16 (autocast forward passes)"""
+    scenarios: tuple[str, ...] | None = None
+    """train on the episodes of these scenarios only (``--scenario-select``); None: all"""
 
     @property
     def stage(self) -> int:
@@ -91,7 +93,7 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
         hint = "pass --base" if run.base is not None else f"run 'irlsim train --stage 1 --out {run.out}'"
         raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
     data = list(run.data)
-    dataset = open_datasets(tuple(data))
+    dataset = open_datasets(tuple(data), run.scenarios)
     check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: before anything is written
     check_output_dir(run.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     out = stage_dir(run.out, stage)
@@ -115,6 +117,7 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
                     "config": to_dict(cfg),
                     "data": str(data[0]) if len(data) == 1 else [str(p) for p in data],
                     "dataset": dataset_identity(dataset),
+                    **({"scenarios": list(run.scenarios)} if run.scenarios is not None else {}),
                     **extra,
                     "models": summary,
                 },
