@@ -212,21 +212,7 @@ class Road:
             )
         self.stop_lines, self.signals = self._stop_lines()
         self.exits = self._exits()
-        derived = checkpoints is None
-        points = route.mission_points(self.net, self.edges, self.closed, self.layout) if derived else []
-        if checkpoints is None:
-            checkpoints = tuple((x, y, lane) for x, y, lane, _ in points)
-        self.checkpoints = tuple(
-            Checkpoint(
-                i,
-                float(self.to_frenet(np.array([x]), np.array([y]))[0][0]),
-                x,
-                y,
-                lane,
-                points[i][3] if derived else (),
-            )
-            for i, (x, y, lane) in enumerate(checkpoints)
-        )
+        self.checkpoints = self._checkpoints(checkpoints)
         if not self.checkpoints:
             raise IrlsimError("route has no checkpoint: give [[checkpoints]] in the scenario file")
         self._edge_cost = functools.lru_cache(maxsize=None)(self._edge_cost_uncached)
@@ -243,6 +229,16 @@ class Road:
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
+    def _checkpoints(self, given: tuple[tuple[float, float, int], ...] | None) -> tuple[Checkpoint, ...]:
+        """The given checkpoints (x, y, lane), or those derived from the route (the mission points)."""
+        points = route.mission_points(self.net, self.edges, self.closed, self.layout) if given is None else []
+        xyl = tuple((x, y, lane) for x, y, lane, _ in points) if given is None else given
+        out = []
+        for i, (x, y, lane) in enumerate(xyl):
+            s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
+            out.append(Checkpoint(i, s, x, y, lane, points[i][3] if given is None else ()))
+        return tuple(out)
+
     def _set_reference(self, ref: np.ndarray) -> None:
         self.ref_xy = ref  # [M, 2], closed (segment M-1 joins the last point to the first)
         seg = np.roll(ref, -1, axis=0) - ref

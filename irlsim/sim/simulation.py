@@ -28,7 +28,8 @@ from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.start import draw_start
-from irlsim.sim.traffic import BackgroundTraffic, LoopEdges, wrap_route
+from irlsim.sim.sumo_ego import sumo_step, take_over
+from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
@@ -289,39 +290,15 @@ class Simulation:
         return draw_start(self.road, self.cfg, self._edges, seed, occupied)
 
     def _sumo_state(self) -> EgoState:
-        """Let SUMO's own driver model drive the ego for one step (its car following, lane changes,
-        junction rules, the road's speed limits and ``ego_target_speed``) and return where it got to."""
-        api, road, prev = self._api, self.road, self.ego
-        assert prev is not None
+        """SUMO's own driver model drives the ego one step (:func:`irlsim.sim.sumo_ego.sumo_step`)."""
+        assert self.ego is not None
         if not self._ego_by_sumo:
-            api.vehicle.setSpeedMode(EGO, 31)  # every safety check of SUMO's driver model
-            api.vehicle.setSpeedFactor(EGO, 1.0)
-            api.vehicle.setMaxSpeed(EGO, self.cfg.ego_target_speed)
+            take_over(self._api, EGO, self.cfg.ego_target_speed)
             self._ego_by_sumo = True
         t1 = time.perf_counter()
-        api.simulationStep()
+        state = sumo_step(self._api, EGO, self.road, self.ego)
         self._sumo_wall += time.perf_counter() - t1
-        if EGO not in api.vehicle.getIDList():  # SUMO took it off at its route's end: the episode's end
-            return dataclasses.replace(
-                prev, t=float(api.simulation.getTime()), s=max(prev.s, road.route_end_s)
-            )
-        x, y = api.vehicle.getPosition(EGO)
-        yaw = float(wrap_angle(np.radians(90.0 - api.vehicle.getAngle(EGO))))
-        s, d = road.to_frenet(np.array([x]), np.array([y]))
-        s_un = prev.s + float(wrap_route(float(s[0]) - prev.s, road.lap_length))
-        return EgoState(
-            t=float(api.simulation.getTime()),
-            x=float(x),
-            y=float(y),
-            yaw=yaw,
-            v=float(api.vehicle.getSpeed(EGO)),
-            a=float(api.vehicle.getAcceleration(EGO)),
-            s=s_un,
-            d=float(d[0]),
-            d_dot=0.0,
-            d_ddot=0.0,
-            lane=int(road.lane_of_d(d)[0]),
-        )
+        return state
 
     def _advance(self, state: EgoState, bookkeeping: bool = True, placed: bool = False) -> None:
         """Place the ego at ``state`` and advance SUMO one step (``placed``: SUMO has already driven it

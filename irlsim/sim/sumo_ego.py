@@ -1,0 +1,45 @@
+"""SUMO's own driver model at the ego's wheel: the reference the planner's speed is measured against on
+a scenario (``irlsim sim --driver sumo``, :class:`irlsim.sim.drivers.SumoDriver`). Its car following,
+lane changes and junction rules, the road's speed limits, at most the ego's target speed."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from irlsim.road import Road, wrap_angle
+from irlsim.sim.traffic import wrap_route
+from irlsim.sim.types import EgoState
+
+
+def take_over(api: Any, ego: str, target_speed: float) -> None:
+    """Hand the ego to SUMO: every safety check of its driver model, the road's limits, ``target_speed``."""
+    api.vehicle.setSpeedMode(ego, 31)
+    api.vehicle.setSpeedFactor(ego, 1.0)
+    api.vehicle.setMaxSpeed(ego, target_speed)
+
+
+def sumo_step(api: Any, ego: str, road: Road, prev: EgoState) -> EgoState:
+    """One SUMO step with SUMO driving the ego, and where it got to (route frame, unwrapped s). SUMO takes
+    the ego off at its route's end: then the state is the route's end, which ends the episode."""
+    api.simulationStep()
+    if ego not in api.vehicle.getIDList():
+        return dataclasses.replace(prev, t=float(api.simulation.getTime()), s=max(prev.s, road.route_end_s))
+    x, y = api.vehicle.getPosition(ego)
+    yaw = float(wrap_angle(np.radians(90.0 - api.vehicle.getAngle(ego))))
+    s, d = road.to_frenet(np.array([x]), np.array([y]))
+    return EgoState(
+        t=float(api.simulation.getTime()),
+        x=float(x),
+        y=float(y),
+        yaw=yaw,
+        v=float(api.vehicle.getSpeed(ego)),
+        a=float(api.vehicle.getAcceleration(ego)),
+        s=prev.s + float(wrap_route(float(s[0]) - prev.s, road.lap_length)),
+        d=float(d[0]),
+        d_dot=0.0,
+        d_ddot=0.0,
+        lane=int(road.lane_of_d(d)[0]),
+    )
