@@ -12,7 +12,8 @@ of ``shipped_scenarios()``), a training is ``irlsim train --data D1 --data D2 ..
 the datasets), and drives use ``irlsim drive --scenario X``. Every step is a separate command; a step
 whose output exists is skipped, so the study resumes where it stopped. Run from the repository root:
 
-    nice -n 5 .venv/bin/python studies/transfer.py --out runs/transfer [--seeds 0] [--epochs 6]
+    nice -n 5 .venv/bin/python studies/transfer.py --out runs/transfer [--seeds 0 1 2] [--epochs 6] \\
+        [--episodes 10] [--threads 2] [--workers 2]
 
 The table goes to ``<out>/transfer.md`` and ``<out>/transfer.json``.
 """
@@ -80,13 +81,13 @@ def train(out: Path, name: str, sets: list[str], seed: int, epochs: int, threads
     return runs
 
 
-def drive(out: Path, runs: Path, x: str, episodes: int, config: str) -> Path:
+def drive(out: Path, runs: Path, x: str, episodes: int, config: str, workers: int) -> Path:
     target = out / "drive" / x / runs.name
     if not (target / "drive.json").is_file():
         run(
-            [irlsim(), "drive", "--runs", str(runs), "--model", "expert,expert-theta," + ",".join(MODELS)]
+            [irlsim(), "drive", "--runs", str(runs), "--model", "expert," + ",".join(MODELS)]
             + ["--episodes", str(episodes), "--seed", str(EVAL_SEED), "--config", config]
-            + ["--scenario", x, "--frames", "0", "--out", str(target)]
+            + ["--scenario", x, "--frames", "0", "--workers", str(workers), "--out", str(target)]
         )
     return target / "drive.json"
 
@@ -114,7 +115,8 @@ def main() -> int:
     p.add_argument("--seeds", type=int, nargs="+", default=[0], help="training seeds of the leave-one-out")
     p.add_argument("--epochs", type=int, default=6, help="stage-1 epochs")
     p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per model and road")
-    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
+    p.add_argument("--workers", type=int, default=1, help="episodes driven in parallel")
     a = p.parse_args()
     out = Path(a.out)
     os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
@@ -129,7 +131,8 @@ def main() -> int:
                 [name.split("-", 1)[1]] if name != "oval-only" else [s for s in scenarios if s != "oval"]
             )
             for x in targets:
-                summaries = json.loads(drive(out, runs, x, a.episodes, a.config).read_text())["summary"]
+                drive_json = drive(out, runs, x, a.episodes, a.config, a.workers)
+                summaries = json.loads(drive_json.read_text())["summary"]
                 expert = next(s for s in summaries if s["drive/model"] == "expert")
                 rows += [row(x, f"{name} seed {seed}", s, expert["drive/mean_speed_kmh"]) for s in summaries]
     (out / "transfer.json").write_text(json.dumps(rows, indent=1) + "\n")
