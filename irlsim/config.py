@@ -111,7 +111,9 @@ def to_dict(obj: Any) -> Any:
 def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any] | None = None) -> T:
     """Load ``cls`` from a TOML file (or defaults when ``path`` is None), then apply ``overrides``.
 
-    Overrides use dotted keys (``{"scenario.n_vehicles": 5}``).
+    Overrides use dotted keys (``{"scenario.n_vehicles": 5}``). A class with a ``with_defaults(data)``
+    classmethod fills defaults that depend on the data itself (the collect config: a scenario file's
+    ``[defaults]``) before it is built.
     """
     data: dict[str, Any] = {}
     if path is not None:
@@ -142,6 +144,9 @@ def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any]
                 )
             node = child
         node[parts[-1]] = value
+    hook = getattr(cls, "with_defaults", None)  # a config whose defaults depend on its data (a scenario's)
+    if callable(hook):
+        data = hook(data)
     return from_dict(cls, data)
 
 

@@ -30,7 +30,7 @@ from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import seed_everything, write_json
@@ -121,6 +121,15 @@ class CollectConfig:
                 object.__setattr__(
                     self, f"{s}_episodes", sum(getattr(e, f"{s}_episodes") for e in self.scenarios)
                 )
+
+    @classmethod
+    def with_defaults(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """The TOML data with its scenario file's ``[defaults]`` beneath its ``[scenario]`` table (see
+        :func:`irlsim.sim.config.with_scenario_defaults`); a dataset over several scenarios as it is."""
+        table = data.get("scenario")
+        if not isinstance(table, dict) or data.get("scenarios"):
+            return data
+        return {**data, "scenario": with_scenario_defaults(table)}
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")

@@ -222,8 +222,9 @@ class OvalEnv(gym.Env):
             cfg = config
             if overrides:
                 raise IrlsimError("overrides apply to a config file: pass config as a path (or None)")
-        else:
-            cfg = load_config(CollectConfig, config, overrides)
+        else:  # the scenario's own [defaults] beneath the config (CollectConfig.with_defaults)
+            named = {"scenario.name": str(scenario)} if scenario is not None else {}
+            cfg = load_config(CollectConfig, config, {**(overrides or {}), **named})
         sc = cfg.scenario
         if scenario is not None:
             sc = dataclasses.replace(sc, name=str(scenario))

@@ -17,6 +17,9 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     # from = "a"
     # to = "c"
 
+    [defaults]               # optional: this road's episode settings (irlsim.sim.config.ScenarioConfig)
+    n_vehicles = 8           #   e.g. the traffic, the ego's start; a collect config overrides them
+
     [traffic]                # optional: the scenario's own SUMO demand instead of irlsim's spawner
     routes = ["demand.rou.xml"]
     warmup = 60.0            # [s] before the ego enters
@@ -39,8 +42,9 @@ import os
 import shutil
 import subprocess
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from irlsim.config import from_dict
 from irlsim.errors import IrlsimError
@@ -127,6 +131,9 @@ class ScenarioFile:
     description: str = ""
     checkpoints: tuple[CheckpointSpec, ...] = ()
     traffic: TrafficSpec = TrafficSpec()
+    defaults: dict[str, Any] = field(default_factory=dict)
+    """this road's values of the episode settings (``ScenarioConfig`` fields: traffic, the ego's start,
+    limits); a collect config's ``[scenario]`` table and ``--set`` override them"""
 
 
 @dataclass(frozen=True)
@@ -143,6 +150,7 @@ class Scenario:
     description: str = ""
     demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
     warmup: float = 0.0  # [s] before the ego enters
+    defaults: dict[str, Any] = field(default_factory=dict)  # ScenarioConfig values of this road
 
     def digest(self) -> str:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
@@ -207,6 +215,7 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
         checkpoints=tuple((c.x, c.y, c.lane) for c in sf.checkpoints),
         demand=tuple(_route_file(path, r) for r in sf.traffic.routes),
         warmup=sf.traffic.warmup,
+        defaults=dict(sf.defaults),
         description=sf.description,
     )
 

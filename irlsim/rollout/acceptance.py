@@ -12,7 +12,7 @@ from typing import Any
 from irlsim.road import load_road
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import ScenarioConfig, scenario_config
 from irlsim.sim.simulation import Simulation
 
 #: the bar (shares of all episodes' events)
@@ -99,7 +99,7 @@ def drive_seeds(scenario: str, driver: str, seeds: tuple[int, ...], cfg: Scenari
 
 def check_scenario(scenario: str, seeds: tuple[int, ...], cfg: ScenarioConfig | None = None) -> Acceptance:
     """The expert and SUMO's driver on ``seeds`` of ``scenario`` (a loop: 2 laps each)."""
-    base = cfg or ScenarioConfig()
+    base = cfg or scenario_config(scenario)
     cfg = dataclasses.replace(base, name=scenario, laps=min(base.laps, 2))
     return Acceptance(
         scenario,

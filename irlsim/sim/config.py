@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
-from irlsim.config import require
+from irlsim.config import from_dict, require
+from irlsim.errors import IrlsimError
+from irlsim.road.scenario import load_scenario
 
 MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/DESIGN.md section 3)
 
@@ -141,6 +144,11 @@ class ScenarioConfig:
     def __post_init__(self) -> None:
         self.validate()
 
+    @classmethod
+    def with_defaults(cls, data: dict[str, Any]) -> dict[str, Any]:
+        """The data with its scenario file's ``[defaults]`` beneath it (``load_config``'s hook)."""
+        return with_scenario_defaults(data)
+
     @property
     def steps_per_cycle(self) -> int:
         return int(round(self.cycle / self.step))
@@ -149,3 +157,25 @@ class ScenarioConfig:
     def horizon_steps(self) -> int:
         """T - 1: the number of steps a driver's trajectory covers."""
         return int(round(self.horizon / self.step))
+
+
+def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
+    """A ``[scenario]`` table with the named scenario file's ``[defaults]`` beneath it (the table's own
+    keys win); the oval, and a table without a name, as they are."""
+    name = table.get("name")
+    if not isinstance(name, str) or name == "oval":
+        return table
+    defaults = load_scenario(name, build=False).defaults
+    unknown = sorted(set(defaults) - {f for f in ScenarioConfig.__dataclass_fields__} - {"name"})
+    if unknown or "name" in defaults:
+        bad = unknown[0] if unknown else "name"
+        raise IrlsimError(
+            f"scenario {name}: [defaults] has '{bad}', which is not an episode setting (irlsim.sim.config."
+            "ScenarioConfig): fix the scenario file"
+        )
+    return {**defaults, **table}
+
+
+def scenario_config(name: str, **overrides: Any) -> ScenarioConfig:
+    """The episode settings for scenario ``name``: its file's ``[defaults]``, then ``overrides``."""
+    return from_dict(ScenarioConfig, with_scenario_defaults({**overrides, "name": name}))

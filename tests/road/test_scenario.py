@@ -345,3 +345,22 @@ def test_a_stop_sign_binds_the_minor_road_only(tmp_path):
     assert line.s == pytest.approx(minor.route_begin_s + 300.0, abs=15.0)
     major = load_road(scenario=crossing(tmp_path, "priority_stop", minor_route=False))
     assert major.stop_lines == () and major.signals == ()
+
+
+def test_a_scenario_file_sets_its_episode_defaults_and_a_config_overrides_them(tmp_path):
+    from irlsim.config import load_config
+    from irlsim.data.collection import CollectConfig
+    from irlsim.sim.config import scenario_config
+
+    folder = two_lane_road(tmp_path)
+    toml = folder / "scenario.toml"
+    toml.write_text(toml.read_text() + "\n[defaults]\nn_vehicles = 4\nego_start_speed_max = 9.0\n")
+    cfg = load_config(CollectConfig, None, {"scenario.name": str(folder)})
+    assert cfg.scenario.n_vehicles == 4 and cfg.scenario.ego_start_speed_max == 9.0
+    cfg = load_config(CollectConfig, None, {"scenario.name": str(folder), "scenario.n_vehicles": 7})
+    assert cfg.scenario.n_vehicles == 7 and cfg.scenario.ego_start_speed_max == 9.0  # the config wins
+    assert scenario_config(str(folder)).n_vehicles == 4
+    assert load_config(CollectConfig, None).scenario.n_vehicles == 15  # the oval: no file, no defaults
+    toml.write_text(toml.read_text() + "lanes = 3\n")
+    with pytest.raises(IrlsimError, match="'lanes', which is not an episode setting"):
+        load_config(CollectConfig, None, {"scenario.name": str(folder)})
