@@ -117,20 +117,26 @@ def main() -> int:
     p.add_argument("--episodes", type=int, default=10, help="evaluation episodes per model and road")
     p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
     p.add_argument("--workers", type=int, default=1, help="episodes driven in parallel")
+    p.add_argument("--table-only", action="store_true", help="only the table of the drives already done")
     a = p.parse_args()
     out = Path(a.out)
     os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
     scenarios = list(shipped_scenarios())
-    collect(out, scenarios, a.config)
+    if not a.table_only:
+        collect(out, scenarios, a.config)
     rows: list[dict[str, Any]] = []
     for name, sets in training_sets(scenarios).items():
         seeds = a.seeds if name.startswith("loo-") else a.seeds[:1]
         for seed in seeds:
-            runs = train(out, name, sets, seed, a.epochs, a.threads)
+            runs = out / "runs" / f"{name}-seed{seed}"
+            if not a.table_only:
+                train(out, name, sets, seed, a.epochs, a.threads)
             targets = (
                 [name.split("-", 1)[1]] if name != "oval-only" else [s for s in scenarios if s != "oval"]
             )
             for x in targets:
+                if a.table_only and not (out / "drive" / x / runs.name / "drive.json").is_file():
+                    continue
                 drive_json = drive(out, runs, x, a.episodes, a.config, a.workers)
                 summaries = json.loads(drive_json.read_text())["summary"]
                 expert = next(s for s in summaries if s["drive/model"] == "expert")
