@@ -408,7 +408,7 @@ def main() -> int:
     p.add_argument("--max-theta", type=int, default=300, help="cycles per bucket the model predicts theta on")
     args = p.parse_args()
     cfg = load_config(CollectConfig, args.config)
-    road = load_road()
+    road = load_road(scenario=cfg.scenario.name)  # the config's road (the oval unless it names another)
     model = load_reward(args.model, args.runs, n_policies=cfg.planner.n_policies)
     episodes: dict[int, tuple[list[dict], str]] = {}
     for seed in args.seeds:

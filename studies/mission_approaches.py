@@ -20,6 +20,7 @@ velocity (the learned price of a lane against a unit of squared speed error).
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.model is not None and len(args.data) != 1:
         raise SystemExit("--model reads one dataset: give one data folder")
-    road = load_road()
+    road = load_road(scenario=_scenario_of(args.data[0]))
     cs = np.array([c.s for c in road.checkpoints])
     cl = np.array([c.lane for c in road.checkpoints])
     lanes = sorted(set(cl.tolist()))
@@ -97,6 +98,15 @@ def main(argv: list[str] | None = None) -> int:
                     row.append(f"{ratio:.1f}")
                 print("| " + " | ".join(row) + " |")
     return 0
+
+
+def _scenario_of(data: Path) -> str:
+    """The road a dataset was collected on (its manifest's config; the oval when it names none)."""
+    try:
+        manifest = json.loads((data / "manifest.json").read_text())
+    except (OSError, ValueError):
+        return "oval"
+    return str(((manifest.get("config") or {}).get("scenario") or {}).get("name", "oval"))
 
 
 if __name__ == "__main__":
