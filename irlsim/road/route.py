@@ -148,13 +148,7 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
                 part.append(np.asarray(net.getLane(via_id).getShape(), dtype=np.float64))  # type: ignore[attr-defined]
         for p in part:
             pts.append(p if delta == 0.0 else offset_polyline(p, delta))
-    arr = np.concatenate(pts)
-    keep = np.ones(len(arr), bool)
-    keep[1:] = np.linalg.norm(np.diff(arr, axis=0), axis=1) > 1e-6
-    arr = arr[keep]
-    if closed and np.linalg.norm(arr[0] - arr[-1]) < 1e-6:
-        arr = arr[:-1]
-    return arr
+    return _clean_polyline(np.concatenate(pts), closed)
 
 
 def edge_table(
@@ -234,13 +228,7 @@ def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.
         via_id = via[0].getViaLaneID() if via else ""
         if via_id:
             pts.extend(net.getLane(via_id).getShape())  # type: ignore[attr-defined]
-    arr = np.asarray(pts, dtype=np.float64)
-    keep = np.ones(len(arr), bool)
-    keep[1:] = np.linalg.norm(np.diff(arr, axis=0), axis=1) > 1e-6
-    arr = arr[keep]
-    if closed and np.linalg.norm(arr[0] - arr[-1]) < 1e-6:
-        arr = arr[:-1]
-    return arr
+    return _clean_polyline(np.asarray(pts, dtype=np.float64), closed)
 
 
 def junction_controls(
@@ -327,3 +315,14 @@ def mission_points(
             req = min(going, key=lambda g: (abs(g - c), g))
             out.append((float(x), float(y), int(req), tuple(int(g) for g in going)))
     return out
+
+
+def _clean_polyline(arr: np.ndarray, closed: bool) -> np.ndarray:
+    """The polyline without repeated points (where a lane meets its junction lane); a loop's last point,
+    when it is its first, dropped."""
+    keep = np.ones(len(arr), bool)
+    keep[1:] = np.linalg.norm(np.diff(arr, axis=0), axis=1) > 1e-6
+    arr = arr[keep]
+    if closed and np.linalg.norm(arr[0] - arr[-1]) < 1e-6:
+        arr = arr[:-1]
+    return arr

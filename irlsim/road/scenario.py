@@ -247,8 +247,12 @@ def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:
             raise IrlsimError(f"scenario {path}: netconvert configuration {cfg} not found")
         return build_net(base, config=cfg.name, force=False) if build else base / f"{base.name}.net.xml"
     if spec.netgenerate:
-        return _generated_cached(base / spec.netgenerate, path, build)
-    return _osm_cached(base / spec.osm, path, build)
+        cfg = base / spec.netgenerate
+        return _built_cached(cfg, path, build, "netgenerate configuration", "netgenerate", ["-c", cfg.name])
+    osm = base / spec.osm
+    return _built_cached(
+        osm, path, build, "OpenStreetMap file", "netconvert", ["--osm-files", osm.name, *OSM_OPTIONS]
+    )
 
 
 def cache_dir(scenario: Path) -> Path:
@@ -271,41 +275,31 @@ def _gunzip_cached(net: Path, scenario: Path) -> Path:
     return target
 
 
-def _generated_cached(cfg: Path, scenario: Path, build: bool) -> Path:
-    """The network netgenerate builds from configuration ``cfg`` (byte-identical: header removed)."""
-    if not cfg.is_file():
-        raise IrlsimError(f"scenario {scenario}: netgenerate configuration {cfg} not found")
-    target = cache_dir(scenario) / (cfg.name.split(".")[0] + ".net.xml")
-    if not build or (target.is_file() and target.stat().st_mtime >= cfg.stat().st_mtime):
+#: netconvert options for an OpenStreetMap extract: ramps and signals guessed, roads for cars only
+OSM_OPTIONS = (
+    "--geometry.remove", "--ramps.guess", "--junctions.join", "--tls.guess-signals", "--tls.discard-simple",
+    "--tls.join", "--remove-edges.isolated", "--keep-edges.by-vclass", "passenger", "--no-warnings",
+)  # fmt: skip
+
+
+def _built_cached(source: Path, scenario: Path, build: bool, what: str, tool: str, args: list[str]) -> Path:
+    """The network a SUMO ``tool`` (netgenerate, netconvert) builds from ``source`` into the cache, redone
+    when the source is newer; byte-identical builds (the header with its time stamp removed). The tool
+    runs in the source's folder: ``args`` name files relative to it."""
+    if not source.is_file():
+        raise IrlsimError(f"scenario {scenario}: {what} {source} not found")
+    target = cache_dir(scenario) / (source.name.split(".")[0] + ".net.xml")
+    if not build or (target.is_file() and target.stat().st_mtime >= source.stat().st_mtime):
         return target
     with atomic_path(target) as tmp:
         proc = subprocess.run(
-            [sumo_binary("netgenerate"), "-c", str(cfg), "-o", str(tmp)],
-            cwd=cfg.parent,
+            [sumo_binary(tool), *args, "-o", str(tmp)],
+            cwd=source.parent,
             capture_output=True,
             text=True,
             env={**os.environ, "SUMO_HOME": sumo_home()},
         )
         if proc.returncode != 0:
-            raise IrlsimError(
-                f"netgenerate failed on {cfg}: {_netconvert_error(proc)}; fix the configuration"
-            )
-        tmp.write_bytes(strip_header(tmp.read_bytes()))
-    return target
-
-
-def _osm_cached(osm: Path, scenario: Path, build: bool) -> Path:
-    if not osm.is_file():
-        raise IrlsimError(f"scenario {scenario}: OpenStreetMap file {osm} not found")
-    target = cache_dir(scenario) / (osm.name.split(".")[0] + ".net.xml")
-    if not build or (target.is_file() and target.stat().st_mtime >= osm.stat().st_mtime):
-        return target
-    cmd = [sumo_binary("netconvert"), "--osm-files", str(osm), "--geometry.remove", "--ramps.guess"]
-    cmd += ["--junctions.join", "--tls.guess-signals", "--tls.discard-simple", "--tls.join"]
-    cmd += ["--remove-edges.isolated", "--keep-edges.by-vclass", "passenger", "--no-warnings"]
-    with atomic_path(target) as tmp:
-        proc = subprocess.run(cmd + ["-o", str(tmp)], capture_output=True, text=True)
-        if proc.returncode != 0:
-            raise IrlsimError(f"netconvert failed on {osm}: {_netconvert_error(proc)}; check the extract")
+            raise IrlsimError(f"{tool} failed on {source}: {_netconvert_error(proc)}; fix the {what}")
         tmp.write_bytes(strip_header(tmp.read_bytes()))
     return target

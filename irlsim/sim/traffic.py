@@ -141,7 +141,7 @@ class BackgroundTraffic:
         k = self.road.layout.edge_lane(i, lane)  # the route lane on this edge
         if k < 0:
             return None
-        if (eid, k) in self._dead_ends and self.road.net.getEdge(eid).getLength() - pos < LANE_END_CLEARANCE:
+        if (eid, k) in self._dead_ends and self.edges.length[i] - pos < LANE_END_CLEARANCE:
             return None  # it could not change out of a lane that does not go on before the lane ends
         vid = f"bg{self.counter}"
         self.counter += 1
