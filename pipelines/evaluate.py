@@ -54,6 +54,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="evaluate on the episodes of these scenarios only (a dataset over several scenarios); models "
         "trained on any selection of the dataset's scenarios are accepted",
     )
+    p.add_argument(
+        "--held-out",
+        action="store_true",
+        help="the models were trained on other data (a road they never saw): evaluate them on --data "
+        "anyway, each with its own feature normalisation (without it such models are refused)",
+    )
     devices.add_arguments(p, "evaluation")
 
 
@@ -70,6 +76,7 @@ def request(args: argparse.Namespace) -> EvaluateRun:
         args.device,
         args.precision,
         parse_selection(args.scenario_select),
+        args.held_out,
     )
 
 

@@ -16,7 +16,7 @@ from irlsim.data.aggregate import any_selection_identities, open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
-from irlsim.train.checkpoint import dataset_identity, legacy_identities
+from irlsim.train.checkpoint import dataset_identity, legacy_identities, read_checkpoint
 from irlsim.viz.temporal import save_situation_strips
 
 
@@ -41,6 +41,10 @@ class EvaluateRun:
     precision: str = "fp32"
     scenarios: tuple[str, ...] | None = None
     """evaluate on the episodes of these scenarios only (``--scenario-select``); None: all"""
+    held_out: bool = False
+    """the models were trained on other data (``--held-out``): Table I of a reward on a road or dataset
+    it never saw (each model keeps its own feature normalisation); False: a model trained on other data
+    is refused"""
 
 
 def evaluate_runs(run: EvaluateRun) -> Path:
@@ -62,6 +66,8 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     dataset.legacy_identities = tuple(
         [*legacy_identities(dataset), *(i for i in any_selection_identities(dataset) if i not in accepted)]
     )
+    if run.held_out:  # transfer: accept what the runs folder's checkpoints were trained on
+        dataset.legacy_identities = (*dataset.legacy_identities, *_trained_on(run.runs))
     with devices.use(device, run.precision):
         evaluate_models(
             dataset,
@@ -74,8 +80,24 @@ def evaluate_runs(run: EvaluateRun) -> Path:
             strips=functools.partial(save_situation_strips, out),
         )
     print((out / "results.md").read_text())
+    if run.held_out:
+        print(f"evaluate: models of {run.runs} on held-out data {', '.join(map(str, run.data))}")
     print(
         f"wrote {out}/results.md, results.json, convergence.png, opd_distribution.png"
         " (and temporal_<model>_<situation>.png for temporal models)"
     )
     return out
+
+
+def _trained_on(runs: Path) -> tuple[str, ...]:
+    """The dataset identities recorded in every checkpoint below ``runs`` (a checkpoint that cannot be
+    read is left to the evaluation, which names it in one line)."""
+    out = []
+    for path in sorted(runs.glob("**/checkpoint.pt")):
+        try:
+            ident = read_checkpoint(path).get("dataset")
+        except IrlsimError:
+            continue
+        if isinstance(ident, str):
+            out.append(ident)
+    return tuple(out)

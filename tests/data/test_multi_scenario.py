@@ -190,3 +190,25 @@ def test_one_road_other_than_the_oval_records_it(tmp_path):
     before = path.read_bytes()
     assert main([*args, *tiny]) == 0
     assert path.read_bytes() == before
+
+
+def test_table_one_of_a_reward_on_data_it_never_saw(multi, ramp_runs, tiny_dataset, tmp_path, capsys):
+    """Transfer: models trained on the ramp's episodes are refused on the oval's dataset unless the
+    evaluation is asked for held-out data; then Table I has every trained model, and the evaluation of
+    the data they were trained on is unchanged by the flag."""
+    from irlsim.cli import main
+
+    args = ["evaluate", "--data", str(tiny_dataset), "--runs", str(ramp_runs), "--no-references"]
+    assert "trained on another dataset" in refused(capsys, [*args, "--out", str(tmp_path / "refused")])
+    assert not (tmp_path / "refused" / "results.json").exists()
+    assert main([*args, "--out", str(tmp_path / "held_out"), "--held-out"]) == 0
+    rows = json.loads((tmp_path / "held_out" / "results.json").read_text())
+    text = json.dumps(rows)
+    assert "LIRL" in text and "PACNN" in text
+    _, data = multi
+    own = ["evaluate", "--data", str(data), "--runs", str(ramp_runs), "--no-references"]
+    own += ["--scenario-select", "ramp", "--out"]
+    assert main([*own, str(tmp_path / "own")]) == 0
+    assert main([*own, str(tmp_path / "own_flag"), "--held-out"]) == 0
+    a = (tmp_path / "own" / "results.md").read_text()
+    assert a == (tmp_path / "own_flag" / "results.md").read_text()
