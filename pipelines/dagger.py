@@ -20,7 +20,12 @@ HELP = "DAgger: rounds of (learned driver drives, expert labels) -> aggregate ->
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", type=Path, default=None, help="TOML config (configs/dagger/*.toml)")
     p.add_argument(
-        "--data", type=Path, required=True, help="the expert's dataset the --runs model was trained on"
+        "--data",
+        type=Path,
+        nargs="+",
+        required=True,
+        help="the expert's dataset the --runs model was trained on; several: the aggregate it was trained "
+        "on, in the same order (the collect config is the first one's)",
     )
     p.add_argument("--runs", type=Path, required=True, help="runs folder of the model trained on --data")
     p.add_argument("--out", type=Path, required=True, help="DAgger folder: OUT/round_<r>/{data,runs}")
@@ -41,4 +46,4 @@ def run(args: argparse.Namespace) -> int:
     if args.scenario is not None:
         overrides["scenario"] = str(args.scenario)
     cfg = load_config(DaggerConfig, args.config, overrides)
-    return run_dagger(DaggerRun(cfg, args.data, args.runs, args.out))
+    return run_dagger(DaggerRun(cfg, args.data[0], args.runs, args.out, tuple(args.data[1:])))

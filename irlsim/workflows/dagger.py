@@ -159,6 +159,14 @@ class DaggerRun:
     """the runs folder of the model trained on ``data``"""
     out: Path
     """the DAgger folder: ``out/round_<r>/{data,runs}``"""
+    more_data: tuple[Path, ...] = ()
+    """further expert datasets the ``runs`` model was trained on together with ``data`` (an aggregate,
+    in its order: e.g. a reward trained on several roads); the collect config is ``data``'s"""
+
+    @property
+    def expert_data(self) -> tuple[Path, ...]:
+        """Every expert dataset the ``runs`` model was trained on, in order."""
+        return (self.data, *self.more_data)
 
 
 @dataclass(frozen=True)
@@ -189,7 +197,7 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
     cfg = run.config
     prev_runs = run.runs if r == 1 else round_dir(run.out, r - 1) / "runs"
     here = round_dir(run.out, r)
-    data = (run.data, *(round_dir(run.out, k) / "data" for k in range(1, r + 1)))
+    data = (*run.expert_data, *(round_dir(run.out, k) / "data" for k in range(1, r + 1)))
     counts = {
         "train_episodes": cfg.round_episodes(r),
         "validation_episodes": cfg.validation_episodes,
@@ -300,7 +308,10 @@ def _round(run: DaggerRun, r: int) -> int:
         "data": str(here / "data"),
         "runs": str(here / "runs"),
         "driver_runs": str(run.runs if r == 1 else round_dir(run.out, r - 1) / "runs"),
-        "trained_on": [str(run.data), *(str(round_dir(run.out, k) / "data") for k in range(1, r + 1))],
+        "trained_on": [
+            *map(str, run.expert_data),
+            *(str(round_dir(run.out, k) / "data") for k in range(1, r + 1)),
+        ],
         "commands": [["irlsim", *c] for c in plan.commands],
         "wall_s": round(time.perf_counter() - t0, 1),
         "inputs": inputs,

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.config import load_config
-from irlsim.data.aggregate import manifest_identity
+from irlsim.data.aggregate import aggregate_identity, manifest_identity
 from irlsim.data.collection import CollectConfig, data_config, first_difference
 from irlsim.errors import IrlsimError
 from irlsim.train.checkpoint import read_checkpoint
@@ -38,10 +38,23 @@ def _manifest(folder: Path) -> dict[str, Any] | None:
     return data if isinstance(data, dict) else None
 
 
+def _expert_folders(run: Any) -> tuple[Path, ...]:
+    return tuple(getattr(run, "expert_data", (run.data,)))
+
+
+def expert_identity(run: Any) -> str | None:
+    """The identity a model trained on ``run``'s expert data records: the manifest's of one folder, the
+    aggregate's of several (None when a manifest cannot be read)."""
+    manifests = [_manifest(f) for f in _expert_folders(run)]
+    if any(m is None for m in manifests):
+        return None
+    ids = [manifest_identity(m) for m in manifests if m is not None]
+    return ids[0] if len(ids) == 1 else aggregate_identity(ids)
+
+
 def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
     """Everything round r's outputs depend on, by content."""
     cfg = run.config
-    manifest = _manifest(run.data)
     return {
         "model": cfg.model,
         "seed": cfg.seed,
@@ -54,7 +67,7 @@ def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
             name: file_sha(Path(getattr(cfg, name)))
             for name in ("collect_config", "stage1_config", "stage2_config")
         },
-        "data": manifest_identity(manifest) if manifest is not None else None,
+        "data": expert_identity(run),
         "driver": file_sha(driver),
     }
 
@@ -111,17 +124,19 @@ def check_driver_and_data(run: Any) -> None:
     """Before any work: the ``--runs`` model was trained on ``--data`` (its checkpoint's dataset identity),
     and the collect config is the one ``--data`` was collected with (episode counts aside)."""
     cfg = run.config
-    manifest = _manifest(run.data)
-    if manifest is None:
-        raise IrlsimError(f"--data {run.data} has no readable manifest.json: pass the expert dataset")
+    for folder in _expert_folders(run):
+        if _manifest(folder) is None:
+            raise IrlsimError(f"--data {folder} has no readable manifest.json: pass the expert dataset")
+    manifest = _manifest(run.data) or {}
     ckpt = find_checkpoint(run.runs, cfg.model)
     if ckpt is None:
         return  # named by run_dagger's own check
     trained = read_checkpoint(ckpt).get("dataset")
-    if trained is not None and trained != manifest_identity(manifest):
+    if trained is not None and trained != expert_identity(run):
+        given = " ".join(map(str, _expert_folders(run)))
         raise IrlsimError(
-            f"{ckpt} was trained on another dataset than --data {run.data}: pass the --data it was trained "
-            "on, or train it on this one first"
+            f"{ckpt} was trained on another dataset than --data {given}: pass the --data it was trained "
+            "on (several in the order of its training), or train it on this one first"
         )
     ours = {
         k: v
@@ -144,9 +159,11 @@ def check_driver_and_data(run: Any) -> None:
 def check_round_splits(run: Any, r: int) -> None:
     """Before round r collects: the data its training reads (``--data`` and rounds 1..r) has train and
     validation episodes."""
-    manifest = _manifest(run.data) or {}
-    splits = manifest.get("splits") or {}
-    counts = {s: len(splits.get(s) or []) for s in ("train", "validation")}
+    counts = {"train": 0, "validation": 0}
+    for folder in _expert_folders(run):
+        splits = (_manifest(folder) or {}).get("splits") or {}
+        for s in counts:
+            counts[s] += len(splits.get(s) or [])
     counts["train"] += sum(run.config.round_episodes(k) for k in range(1, r + 1))
     counts["validation"] += run.config.validation_episodes * r
     check_split_sizes(counts, f"DAgger round {r}'s training data ({run.data} and rounds 1..{r})")

@@ -397,3 +397,28 @@ def test_an_empty_validation_split_is_named_before_a_round_collects(learner, dag
     cfg = load_config(DaggerConfig, "configs/dagger/tiny.toml", {"validation_episodes": 0})
     with pytest.raises(IrlsimError, match="empty validation split"):
         check_round_splits(DaggerRun(cfg, round_data, learner[1], Path("unused")), 1)
+
+
+def test_dagger_on_a_reward_trained_on_several_datasets(tiny_dataset, learner, dagger_run, capsys):
+    """A reward trained on an aggregate (round 1's retraining: the expert data and round 1's data) is a
+    DAgger driver when --data names the same folders in the same order; any other list is refused in one
+    line before any work, and the round trains on every expert folder, then the round's data."""
+    from irlsim.workflows.dagger import DaggerConfig, DaggerRun, round_plan
+    from irlsim.workflows.dagger_record import check_driver_and_data
+
+    collect_cfg, _ = learner
+    out = dagger_run[0]
+    agg_runs, r1 = out / "round_1" / "runs", out / "round_1" / "data"
+    cfg = load_config(DaggerConfig, "configs/dagger/tiny.toml", {"collect_config": str(collect_cfg)})
+    run = DaggerRun(cfg, tiny_dataset, agg_runs, out / "again", (r1,))
+    check_driver_and_data(run)  # accepted: the folders and order it was trained on
+    train = round_plan(run, 1).train[0]
+    assert list(train.data) == [tiny_dataset, r1, out / "again" / "round_1" / "data"]
+    for data in ([str(tiny_dataset)], [str(r1), str(tiny_dataset)]):
+        rc, _, err = _dagger(
+            ["--data", *data, "--runs", str(agg_runs), "--out", str(out / "never")]
+            + ["--set", f"collect_config='{collect_cfg}'"],
+            capsys,
+        )
+        assert rc == 2 and err.count("\n") == 1 and "trained on another dataset than --data" in err
+    assert not (out / "never").exists()
