@@ -23,6 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--data",
         type=Path,
         nargs="+",
+        action="extend",
         required=True,
         help="the expert's dataset the --runs model was trained on; several: the aggregate it was trained "
         "on, in the same order (the collect config is the first one's)",

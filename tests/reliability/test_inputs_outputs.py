@@ -238,3 +238,20 @@ def test_summary_names_models_trained_earlier(data, tmp_path, capsys):
     assert list(summary["models"]) == ["PACNN"] and summary["other_models"] == ["LIRL"]
     assert summary["dataset"].startswith("sha256:")
     capsys.readouterr()
+
+
+@pytest.mark.parametrize(
+    "command, rest",
+    [
+        ("train", ["--stage", "1", "--out", "O"]),
+        ("evaluate", ["--runs", "R"]),
+        ("dagger", ["--runs", "R", "--out", "O"]),
+    ],
+)
+def test_repeated_data_flags_add_up(command, rest):
+    """``--data A --data B C`` is the aggregate A, B, C: a repeated flag used to keep only its last
+    folder, silently training on one dataset where several were named."""
+    from pipelines.commands import build_parser
+
+    args = build_parser(command).parse_args([command, "--data", "A", "--data", "B", "C", *rest])
+    assert [str(p) for p in args.data] == ["A", "B", "C"]
