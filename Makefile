@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench transfer lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -59,6 +59,12 @@ dagger: setup
 
 bench: setup
 	$(IRLSIM) bench --out bench
+
+# the transfer table (docs/RESULTS.md, "One reward, many roads"): five datasets, the zero-shot,
+# leave-one-out (3 training seeds) and in-domain trainings, DAgger on the grid, Table I and the drives
+transfer: setup
+	nice -n 5 $(BIN)/python studies/transfer.py --out runs/transfer --seeds 0 1 2 --episodes 20 \
+		--episodes-single 10 --dagger grid --threads 2 --workers 2
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup
