@@ -7,7 +7,8 @@ Each curve is a list of (size, cost) points measured here, then fitted and repor
   on synthetic cycles, :func:`irlsim.bench.planner.planner_observations`; lanes on generated straight
   roads of 1 to 4 lanes, built by netconvert as any scenario);
 - collection [episodes/min] against workers (1: in this process, 2: spawned; real SUMO through libsumo,
-  the expert, demonstrations, Parquet; workers' start included), as ``irlsim collect`` runs episodes;
+  the expert, demonstrations, Parquet), as ``irlsim collect`` runs episodes: end to end (workers' start
+  included) and after the start (from the first episode's result on);
 - disk per cycle [bytes]: a collected dataset's Parquet and its training cache (``.cache``) against
   policies;
 - a stage-1 training epoch [s] and the training's resident memory [MB] against dataset cycles and
@@ -17,7 +18,7 @@ Each curve is a list of (size, cost) points measured here, then fitted and repor
 Each point is timed for a fixed budget of seconds (median of what fits, at least a few repeats), so the
 whole run has a bounded length: about 10 minutes on 2 cores, ``quick`` about a minute. The run itself
 (:func:`irlsim.bench.growth_report.run_growth`) fits the curves and writes the results. The caller sets
-one thread (``irlsim.THREAD_VARS``) before numpy is imported; training uses two.
+one thread (``irlsim.THREAD_VARS``) before numpy is imported; training runs on ``train_threads``.
 """
 
 from __future__ import annotations
@@ -51,8 +52,8 @@ class GrowthSizes:
     """[s] each planner / inference point is timed for about this long"""
     workers: tuple[int, ...] = (1, 2)
     """collection: worker processes"""
-    collect_episodes: int = 6
-    """collection: episodes per timed collection"""
+    collect_episodes: int = 8
+    """collection: episodes per timed collection (more than the most workers)"""
     collect_cycles: int = 40
     """collection: planning cycles per episode"""
     collect_policies: int = 500
@@ -67,6 +68,9 @@ class GrowthSizes:
     train_policies: tuple[int, ...] = (500, 1000, 2000, 4000, 8000)
     """training epoch and memory: policies per cycle (``train_cycles_at`` cycles)"""
     train_cycles_at: int = 64
+    train_threads: int = 1
+    """training: torch threads. One, not the two of the configs: on a 2-core host shared with other jobs,
+    a step on two threads waits for whichever thread is descheduled (measured 10-25x slower than on one)"""
 
 
 #: ``irlsim bench --growth --quick``: every curve, few small points (a test, under a minute)
@@ -75,7 +79,7 @@ QUICK = GrowthSizes(
     vehicles=(0, 5, 15),
     lanes=(1, 2),
     point_s=0.2,
-    collect_episodes=2,
+    collect_episodes=4,
     collect_cycles=5,
     collect_policies=200,
     disk_policies=(200, 400),
@@ -224,47 +228,60 @@ def _episode_jobs(out: Path, n_policies: int, cycles: int, n: int, seed: int) ->
     return [Job(f"train/{i}", EpisodeJob(str(out), "train", i, seed + i, cfg)) for i in range(n)]
 
 
-def _collect(jobs: list[Any], workers: int) -> tuple[float, int]:
+def _collect(jobs: list[Any], workers: int) -> tuple[float, int, float]:
     """Run the episode jobs as ``irlsim collect`` does (1 worker: in this process; more: spawned);
-    returns (wall seconds, cycles)."""
+    returns (wall seconds, cycles, seconds from the ``workers``-th episode's result to the last)."""
     from irlsim.data.collection import collect_episode
     from irlsim.executor import run_jobs
 
+    arrivals: list[float] = []
     t0 = time.perf_counter()
-    done = run_jobs(collect_episode, jobs, executor="local", workers=workers)
+    done = run_jobs(
+        collect_episode,
+        jobs,
+        executor="local",
+        workers=workers,
+        on_result=lambda job, stats: arrivals.append(time.perf_counter()),
+    )
     wall = time.perf_counter() - t0
     if done.failed:
         raise RuntimeError(f"benchmark episodes failed: {done.failed}")
-    return wall, sum(int(r["collect/cycles"]) for r in done.results.values())
+    cycles = sum(int(r["collect/cycles"]) for r in done.results.values())
+    return wall, cycles, arrivals[-1] - arrivals[min(workers, len(arrivals)) - 1]
 
 
-def collect_curve(sizes: GrowthSizes, seed: int, say: Progress) -> Curve:
-    """Episodes per minute with each worker count, end to end (workers' start included)."""
+def collect_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
+    """Episodes per minute with each worker count: end to end (workers' start included), and after the
+    start: with w workers, the episodes after the first w over the time from the w-th result to the
+    last (each worker's first episode carries its start)."""
     from irlsim.road.network import build_net
 
     build_net()
-    rates = []
+    rates, steady = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for w in sizes.workers:
-            jobs = _episode_jobs(
-                Path(tmp) / f"w{w}",
-                sizes.collect_policies,
-                sizes.collect_cycles,
-                sizes.collect_episodes,
-                seed,
-            )
-            wall, cycles = _collect(jobs, w)
-            rates.append(len(jobs) / wall * 60.0)
+            n, cycles = sizes.collect_episodes, sizes.collect_cycles
+            jobs = _episode_jobs(Path(tmp) / f"w{w}", sizes.collect_policies, cycles, n, seed)
+            wall, total, after_start = _collect(jobs, w)
+            rates.append(n / wall * 60.0)
+            steady.append((n - w) / after_start * 60.0)
             workers = f"{w} worker{'s' if w > 1 else ''}"
-            say(f"collection, {workers}: {rates[-1]:.1f} episodes/min ({cycles / wall:.0f} cycles/s)")
+            say(
+                f"collection, {workers}: {rates[-1]:.1f} episodes/min ({total / wall:.0f} cycles/s), "
+                f"{steady[-1]:.1f} after the start"
+            )
     setting = (
         f"{sizes.collect_episodes} episodes of {sizes.collect_cycles} cycles, "
         f"{sizes.collect_policies} policies, 15 vehicles, the oval"
     )
-    return Curve(
-        "collect_workers", "collection vs workers", "workers", "episodes/min", setting,
-        list(map(float, sizes.workers)), rates,
-    )  # fmt: skip
+    x = list(map(float, sizes.workers))
+    return [
+        Curve("collect_workers", "collection vs workers", "workers", "episodes/min", setting, x, rates),
+        Curve(
+            "collect_workers_started", "collection vs workers, after the start", "workers", "episodes/min",
+            setting, x, steady,
+        ),
+    ]  # fmt: skip
 
 
 def _folder_bytes(folder: Path, pattern: str) -> int:
@@ -283,7 +300,7 @@ def disk_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
         for n in sizes.disk_policies:
             out = Path(tmp) / f"n{n}"
             jobs = _episode_jobs(out, n, sizes.disk_cycles, 1, seed)
-            _, cycles = _collect(jobs, 1)
+            _, cycles, _ = _collect(jobs, 1)
             cfg = jobs[0].arg.config
             seeds = {"train": [j.arg.seed for j in jobs], "validation": [], "test": []}
             splits = {"train": [0], "validation": [], "test": []}

@@ -24,7 +24,7 @@ from irlsim.bench.growth import (
     Curve,
     GrowthSizes,
     Progress,
-    collect_curve,
+    collect_curves,
     disk_curves,
     planner_curves,
 )
@@ -54,7 +54,7 @@ def measure_growth(run: GrowthRun, say: Progress) -> list[Curve]:
     """Every curve, in the order of the table (training before inference: inference loads its model)."""
     sizes = run.sizes
     curves = planner_curves(sizes, run.seed, run.scenario, say)
-    curves.append(collect_curve(sizes, run.seed, say))
+    curves += collect_curves(sizes, run.seed, say)
     curves += disk_curves(sizes, run.seed, say)
     curves += training_curves(sizes, run.seed, say)
     return curves
@@ -237,7 +237,8 @@ def run_growth(run: GrowthRun) -> Path:
     header = (
         f"Machine: {platform.machine()}, {platform.processor() or 'cpu'}, Python "
         f"{platform.python_version()}; {'quick' if run.quick else 'full'} sizes, seed {run.seed}; "
-        f"{wall:.0f} s in all. Planner, collection workers and inference: one thread each; training: two."
+        f"{wall:.0f} s in all. Planner, collection workers and inference: one thread each; training: "
+        f"{run.sizes.train_threads}."
     )
     run.out.mkdir(parents=True, exist_ok=True)
     write_json(

@@ -1,14 +1,15 @@
 """``irlsim bench --growth``: the curves of training and inference (imports torch when called).
 
 A stage-1 PACNN is trained by :func:`irlsim.train.stage1.train_stage1` (the training of ``irlsim train``:
-shuffled mini-batches of 32 cycles, NLL, Adam, a checkpoint per epoch, two threads) for four epochs on
-the synthetic known-reward dataset of :mod:`irlsim.bench.synthetic`, at each size. The epoch time is
-the faster of the second and third (the first warms up, the fourth also validates). The resident memory
-of the training is the peak resident set while it runs minus the process's resident set before its
-dataset was built: the dataset, the network, the optimizer and the mini-batches. One small training runs
-first and is not counted, so that what torch sets up once per process (thread pools, kernels) is not
-charged to the first size. Inference is the trained PACNN's theta for one
-policy set, through :class:`irlsim.reward.predictor.RewardPredictor` on one thread, at each policy count.
+shuffled mini-batches of 32 cycles, NLL, Adam, a checkpoint per epoch; on ``train_threads`` threads)
+for four epochs on the synthetic known-reward dataset of :mod:`irlsim.bench.synthetic`, at each size.
+The epoch time is the faster of the second and third (the first warms up, the fourth also validates).
+The resident memory of the training is the peak resident set while it runs minus the process's resident
+set before its dataset was built: the dataset, the network, the optimizer, the mini-batches and the
+feature statistics' pass (chunks of 256 cycles in float64). One small training runs first and is not
+counted, so that what torch sets up once per process (thread pools, kernels) is not charged to the first
+size. Inference is the trained PACNN's theta for one policy set, through
+:class:`irlsim.reward.predictor.RewardPredictor` on one thread, at each policy count.
 """
 
 from __future__ import annotations
@@ -84,7 +85,9 @@ class PeakRss:
             self.mb = max(self.mb, rss_mb())
 
 
-def train_point(n_cycles: int, n_policies: int, seed: int, out: Path) -> tuple[float, float, Path]:
+def train_point(
+    n_cycles: int, n_policies: int, seed: int, out: Path, threads: int = 1
+) -> tuple[float, float, Path]:
     """Train a PACNN for four epochs on a synthetic dataset of ``n_cycles`` train cycles of
     ``n_policies`` policies into ``out``; returns (seconds of the faster of the second and third epoch,
     resident memory of the training [MB], the checkpoint)."""
@@ -97,7 +100,9 @@ def train_point(n_cycles: int, n_policies: int, seed: int, out: Path) -> tuple[f
     before = rss_mb()
     data = make_synthetic_dataset(n_train=n_cycles, n_eval=8, n_policies=n_policies, seed=seed)
     _trim()  # the dataset's temporaries
-    cfg = Stage1Config(models=("PACNN",), epochs=4, validate_every=4, threads=2, seed=seed, tensorboard=False)
+    cfg = Stage1Config(
+        models=("PACNN",), epochs=4, validate_every=4, threads=threads, seed=seed, tensorboard=False
+    )
     with PeakRss() as peak:
         train_stage1(data, cfg, out)
     del data
@@ -119,11 +124,11 @@ def _infer_ms(checkpoint: Path, n_policies: int, seconds: float, seed: int) -> f
 
 
 def _sweep(
-    name: str, points: list[tuple[int, int]], seed: int, tmp: Path, say: Progress
+    name: str, points: list[tuple[int, int]], seed: int, threads: int, tmp: Path, say: Progress
 ) -> tuple[list[float], list[float], list[Path]]:
     seconds, memory, checkpoints = [], [], []
     for c, n in points:
-        s, mb, ckpt = train_point(c, n, seed, tmp / f"{name}_c{c}_n{n}" / "stage1")
+        s, mb, ckpt = train_point(c, n, seed, tmp / f"{name}_c{c}_n{n}" / "stage1", threads)
         seconds.append(s)
         memory.append(mb)
         checkpoints.append(ckpt)
@@ -139,16 +144,18 @@ def training_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]
     at_c = f"{sizes.train_cycles_at} train cycles"
     with tempfile.TemporaryDirectory() as folder:
         tmp = Path(folder)
-        train_point(min(sizes.train_cycles), min(sizes.train_policies), seed, tmp / "warm-up" / "stage1")
-        epoch_c, mem_c, ckpts = _sweep("cycles", by_c, seed, tmp, say)
-        epoch_n, mem_n, _ = _sweep("policies", by_n, seed, tmp, say)
+        threads = sizes.train_threads
+        warm_up = min(sizes.train_cycles), min(sizes.train_policies)
+        train_point(*warm_up, seed, tmp / "warm-up" / "stage1", threads)
+        epoch_c, mem_c, ckpts = _sweep("cycles", by_c, seed, threads, tmp, say)
+        epoch_n, mem_n, _ = _sweep("policies", by_n, seed, threads, tmp, say)
         infer = []
         for n in sizes.policies:
             infer.append(_infer_ms(ckpts[0], n, sizes.point_s, seed))
             say(f"inference, {n} policies: {infer[-1]:.2f} ms")
     xc = [float(c) for c, _ in by_c]
     xn = [float(n) for _, n in by_n]
-    pacnn = "PACNN (default sizes), batch 32, 2 threads"
+    pacnn = f"PACNN (default sizes), batch 32, {threads} thread{'s' if threads > 1 else ''}"
     by_cycles, by_policies = f"{pacnn}, {at_n}", f"{pacnn}, {at_c}"
     model = f"the PACNN trained on {by_c[0][0]} cycles x {by_c[0][1]} policies, one thread"
     xi = [float(n) for n in sizes.policies]

@@ -18,6 +18,7 @@ CURVES = {
     "planner_vehicles",
     "planner_lanes",
     "collect_workers",
+    "collect_workers_started",
     "disk_parquet",
     "disk_cache",
     "train_cycles",
