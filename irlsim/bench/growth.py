@@ -48,11 +48,11 @@ class GrowthSizes:
     """planner cycle: vehicles around the ego (2,500 policies)"""
     lanes: tuple[int, ...] = (1, 2, 3, 4)
     """planner cycle: lanes of a generated straight road (2,500 policies, 15 vehicles)"""
-    point_s: float = 1.5
+    point_s: float = 3.0
     """[s] each planner / inference point is timed for about this long"""
     workers: tuple[int, ...] = (1, 2)
     """collection: worker processes"""
-    collect_episodes: int = 8
+    collect_episodes: int = 12
     """collection: episodes per timed collection (more than the most workers)"""
     collect_cycles: int = 40
     """collection: planning cycles per episode"""
@@ -60,9 +60,9 @@ class GrowthSizes:
     """collection: policies per cycle"""
     disk_policies: tuple[int, ...] = (250, 500, 1000, 2000, 4000)
     """disk per cycle: policies per cycle of the collected dataset"""
-    disk_cycles: int = 20
+    disk_cycles: int = 40
     """disk per cycle: cycles of its one episode"""
-    train_cycles: tuple[int, ...] = (128, 256, 512, 1024)
+    train_cycles: tuple[int, ...] = (128, 256, 512, 1024, 2048)
     """training epoch and memory: train cycles (``train_policies_at`` policies)"""
     train_policies_at: int = 500
     train_policies: tuple[int, ...] = (500, 1000, 2000, 4000, 8000)
