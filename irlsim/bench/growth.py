@@ -194,7 +194,7 @@ def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) 
         for lanes in sizes.lanes:
             path = straight_road(Path(tmp) / f"lanes{lanes}", lanes)
             by_lanes.append(_planner_ms(path, 2500, 15, sizes.point_s, seed))
-            say(f"planner, {lanes} lanes: {by_lanes[-1]:.2f} ms per cycle")
+            say(f"planner, {lanes} lane{'s' if lanes > 1 else ''}: {by_lanes[-1]:.2f} ms per cycle")
     return [
         Curve(
             "planner_policies", "planner cycle vs policies", "policies", "ms", f"15 vehicles, {road}",

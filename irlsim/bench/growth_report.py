@@ -156,14 +156,26 @@ def markdown(curves: list[Curve], fits: dict[str, dict[str, Any]], header: str) 
 
 
 def _draw(ax: Any, c: Curve, fit: dict[str, Any]) -> None:
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
     x, y = np.asarray(c.x), np.asarray(c.y)
     ax.plot(x, y, "o-", color="tab:blue")
-    if (x > 0).all():
+    if (x > 0).all() and (y > 0).all():
         ax.set_xscale("log")
-        ax.set_yscale("log")
+        if y.max() > 2 * y.min():  # a flat curve keeps a linear y axis (a log one would show no tick)
+            ax.set_yscale("log")
+            ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
         if math.isfinite(fit["loglog_slope"]):  # the fitted power law through the points' centre
             k = np.exp(np.log(y).mean() - fit["loglog_slope"] * np.log(x).mean())
             ax.plot(x, k * x ** fit["loglog_slope"], "--", color="tab:gray", lw=1)
+    if ax.get_yscale() == "linear":
+        ax.set_ylim(bottom=0)  # from zero, so that a flat curve looks flat
+    # plain numbers: the measured sizes on x, a few round values on y
+    ax.set_xticks(x)
+    plain = FuncFormatter(lambda v, _: f"{v:g}")
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(plain)
+        axis.set_minor_formatter(NullFormatter())
     ax.set_title(f"{c.title}\nslope {fit['loglog_slope']:.2f} ({fit['growth']})", fontsize=9)
     ax.set_xlabel(c.x_label, fontsize=8)
     ax.set_ylabel(c.unit, fontsize=8)
