@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench transfer lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -59,6 +59,11 @@ dagger: setup
 
 bench: setup
 	$(IRLSIM) bench --out bench
+
+# how each cost grows with its size (planner, collection, disk, training, inference): bench/growth.{json,md,png}
+# with the log-log slope of every curve (about 10 min on 2 cores; docs/RESULTS.md "How each cost grows")
+bench-growth: setup
+	$(IRLSIM) bench --growth --out bench
 
 # the transfer table (docs/RESULTS.md, "One reward, many roads"): five datasets, the zero-shot,
 # leave-one-out (3 training seeds) and in-domain trainings, DAgger on the grid, Table I and the drives

@@ -14,9 +14,11 @@ from irlsim.road import load_road
 from irlsim.sim.types import EgoState, Observation, VehicleStates
 
 
-def planner_observations(seed: int, n_obs: int = 12, scenario: str = "oval") -> list[Any]:
-    """Synthetic cycles on the scenario's road: 15 vehicles within +-150 m in random lanes at 25-35
-    km/h, the ego at 5-20 m/s; a third of them before an active stop line (if the road has one), some
+def planner_observations(
+    seed: int, n_obs: int = 12, scenario: str = "oval", n_vehicles: int = 15
+) -> list[Any]:
+    """Synthetic cycles on the scenario's road: ``n_vehicles`` vehicles within +-150 m in random lanes at
+    25-35 km/h, the ego at 5-20 m/s; a third of them before an active stop line (if the road has one), some
     before an exit in the rightmost lane (if it has one), on an open route along its stretch."""
 
     road = load_road(scenario=scenario)
@@ -49,7 +51,7 @@ def planner_observations(seed: int, n_obs: int = 12, scenario: str = "oval") -> 
             0.0,
             int(road.lane_of_d(np.array(d0))),
         )
-        m = 15
+        m = n_vehicles
         s = (s0 + rng.uniform(-150, 150, m)) % lap
         d = road.lane_center(rng.integers(0, road.n_lanes, m))
         vx, vy = road.to_xy(s, d)
