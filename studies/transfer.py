@@ -154,7 +154,9 @@ def rows_of(out: Path, x: str, kind: str, seed: int, runs: Path | None, drive_js
     """The rows of one training on X: its models and the references over the same n episodes."""
     ref = references(out, x, n, drive(out, x, "reference", REFERENCES, a.max_episodes, a, None))
     t1 = table_one(out, x, runs, a.threads) if runs is not None else {}
-    summaries = json.loads(drive_json.read_text())["summary"]
+    summaries = [
+        s for s in json.loads(drive_json.read_text())["summary"] if s["drive/model"] not in REFERENCES
+    ]
     kmh = ref["expert"]["drive/mean_speed_kmh"]
     return [row(x, kind, seed, s, kmh, t1) for s in [*summaries, *ref.values()]]
 
@@ -245,6 +247,40 @@ def bar_summary(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+KINDS = {"loo": "leave-one-out", "in": "in-domain", "oval": "zero-shot"}
+
+
+def study_rows(out: Path, plan: list[tuple[str, str, int, int]], sets: dict[str, list[str]], a: Any) -> list:
+    """Train (if needed), drive and evaluate each (road, training, seed, episodes) of ``plan``."""
+    rows: list[dict[str, Any]] = []
+    for x, name, seed, n in plan:
+        runs = out / "runs" / f"{name}-seed{seed}"
+        if a.table_only and not (out / "drive" / x / f"{runs.name}-e{n}" / "drive.json").is_file():
+            continue
+        if not a.table_only:
+            train(out, name, sets[name], seed, a.epochs, a.threads)
+        drive_json = drive(out, x, runs.name, MODELS, n, a, runs)
+        rows += rows_of(out, x, KINDS[name.split("-")[0]], seed, runs, drive_json, a, n)
+    return rows
+
+
+def dagger_rows(out: Path, scenarios: list[str], a: Any) -> list:
+    """DAgger on each road of ``--dagger`` from the first seed's leave-one-out reward, driven and
+    evaluated as its own row."""
+    rows: list[dict[str, Any]] = []
+    for x in a.dagger:
+        folder = out / "dagger" / f"{x}-seed{a.seeds[0]}"
+        if a.table_only and not folder.is_dir():
+            continue
+        last = (
+            dagger(out, x, scenarios, a) if not a.table_only else sorted(folder.glob("round_*"))[-1] / "runs"
+        )
+        name = f"dagger-{x}-seed{a.seeds[0]}"
+        drive_json = drive(out, x, name, ("PACNN+S", "PTACNN+S"), a.episodes, a, last)
+        rows += rows_of(out, x, "DAgger on the road", a.seeds[0], last, drive_json, a, a.episodes)
+    return rows
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="runs/transfer")
@@ -269,32 +305,12 @@ def main() -> int:
         collect(out, scenarios, a.config)
     plan: list[tuple[str, str, int, int]] = []  # (road, training name, seed, episodes): most needed first
     plan += [(x, f"loo-{x}", seed, a.episodes) for seed in a.seeds for x in held]
-    plan += [(x, "oval-only", a.seeds[0], a.episodes_single) for x in held]
-    plan += [(x, f"in-{x}", a.seeds[0], a.episodes_single) for x in held]
+    single = [(x, "oval-only", a.seeds[0], a.episodes_single) for x in held]
+    single += [(x, f"in-{x}", a.seeds[0], a.episodes_single) for x in held]
     rows: list[dict[str, Any]] = []
-    for x, name, seed, n in plan:
-        runs = out / "runs" / f"{name}-seed{seed}"
-        target = out / "drive" / x / f"{runs.name}-e{n}" / "drive.json"
-        if a.table_only and not target.is_file():
-            continue
-        if not a.table_only:
-            train(out, name, sets[name], seed, a.epochs, a.threads)
-        drive_json = drive(out, x, runs.name, MODELS, n, a, runs)
-        kind = name.split("-")[0] if name != "oval-only" else "zero-shot"
-        rows += rows_of(
-            out, x, {"loo": "leave-one-out", "in": "in-domain"}.get(kind, kind), seed, runs, drive_json, a, n
-        )
-    for x in a.dagger:
-        folder = out / "dagger" / f"{x}-seed{a.seeds[0]}"
-        if a.table_only and not folder.is_dir():
-            continue
-        last = (
-            dagger(out, x, scenarios, a) if not a.table_only else sorted(folder.glob("round_*"))[-1] / "runs"
-        )
-        drive_json = drive(
-            out, x, f"dagger-{x}-seed{a.seeds[0]}", ("PACNN+S", "PTACNN+S"), a.episodes, a, last
-        )
-        rows += rows_of(out, x, "DAgger on the road", a.seeds[0], last, drive_json, a, a.episodes)
+    rows += study_rows(out, plan, sets, a)
+    rows += dagger_rows(out, scenarios, a)
+    rows += study_rows(out, single, sets, a)
     (out / "transfer.json").write_text(json.dumps(rows, indent=1) + "\n")
     (out / "transfer.md").write_text(markdown_rows(rows))
     (out / "transfer_summary.md").write_text(bar_summary(rows))
