@@ -79,16 +79,16 @@ def train(out: Path, name: str, sets: list[str], seed: int, epochs: int, threads
     runs = out / "runs" / f"{name}-seed{seed}"
     data = ["--data", *(str(out / "data" / s) for s in sets)]
     common = ["--set", f"seed={seed}", "--set", f"threads={threads}"]
-    if not (runs / "stage1" / "PACNN+S" / "checkpoint.pt").is_file():
-        run(
-            [irlsim(), "train", "--stage", "1", "--config", "configs/train/stage1.toml", *data]
-            + ["--out", str(runs), "--set", 'models=["LIRL","PACNN+S"]', "--set", f"epochs={epochs}", *common]
-        )
-    if not (runs / "stage2" / "PTACNN+S" / "checkpoint.pt").is_file():
-        run(
-            [irlsim(), "train", "--stage", "2", "--config", "configs/train/stage2.toml", *data]
-            + ["--out", str(runs), "--set", 'models=["PTACNN+S"]', *common]
-        )
+    # always called: a finished training is a no-op, a killed one resumes from its last epoch (a
+    # checkpoint exists after the first epoch, so its presence does not say the training finished)
+    run(
+        [irlsim(), "train", "--stage", "1", "--config", "configs/train/stage1.toml", *data]
+        + ["--out", str(runs), "--set", 'models=["LIRL","PACNN+S"]', "--set", f"epochs={epochs}", *common]
+    )
+    run(
+        [irlsim(), "train", "--stage", "2", "--config", "configs/train/stage2.toml", *data]
+        + ["--out", str(runs), "--set", 'models=["PTACNN+S"]', *common]
+    )
     return runs
 
 
