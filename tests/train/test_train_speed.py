@@ -35,9 +35,9 @@ def test_new_options_are_stored_only_when_set():
     existed, so default runs keep their bytes; a set option is recorded."""
     plain = to_dict(Stage1Config())
     assert not {"encoder_layout", "lr_schedule", "init_from"} & set(plain)
-    fast = to_dict(load_config(Stage1Config, FAST))
-    assert fast["encoder_layout"] == "channels_last" and fast["lr_schedule"] == "cosine"
-    assert "init_from" not in fast
+    fast = to_dict(load_config(Stage1Config, FAST, {"lr_schedule": "cosine"}))
+    assert fast["lr_schedule"] == "cosine" and fast["threads"] == 1
+    assert "init_from" not in fast and "encoder_layout" not in fast
     assert set(to_dict(Stage1Config(), all_fields=True)) >= {"encoder_layout", "lr_schedule", "init_from"}
 
 
@@ -65,13 +65,16 @@ def test_cosine_schedule():
 
 
 def test_fast_config_same_seed_same_bytes(data, tmp_path):
-    cfg = load_config(Stage1Config, FAST, {"epochs": 2, "threads": 1, "tensorboard": False})
-    for run in ("a", "b"):
-        train_stage1(data, cfg, tmp_path / run)
-    a = (tmp_path / "a" / "PACNN+S" / "checkpoint.pt").read_bytes()
-    assert a == (tmp_path / "b" / "PACNN+S" / "checkpoint.pt").read_bytes()
-    ckpt = torch.load(tmp_path / "a" / "PACNN+S" / "checkpoint.pt", weights_only=True)
-    assert ckpt["config"]["encoder_layout"] == "channels_last" and ckpt["config"]["batch_size"] == 128
+    """The fast config (and the measured levers on top of it) give the same bytes from the same seed."""
+    over = {"models": ["PACNN+S"], "epochs": 2, "tensorboard": False, "validate_every": 1}
+    for levers in ({}, {"lr_schedule": "cosine", "encoder_layout": "channels_last", "batch_size": 16}):
+        cfg = load_config(Stage1Config, FAST, {**over, **levers})
+        for run in ("a", "b"):
+            train_stage1(data, cfg, tmp_path / str(len(levers)) / run)
+        a = (tmp_path / str(len(levers)) / "a" / "PACNN+S" / "checkpoint.pt").read_bytes()
+        assert a == (tmp_path / str(len(levers)) / "b" / "PACNN+S" / "checkpoint.pt").read_bytes()
+    ckpt = torch.load(tmp_path / "3" / "a" / "PACNN+S" / "checkpoint.pt", weights_only=True)
+    assert ckpt["config"]["encoder_layout"] == "channels_last" and ckpt["provenance"]["threads"] == 1
     # the schedule ran: the last step's learning rate is the cosine's, below the configured one
     rows = int((np.asarray(get_split(data, "train", True, True).demo_index) >= 0).sum())
     steps = -(-rows // cfg.batch_size)
@@ -185,3 +188,35 @@ def test_sampled_normaliser_is_unbiased_in_expectation(data):
         assert torch.allclose(rel, torch.ones_like(rel), atol=0.05), (n_sample, rel)
         bias[n_sample] = float((draws.mean(0) - full).mean())
     assert bias[8] < 0 and bias[32] < 0 and abs(bias[32]) < abs(bias[8])
+
+
+def test_bench_train_throughput_writes_its_table(tiny_dataset, tmp_path):
+    """The benchmark runs the real loop for every variant and writes JSON and Markdown (values unasserted)."""
+    import json
+
+    from irlsim.cli import main
+
+    out = tmp_path / "bench"
+    args = ["bench", "--train-throughput", "--data", str(tiny_dataset), "--out", str(out)]
+    args += [
+        "--max-cycles",
+        "16",
+        "--repeats",
+        "1",
+        "--lever",
+        "threads=1,batch_size=8",
+        "--lever",
+        "precision=bf16",
+    ]
+    ckpt = train_stage1(tiny_dataset, _smoke(epochs=1), tmp_path / "runs")["PACNN+S"]["checkpoint"]
+    assert main([*args, "--side-levers", ckpt]) == 0
+    res = json.loads((out / "train_throughput.json").read_text())
+    names = [v["variant"] for v in res["variants"]]
+    assert names == ["baseline", "threads=1,batch_size=8", "precision=bf16", "fast"]
+    assert res["variants"][1]["threads"] == 1 and res["variants"][2]["precision"] == "bf16"
+    assert all(v["cycles_per_s"] > 0 for v in res["variants"])
+    assert res["side_levers"]["normaliser"][0]["nll_bias_mean"] == 0.0
+    assert "| fast |" in (out / "train_throughput.md").read_text()
+    # a lever that is no config field: one line on stderr, exit 2, before any training
+    bad = ["bench", "--train-throughput", "--data", str(tiny_dataset), "--out", str(out), "--lever", "nope=1"]
+    assert main(bad) == 2
