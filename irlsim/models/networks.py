@@ -97,8 +97,9 @@ class PolicyEncoder(nn.Module):
     ``channels_last`` (default off; set by the training option ``encoder_layout``) computes the same
     function with the same weights on the policy-major [B, N, D] layout: each conv is one matrix product
     of the policy's stacked neighbours [B * N, kernel * D] with the reshaped kernel, the pooling a sum over
-    reshaped groups. Equal to the conv path up to float rounding (the summation order differs), and
-    several times faster on a CPU, where the conv kernels on a transposed [B, D, N] copy dominate a step.
+    reshaped groups. Equal to the conv path up to float rounding (the summation order differs). Measured
+    slower than oneDNN's Conv1d on the 2-core AVX512 CPU of docs/RESULTS.md ("Training throughput": x0.85
+    of the work per cycle); kept for ``irlsim bench --train-throughput`` on other hardware.
     """
 
     channels_last: bool = False
