@@ -99,12 +99,22 @@ def from_dict(cls: type[T], data: dict[str, Any], where: str = "") -> T:
     return obj
 
 
-def to_dict(obj: Any) -> Any:
-    """Dataclass -> plain dict (tuples become lists), suitable for JSON/TOML manifests."""
+#: dataclass field metadata: the field is left out of :func:`to_dict` while it holds its default (an
+#: option added later, so that what an older irlsim wrote with it unset stays byte-identical)
+STORED_IF_SET = "stored_if_set"
+
+
+def to_dict(obj: Any, all_fields: bool = False) -> Any:
+    """Dataclass -> plain dict (tuples become lists), suitable for JSON/TOML manifests. A field marked
+    ``STORED_IF_SET`` in its metadata is left out while it holds its default (``all_fields``: kept)."""
     if dataclasses.is_dataclass(obj):
-        return {f.name: to_dict(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return {
+            f.name: to_dict(getattr(obj, f.name), all_fields)
+            for f in dataclasses.fields(obj)
+            if all_fields or not (f.metadata.get(STORED_IF_SET) and getattr(obj, f.name) == f.default)
+        }
     if isinstance(obj, (list, tuple)):
-        return [to_dict(v) for v in obj]
+        return [to_dict(v, all_fields) for v in obj]
     return obj
 
 

@@ -20,6 +20,7 @@ for _var in THREAD_VARS:
 
 import argparse  # noqa: E402
 from pathlib import Path  # noqa: E402
+from typing import Any  # noqa: E402
 
 from irlsim.bench.report import SECTIONS, BenchRun, run_benchmarks  # noqa: E402
 from irlsim.config import MAX_SEED, int_in  # noqa: E402
@@ -61,6 +62,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
     )
+    _train_arguments(parser)
     parser.add_argument(
         "--scenario",
         default="oval",
@@ -78,6 +80,83 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _train_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("--train-throughput (stage-1 training settings side by side)")
+    group.add_argument(
+        "--train-throughput",
+        action="store_true",
+        help="stage-1 training cycles/s of the baseline config, each --lever and the fast config, "
+        "interleaved repeats on the dataset --data (the real training loop); only this section runs "
+        "unless others are named",
+    )
+    group.add_argument("--data", type=Path, help="dataset folder to train on (--train-throughput)")
+    group.add_argument(
+        "--baseline", type=Path, default=Path("configs/train/stage1.toml"), help="baseline stage-1 config"
+    )
+    group.add_argument(
+        "--fast", type=Path, default=Path("configs/train/stage1_fast.toml"), help="fast stage-1 config"
+    )
+    group.add_argument(
+        "--lever",
+        action="append",
+        default=[],
+        help="one more variant: the baseline with KEY=VALUE[,KEY=VALUE] (config fields; precision=bf16 "
+        "for the bf16 forward pass); repeatable",
+    )
+    group.add_argument("--model", default="PACNN+S", help="stage-1 model to time (default PACNN+S)")
+    group.add_argument(
+        "--max-cycles", type=int_in(1), default=1024, help="train cycles of each timed run (default 1024)"
+    )
+    group.add_argument("--repeats", type=int_in(1), default=3, help="interleaved repeats (default 3)")
+    group.add_argument(
+        "--threads",
+        type=int_in(0, 1024),
+        default=0,
+        help="torch threads of every variant (default 0: each config's own, a --lever may set threads)",
+    )
+    group.add_argument(
+        "--side-levers",
+        type=Path,
+        metavar="CHECKPOINT",
+        help="measure the sampled max-ent normaliser (loss time, bias) and 16-bit features (gather time, "
+        "error) with this stage-1 checkpoint's thetas on --data's validation split (with or without "
+        "--train-throughput)",
+    )
+
+
+def _train_throughput(args: argparse.Namespace) -> None:
+    # lazy: torch and the training stack, which the other sections do not need
+    from irlsim.bench.training import ThroughputRun, bench_train_throughput, markdown_table
+    from irlsim.errors import IrlsimError
+    from irlsim.outputs import check_output_dir
+    from irlsim.utils import atomic_write_text, write_json
+
+    if args.data is None:
+        raise IrlsimError("bench --train-throughput needs --data DATASET (a collected dataset folder)")
+    check_output_dir(args.out, "--out")
+    run = ThroughputRun(
+        args.data,
+        args.baseline,
+        args.fast,
+        tuple(args.lever),
+        args.model,
+        args.max_cycles,
+        args.repeats,
+        args.threads,
+    )
+    res: dict[str, Any] = {"data": str(args.data), "variants": []}
+    if args.train_throughput:
+        res = bench_train_throughput(run)
+    if args.side_levers is not None:
+        from irlsim.bench.train_levers import bench_side_levers
+
+        res["side_levers"] = bench_side_levers(args.data, args.side_levers, threads=args.threads or 2)
+    write_json(args.out / "train_throughput.json", res)
+    table = markdown_table(res)
+    atomic_write_text(args.out / "train_throughput.md", table)
+    print(table + f"wrote {args.out / 'train_throughput.md'}")
+
+
 def run(args: argparse.Namespace) -> int:
     sections = tuple(name for name in SECTIONS if getattr(args, name, False))
     if args.quick and not args.growth:
@@ -91,6 +170,10 @@ def run(args: argparse.Namespace) -> int:
 
         run_growth(GrowthRun(args.out, args.quick, args.seed, args.scenario))
         return 0
+    if args.train_throughput or args.side_levers is not None:
+        _train_throughput(args)
+        if not sections:
+            return 0
     run_benchmarks(
         BenchRun(
             args.out, sections, args.cycles, args.env_steps, args.collect_cycles, args.seed, args.scenario

@@ -68,6 +68,42 @@ def nll(theta: torch.Tensor, features: torch.Tensor, demo_index: torch.Tensor) -
     return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
 
 
+def sampled_nll(
+    theta: torch.Tensor,
+    features: torch.Tensor,
+    demo_index: torch.Tensor,
+    n_sample: int,
+    generator: torch.Generator | None = None,
+) -> torch.Tensor:
+    """:func:`nll` with the max-ent normaliser Z = sum_pi exp(V(pi)) estimated on a sample of each
+    cycle's policies -> [B] (NaN where demo_index == -1).
+
+    The sample holds the demonstration always and m = min(n_sample, N) - 1 of the other N - 1 policies,
+    drawn uniformly without replacement, each importance-weighted by (N - 1) / m:
+    Z_hat = exp(V(pi^D)) + (N - 1) / m * sum_{j in sample} exp(V(j)), so E[Z_hat] = Z (unbiased);
+    log Z_hat, and so the NLL, is biased low by Jensen's inequality (measured in docs/RESULTS.md). With
+    n_sample >= N the sample is the whole set, every weight is 1 and the value is exactly :func:`nll`'s
+    (up to float summation order). Only the sampled policies' values are computed.
+    """
+    _check(theta, features)
+    b, n = features.shape[:2]
+    m = max(min(n_sample, n) - 1, 0)
+    valid, idx = _demo(demo_index)
+    idx = idx.to(features.device)
+    v_demo = -(features.gather(1, idx[..., None].expand(-1, -1, N_FEATURES)).squeeze(1) * theta).sum(-1)
+    if m == 0:  # the demonstration alone: log Z_hat = V(pi^D)
+        out = torch.zeros_like(v_demo)
+    else:
+        keys = torch.rand(b, n, generator=generator).to(features.device).scatter(1, idx, 2.0)
+        others = keys.argsort(dim=1)[:, :m]  # m uniform policies other than the demonstration
+        v = -torch.einsum(
+            "bmf,bf->bm", features.gather(1, others[..., None].expand(-1, -1, N_FEATURES)), theta
+        )
+        log_w = torch.log(torch.tensor((n - 1) / m, dtype=v.dtype, device=v.device))
+        out = torch.logsumexp(torch.cat([v_demo[:, None], v + log_w], dim=1), dim=1) - v_demo
+    return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
+
+
 def expected_value_difference(
     theta: torch.Tensor, features: torch.Tensor, demo_index: torch.Tensor
 ) -> torch.Tensor:

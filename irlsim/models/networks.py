@@ -93,7 +93,16 @@ class PolicyEncoder(nn.Module):
     """1-D convs along the progress-sorted policy axis, then average pooling of ``pool`` policies.
 
     [B, N, D] -> [B, latent, G], G = ceil(N / pool).
+
+    ``channels_last`` (default off; set by the training option ``encoder_layout``) computes the same
+    function with the same weights on the policy-major [B, N, D] layout: each conv is one matrix product
+    of the policy's stacked neighbours [B * N, kernel * D] with the reshaped kernel, the pooling a sum over
+    reshaped groups. Equal to the conv path up to float rounding (the summation order differs). Measured
+    slower than oneDNN's Conv1d on the 2-core AVX512 CPU of docs/RESULTS.md ("Training throughput": x0.85
+    of the work per cycle); kept for ``irlsim bench --train-throughput`` on other hardware.
     """
+
+    channels_last: bool = False
 
     def __init__(self, in_channels: int, hidden: int, latent: int, kernel: int, pool: int) -> None:
         super().__init__()
@@ -108,7 +117,49 @@ class PolicyEncoder(nn.Module):
         self.pool = pool
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
+        if self.channels_last:
+            return self._forward_channels_last(x)
         return self.net(x.transpose(1, 2))
+
+    def _forward_channels_last(self, x: torch.Tensor) -> torch.Tensor:
+        first, second = self.net[0], self.net[2]
+        assert isinstance(first, nn.Conv1d) and isinstance(second, nn.Conv1d)
+        h = torch.relu(conv_channels_last(torch.relu(conv_channels_last(x, first)), second))
+        b, n, latent = h.shape
+        g = pooled_length(n, self.pool)
+        h = nn.functional.pad(h, (0, 0, 0, g * self.pool - n)).view(b, g, self.pool, latent).sum(2)
+        sizes = torch.full((g, 1), float(self.pool), dtype=h.dtype, device=h.device)
+        sizes[-1] = n - self.pool * (g - 1)  # ceil_mode: the last group averages the policies it has
+        return (h / sizes).transpose(1, 2)
+
+
+def conv_channels_last(x: torch.Tensor, conv: nn.Conv1d) -> torch.Tensor:
+    """``conv`` (stride 1, odd kernel, 'same' zero padding) applied along dim 1 of x [B, N, C_in] ->
+    [B, N, C_out]: one matrix product of the stacked neighbours with the kernel reshaped to
+    [kernel * C_in, C_out] (im2col), no transposed copy of the input."""
+    k = conv.kernel_size[0]
+    b, n, c = x.shape
+    if k == 1:
+        cols = x.reshape(b * n, c)
+    else:
+        padded = nn.functional.pad(x, (0, 0, k // 2, k // 2))
+        cols = torch.cat([padded[:, j : j + n] for j in range(k)], dim=-1).reshape(b * n, k * c)
+    weight = conv.weight.permute(2, 1, 0).reshape(k * c, conv.out_channels)
+    out = cols @ weight if conv.bias is None else torch.addmm(conv.bias, cols, weight)
+    return out.view(b, n, conv.out_channels)
+
+
+def set_encoder_layout(model: nn.Module, layout: str) -> None:
+    """Every PolicyEncoder of ``model`` computes on the 'channels_first' ([B, D, N], torch's Conv1d,
+    the default) or 'channels_last' ([B, N, D], matrix products) layout; same weights, same function."""
+    assert layout in ENCODER_LAYOUTS, layout
+    for m in model.modules():
+        if isinstance(m, PolicyEncoder):
+            m.channels_last = layout == "channels_last"
+
+
+#: memory layouts of the policy encoder's computation (training option ``encoder_layout``)
+ENCODER_LAYOUTS: tuple[str, ...] = ("channels_first", "channels_last")
 
 
 def pooled_length(n: int, pool: int) -> int:

@@ -9,11 +9,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from irlsim.config import MAX_SEED, require
+from irlsim.config import MAX_SEED, STORED_IF_SET, require
+from irlsim.models.networks import ENCODER_LAYOUTS
 from irlsim.models.registry import MODEL_NAMES, STAGE1_MODELS, STAGE2_BASE, ModelConfig
 
 SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
 """What ``select_by`` may name: a validation metric (lower is better) or 'last' (the final epoch)."""
+
+LR_SCHEDULES = ("constant", "cosine")
+"""What ``lr_schedule`` may name (stage 1)."""
+
+#: metadata of an option added after checkpoints existed: stored in configs only when set
+_IF_SET = {STORED_IF_SET: True}
 
 
 #: the most torch CPU threads a config may ask (the --threads options' bound): more fail to start
@@ -101,6 +108,21 @@ class Stage1Config(TrainConfig):
     """[m] temperature of the attention target softmax(-distance / tau) of PACNN+S"""
     history: int = 10
     """[cycles] H: validation uses the mean of the last H predicted thetas within an episode"""
+    encoder_layout: str = field(default="channels_first", metadata=_IF_SET)
+    """memory layout of the policy encoder's computation: 'channels_first' (torch's Conv1d on the
+    transposed [B, D, N] batch) or 'channels_last' (the same convs as matrix products on the policy-major
+    [B, N, D] batch; measured slower on the 2-core CPU of docs/RESULTS.md, an option for other hardware);
+    same weights and function, the bytes differ by float rounding (irlsim.models.networks.PolicyEncoder).
+    Inference always uses the default"""
+    lr_schedule: str = field(default="constant", metadata=_IF_SET)
+    """'constant' (lr throughout) or 'cosine' (lr decays per step along a half cosine to 0 at the
+    last step of ``epochs``; decided by the step's position alone, so a resumed run continues it)"""
+    init_from: str = field(default="", metadata=_IF_SET)
+    """warm start: a stage-1 checkpoint of the same model and sizes whose inference weights
+    (the validation-selected epoch) and feature normalisation initialise the network, e.g. the previous
+    DAgger round's reward; '' = random initialisation. Refused (one line) for another model, other
+    sizes or another policy count. Ignored when resuming (the checkpoint's own weights continue); the
+    checkpoint records it under 'warm_start'"""
 
     def validate(self) -> None:
         for m in self.models:
@@ -108,6 +130,14 @@ class Stage1Config(TrainConfig):
         require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")
         require(self.attention_tau > 0, "attention_tau must be > 0 [m]")
         require(self.history >= 1, "history must be >= 1")
+        require(
+            self.encoder_layout in ENCODER_LAYOUTS,
+            f"encoder_layout must be one of {', '.join(ENCODER_LAYOUTS)}, got '{self.encoder_layout}'",
+        )
+        require(
+            self.lr_schedule in LR_SCHEDULES,
+            f"lr_schedule must be one of {', '.join(LR_SCHEDULES)}, got '{self.lr_schedule}'",
+        )
         super().validate()
 
     @classmethod

@@ -7,6 +7,7 @@ validates and what its checkpoint carries besides the common entries (see stage1
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -108,6 +109,23 @@ def _short(v: Any) -> str:
     return repr(v)
 
 
+def resume_view(cfg: TrainConfig, ckpt: dict[str, Any]) -> dict[str, Any]:
+    """The asked config as compared with a checkpoint's: its stored fields, and an option left out
+    at its default (irlsim.config.STORED_IF_SET) where the checkpoint recorded that option."""
+    stored, recorded = to_dict(cfg), ckpt.get("config") or {}
+    return {k: v for k, v in to_dict(cfg, all_fields=True).items() if k in stored or k in recorded}
+
+
+def scheduled_lr(cfg: TrainConfig, step: int, steps_per_epoch: int) -> float:
+    """The learning rate of optimizer step ``step`` (0-based, counted over all epochs) of a run of
+    ``cfg.epochs`` epochs: ``cfg.lr`` for the 'constant' ``lr_schedule``; 'cosine':
+    lr * (1 + cos(pi * step / total)) / 2, from lr down towards 0 at the last step."""
+    total = cfg.epochs * steps_per_epoch
+    if getattr(cfg, "lr_schedule", "constant") == "constant" or total <= 0:
+        return cfg.lr
+    return cfg.lr * 0.5 * (1.0 + math.cos(math.pi * min(step, total) / total))
+
+
 class TrainingRun:
     """One model's training into ``run_dir``: ``build()`` makes the network after seeding torch with
     ``cfg.seed``; ``ckpt`` (a checkpoint already checked to match what is asked) resumes its weights,
@@ -135,7 +153,7 @@ class TrainingRun:
         self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         self.start_epoch = 0
         if ckpt:
-            changed = check_resume(self.ckpt_path, ckpt, to_dict(cfg), dataset, legacy)
+            changed = check_resume(self.ckpt_path, ckpt, resume_view(cfg, ckpt), dataset, legacy)
             self.model.load_state_dict(ckpt["state_dict"])
             self.optimizer.load_state_dict(ckpt["optimizer"])
             for group in self.optimizer.param_groups:  # the asked values, not the stored ones
@@ -167,9 +185,13 @@ class TrainingRun:
         batches."""
         return np.random.default_rng([self.cfg.seed, epoch]).permutation(rows)
 
-    def step(self, loss: torch.Tensor, epoch: int) -> None:
-        """One optimizer step on ``loss`` (refused if not finite), with gradient clipping."""
+    def step(self, loss: torch.Tensor, epoch: int, lr: float | None = None) -> None:
+        """One optimizer step on ``loss`` (refused if not finite), with gradient clipping; ``lr``: this
+        step's learning rate (a schedule's), else the one the optimizer has."""
         check_finite(loss, self.name, epoch, self.cfg.lr, f"stage{self.stage}")
+        if lr is not None:
+            for group in self.optimizer.param_groups:
+                group["lr"] = lr
         self.optimizer.zero_grad()
         loss.backward()
         if self.cfg.grad_clip > 0:

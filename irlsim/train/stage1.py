@@ -29,7 +29,7 @@ from irlsim.irl.objectives import (
     history_mean,
     summarize,
 )
-from irlsim.models.networks import PACNN
+from irlsim.models.networks import PACNN, set_encoder_layout
 from irlsim.models.normalization import FeatureStats, compute_feature_stats
 from irlsim.models.registry import SEMI_SUPERVISED, build_model, count_parameters
 from irlsim.train.batching import as_dataset, dataset_meta, gather_batch, get_split, predict_split
@@ -41,9 +41,10 @@ from irlsim.train.checkpoint import (
 )
 from irlsim.train.config import Stage1Config
 from irlsim.train.layout import CHECKPOINT_NAME
-from irlsim.train.loop import TrainingRun
+from irlsim.train.loop import TrainingRun, scheduled_lr
 from irlsim.train.preflight import check_trainable
 from irlsim.train.repro import deterministic, provenance
+from irlsim.train.warm_start import apply_warm_start, read_warm_start, warm_stats
 
 
 def validate_stage1(model: torch.nn.Module, split: Any, cfg: Stage1Config) -> dict[str, float]:
@@ -88,7 +89,14 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
         raise IrlsimError("the train split has no cycle with a demonstration: collect more data")
 
     ckpt = _resume(run_dir / CHECKPOINT_NAME, name, cfg, n_policies)
-    stats = FeatureStats.from_dict(ckpt["feature_stats"]) if ckpt else compute_feature_stats(train, n_cycles)
+    k = train.control_points.shape[2]
+    init = (
+        read_warm_start(cfg.init_from, name, cfg.model, n_policies, k) if cfg.init_from and not ckpt else None
+    )
+    if ckpt:
+        stats = FeatureStats.from_dict(ckpt["feature_stats"])
+    else:
+        stats = warm_stats(init) if init else compute_feature_stats(train, n_cycles)
     ident = dataset_identity(dataset)
     run = TrainingRun(
         name,
@@ -102,12 +110,15 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
         legacy_identities(dataset),
     )
     model = run.model
+    warm = apply_warm_start(model, init, cfg.init_from) if init else (ckpt or {}).get("warm_start")
+    set_encoder_layout(model, cfg.encoder_layout)
     semi = name in SEMI_SUPERVISED
+    steps = -(-len(train_rows) // cfg.batch_size)  # optimizer steps per epoch
 
     def train_epoch(epoch: int) -> dict[str, float]:
         order = run.order(train_rows, epoch)
         sums = {"train/nll": 0.0, "train/evd": 0.0, "train/attention_loss": 0.0}
-        for start in range(0, len(order), cfg.batch_size):
+        for i, start in enumerate(range(0, len(order), cfg.batch_size)):
             mb = gather_batch(train, np.sort(order[start : start + cfg.batch_size]))
             out = forward(model, mb["features"], mb["control_points"], mb["actions"])
             mb_metrics = cycle_metrics(out["theta"], mb["features"], mb["distances"], mb["demo_index"])
@@ -117,7 +128,8 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
                 target = attention_target(mb["distances"], cast(PACNN, model).pool, cfg.attention_tau)
                 att = attention_loss(out["attention_pooled"], target).mean()
                 loss = loss + cfg.attention_loss_weight * att
-            run.step(loss, epoch)
+            at = epoch * steps + i
+            run.step(loss, epoch, None if cfg.lr_schedule == "constant" else scheduled_lr(cfg, at, steps))
             n = len(mb["demo_index"])
             sums["train/nll"] += mb_metrics["nll"].detach().sum().item()
             sums["train/evd"] += mb_metrics["evd"].detach().sum().item()
@@ -143,9 +155,11 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
             "best": run.best.best,
             "provenance": provenance(),
             **meta,
+            **({"warm_start": warm} if warm else {}),
         }
 
-    return run.fit(train_epoch, lambda: validate_stage1(model, validation, cfg), checkpoint)
+    extra = {"warm_start": warm} if warm else None
+    return run.fit(train_epoch, lambda: validate_stage1(model, validation, cfg), checkpoint, extra)
 
 
 def train_stage1(dataset: Any, cfg: Stage1Config, out_dir: str | Path) -> dict[str, Any]:
