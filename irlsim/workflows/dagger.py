@@ -10,8 +10,10 @@ N rounds of (drive -> label -> aggregate -> retrain) on top of a trained model. 
 2. **aggregate**: the folders stay as they are: training reads ``data`` and every round's data folder so
    far (:mod:`irlsim.data.aggregate`: their splits concatenated into a memory-mapped cache in ``data``'s
    ``.cache``);
-3. **retrain** from scratch: :func:`irlsim.workflows.train.train_models`, stage 1 (and stage 2 for a
-   temporal driver or ``stage2_models``) into ``out/round_<r>/runs``.
+3. **retrain** from scratch, or with ``fine_tune`` from the previous round's stage-1 reward (the one that
+   drove this round; ``Stage1Config.init_from``): :func:`irlsim.workflows.train.train_models`, stage 1
+   (and stage 2 for a temporal driver or ``stage2_models``, always from scratch on the new base) into
+   ``out/round_<r>/runs``.
 
 Each step resumes like the command it equals (printed before it runs, and recorded in the round's
 ``round.json`` as that command line); a round is finished once ``out/round_<r>/round.json`` exists and
@@ -80,6 +82,9 @@ class DaggerConfig:
     epochs: list[int] = dataclasses.field(default_factory=list)
     """stage-1 epochs of each round's retraining, one per round (empty: the stage-1 config's ``epochs``
     in every round)"""
+    fine_tune: bool = False
+    """each round's stage-1 retraining starts from the previous round's stage-1 reward (round 1: the one
+    in ``--runs``) instead of random weights, so ``epochs`` can be few; False: from scratch"""
     scenario: str = ""
     """the road the learner drives in every round (a shipped scenario or a scenario.toml path; empty: the
     collect config's). DAgger on a road the reward was not trained on makes its data in-domain"""
@@ -187,7 +192,10 @@ def _sets(overrides: dict[str, Any]) -> list[str]:
     """``--set`` arguments that give ``overrides`` (ints and lists of names) on a command line."""
     out = []
     for key, value in overrides.items():
-        text = "[" + ", ".join(f"'{v}'" for v in value) + "]" if isinstance(value, list) else str(value)
+        if isinstance(value, list):
+            text = "[" + ", ".join(f"'{v}'" for v in value) + "]"
+        else:
+            text = f"'{value}'" if isinstance(value, str) else str(value)
         out += ["--set", f"{key}={text}"]
     return out
 
@@ -223,6 +231,9 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
     train = []
     for stage, path, kind, models in stages:
         overrides = {"models": models, **cfg.round_train_overrides(r, stage)}
+        if stage == 1 and cfg.fine_tune:
+            start = find_checkpoint(prev_runs, cfg.stage1_model)
+            overrides["init_from"] = str(start or stage_dir(prev_runs, 1) / cfg.stage1_model / "checkpoint.pt")
         train.append(TrainRun(load_config(kind, path, overrides), data, here / "runs"))
         commands.append(
             ["train", "--stage", str(stage), "--config", path, "--data", *paths, "--out", str(here / "runs")]

@@ -69,6 +69,8 @@ def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
         },
         "data": expert_identity(run),
         "driver": file_sha(driver),
+        # only when set, so a round recorded before the option existed is still the same round
+        **({"fine_tune": True} if getattr(cfg, "fine_tune", False) else {}),
     }
 
 

@@ -422,3 +422,25 @@ def test_dagger_on_a_reward_trained_on_several_datasets(tiny_dataset, learner, d
         )
         assert rc == 2 and err.count("\n") == 1 and "trained on another dataset than --data" in err
     assert not (out / "never").exists()
+
+
+def test_a_fine_tuning_round_starts_from_the_reward_that_drove_it(
+    tiny_dataset, learner, tmp_path, capsys
+):
+    """fine_tune: the round's stage-1 model starts from the driver's weights (recorded as warm_start in
+    its checkpoint); the command line it records sets init_from; switching fine_tune on a finished round
+    is refused in one line."""
+    collect_cfg, runs = learner
+    out = tmp_path / "ft"
+    base = ["--data", str(tiny_dataset), "--runs", str(runs), "--out", str(out)]
+    base += ["--set", f"collect_config='{collect_cfg}'", "--set", "epochs=[1]"]
+    rc, stdout, err = _dagger([*base, "--set", "fine_tune=true"], capsys)
+    assert rc == 0, err
+    driver = runs / "stage1" / MODEL / "checkpoint.pt"
+    ckpt = torch.load(out / "round_1" / "runs" / "stage1" / MODEL / "checkpoint.pt", weights_only=False)
+    assert ckpt["warm_start"]["path"] == str(driver)
+    record = json.loads((out / "round_1" / "round.json").read_text())
+    assert any(f"init_from='{driver}'" in part for cmd in record["commands"] for part in cmd)
+    assert record["inputs"]["fine_tune"] is True
+    rc, _, err = _dagger(base, capsys)
+    assert rc == 2 and err.count("\n") == 1 and "fine_tune" in err
