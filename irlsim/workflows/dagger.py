@@ -233,7 +233,8 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
         overrides = {"models": models, **cfg.round_train_overrides(r, stage)}
         if stage == 1 and cfg.fine_tune:
             start = find_checkpoint(prev_runs, cfg.stage1_model)
-            overrides["init_from"] = str(start or stage_dir(prev_runs, 1) / cfg.stage1_model / "checkpoint.pt")
+            start = start or stage_dir(prev_runs, 1) / cfg.stage1_model / "checkpoint.pt"
+            overrides["init_from"] = str(start)
         train.append(TrainRun(load_config(kind, path, overrides), data, here / "runs"))
         commands.append(
             ["train", "--stage", str(stage), "--config", path, "--data", *paths, "--out", str(here / "runs")]
