@@ -424,9 +424,7 @@ def test_dagger_on_a_reward_trained_on_several_datasets(tiny_dataset, learner, d
     assert not (out / "never").exists()
 
 
-def test_a_fine_tuning_round_starts_from_the_reward_that_drove_it(
-    tiny_dataset, learner, tmp_path, capsys
-):
+def test_a_fine_tuning_round_starts_from_the_reward_that_drove_it(tiny_dataset, learner, tmp_path, capsys):
     """fine_tune: the round's stage-1 model starts from the driver's weights (recorded as warm_start in
     its checkpoint); the command line it records sets init_from; switching fine_tune on a finished round
     is refused in one line."""
