@@ -270,12 +270,12 @@ def dagger_rows(out: Path, scenarios: list[str], a: Any) -> list:
     rows: list[dict[str, Any]] = []
     for x in a.dagger:
         folder = out / "dagger" / f"{x}-seed{a.seeds[0]}"
-        if a.table_only and not folder.is_dir():
+        name = f"dagger-{x}-seed{a.seeds[0]}"
+        if a.table_only and not (out / "drive" / x / f"{name}-e{a.episodes}" / "drive.json").is_file():
             continue
         last = (
             dagger(out, x, scenarios, a) if not a.table_only else sorted(folder.glob("round_*"))[-1] / "runs"
         )
-        name = f"dagger-{x}-seed{a.seeds[0]}"
         drive_json = drive(out, x, name, ("PACNN+S", "PTACNN+S"), a.episodes, a, last)
         rows += rows_of(out, x, "DAgger on the road", a.seeds[0], last, drive_json, a, a.episodes)
     return rows
