@@ -162,7 +162,7 @@ def rows_of(out: Path, x: str, kind: str, seed: int, runs: Path | None, drive_js
 
 
 def dagger(out: Path, x: str, scenarios: list[str], a: Any) -> Path:
-    """DAgger on X from the first seed's leave-one-out reward; the runs folder of its last round."""
+    """DAgger on X from the first seed's leave-one-out reward (resumes); its folder."""
     seed = a.seeds[0]
     sets = training_sets(scenarios)[f"loo-{x}"]
     folder = out / "dagger" / f"{x}-seed{seed}"
@@ -172,8 +172,7 @@ def dagger(out: Path, x: str, scenarios: list[str], a: Any) -> Path:
         + ["--set", f"seed={seed}", "--set", "workers=1", "--set", 'stage2_models=["PTACNN+S"]']
         + ["--set", f"epochs=[{a.epochs}, {a.epochs}]"]
     )
-    rounds = sorted(folder.glob("round_*"), key=lambda p: int(p.name.split("_")[1]))
-    return rounds[-1] / "runs"
+    return folder
 
 
 def meets_bar(r: dict[str, Any]) -> bool:
@@ -265,19 +264,24 @@ def study_rows(out: Path, plan: list[tuple[str, str, int, int]], sets: dict[str,
 
 
 def dagger_rows(out: Path, scenarios: list[str], a: Any) -> list:
-    """DAgger on each road of ``--dagger`` from the first seed's leave-one-out reward, driven and
-    evaluated as its own row."""
+    """DAgger on each road of ``--dagger`` from the first seed's leave-one-out reward: every finished
+    round's reward driven and evaluated as its own row (``DAgger on the road, round r``)."""
     rows: list[dict[str, Any]] = []
     for x in a.dagger:
         folder = out / "dagger" / f"{x}-seed{a.seeds[0]}"
-        name = f"dagger-{x}-seed{a.seeds[0]}"
-        if a.table_only and not (out / "drive" / x / f"{name}-e{a.episodes}" / "drive.json").is_file():
-            continue
-        last = (
-            dagger(out, x, scenarios, a) if not a.table_only else sorted(folder.glob("round_*"))[-1] / "runs"
-        )
-        drive_json = drive(out, x, name, ("PACNN+S", "PTACNN+S"), a.episodes, a, last)
-        rows += rows_of(out, x, "DAgger on the road", a.seeds[0], last, drive_json, a, a.episodes)
+        if not a.table_only:
+            dagger(out, x, scenarios, a)
+        finished = sorted(folder.glob("round_*/round.json"), key=lambda p: int(p.parent.name.split("_")[1]))
+        for record in finished:
+            r = int(record.parent.name.split("_")[1])
+            name = f"dagger-{x}-seed{a.seeds[0]}-round{r}"
+            if a.table_only and not (out / "drive" / x / f"{name}-e{a.episodes}" / "drive.json").is_file():
+                continue
+            runs = record.parent / "runs"
+            drive_json = drive(out, x, name, ("PACNN+S", "PTACNN+S"), a.episodes, a, runs)
+            rows += rows_of(
+                out, x, f"DAgger on the road, round {r}", a.seeds[0], runs, drive_json, a, a.episodes
+            )
     return rows
 
 
