@@ -108,7 +108,9 @@ def drive(
 
 def table_one(out: Path, x: str, runs: Path, threads: int) -> dict[str, dict[str, Any]]:
     """Table I of ``runs``' models on X's test split: model -> its results.json row."""
-    target = out / "eval" / x / runs.name
+    # a DAgger round's runs folder is <dagger>/round_<r>/runs: named by its DAgger folder and round
+    name = runs.name if runs.name != "runs" else f"dagger-{runs.parent.parent.name}-{runs.parent.name}"
+    target = out / "eval" / x / name
     if not (target / "results.json").is_file():
         run(
             [irlsim(), "evaluate", "--data", str(out / "data" / x), "--runs", str(runs), "--held-out"]
