@@ -21,6 +21,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--data",
         type=Path,
         nargs="+",
+        action="extend",  # --data A --data B is --data A B (not the last one only)
         required=True,
         help="dataset folder; several: the aggregate the models were trained on (DAgger rounds add no test "
         "episodes, so its test split is the first folder's)",

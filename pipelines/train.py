@@ -28,6 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--data",
         type=Path,
         nargs="+",
+        action="extend",  # --data A --data B is --data A B (not the last one only)
         required=True,
         help="dataset folder written by 'irlsim collect'; several folders are aggregated (DAgger: the "
         "expert's data and the rounds' expert-labelled data; irlsim.data.aggregate)",
