@@ -59,7 +59,8 @@ def policy_inputs_np(features: np.ndarray, control_points: np.ndarray, actions: 
 def compute_feature_stats(split: Any, max_cycles: int = 0, chunk: int = 256) -> FeatureStats:
     """Channel mean and std over all policies of the (first ``max_cycles``, 0 = all) cycles of ``split``.
 
-    Chunked float64 sums, so it is memory-bounded on memory-mapped splits.
+    Chunked float64 sums, so it is memory-bounded on memory-mapped splits (a chunk of 256 cycles of the
+    paper's 2,500 policies: 0.17 GB float32 inputs, 0.33 GB as float64).
     """
     n = split.features.shape[0] if max_cycles <= 0 else min(max_cycles, split.features.shape[0])
     k = split.control_points.shape[2]
@@ -77,7 +78,7 @@ def compute_feature_stats(split: Any, max_cycles: int = 0, chunk: int = 256) -> 
             .astype(np.float64)
         )
         s1 += x.sum(0)
-        s2 += (x * x).sum(0)
+        s2 += np.multiply(x, x, out=x).sum(0)  # squared in place: no second float64 copy of the chunk
         count += x.shape[0]
     if count == 0:
         return FeatureStats.identity(k)

@@ -48,7 +48,7 @@ from irlsim.train.repro import deterministic, provenance
 
 def validate_stage1(model: torch.nn.Module, split: Any, cfg: Stage1Config) -> dict[str, float]:
     """Sequential-split metrics of a stage-1 model with the H-cycle history mean of its thetas."""
-    thetas = predict_split(model, split, cfg.eval_batch)["theta"]
+    thetas = predict_split(model, split, cfg.eval_batch, keep=("theta",))["theta"]
     thetas = history_mean(thetas, np.asarray(split.episode), cfg.history)
     return {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, split)).items()}
 
