@@ -15,9 +15,9 @@ disk only its own folder and its cache, whatever the number of rounds before it.
 folder has (the expert data's test split) is that folder's own split.
 
 Older irlsim versions wrote the concatenation as a cache of its own
-(``<first folder>/.cache/aggregate-<key>/``); opening datasets for training or evaluation
-(:func:`open_datasets`) removes such copies and any other cache that is out of date
-(:mod:`irlsim.data.prune`), one line each.
+(``<first folder>/.cache/aggregate-<key>/``); training and evaluation remove such copies, and any other
+cache of their folders that is out of date, once their inputs are checked
+(:func:`remove_obsolete_caches`), one line each.
 
 The aggregate's identity (what a checkpoint records as the dataset it was trained on) is a hash of the
 folders' manifest hashes in order (:func:`aggregate_identity`), never of their paths: a copied or moved
@@ -194,17 +194,21 @@ def open_datasets(
     if dup is not None:
         raise IrlsimError(f"dataset {dup} is given twice: name each folder once")
     if len(paths) == 1:
-        single = open_dataset(paths[0], scenarios)
-        prune_caches(single)
-        return single
+        return open_dataset(paths[0], scenarios)
     datasets = [open_dataset(p) for p in paths]
-    for d in datasets:
-        prune_caches(d)
     if scenarios is not None:
         known = list(dict.fromkeys(n for d in datasets for n in d.scenarios))
         chosen = check_selection(", ".join(map(str, paths)), known, scenarios)
         datasets = [Dataset(d.path, d.manifest, chosen) for d in datasets]
     return AggregateDataset(datasets)
+
+
+def remove_obsolete_caches(dataset: Dataset | AggregateDataset) -> int:
+    """Remove the caches nobody reads any more from every folder of ``dataset`` (older versions' aggregate
+    copies, caches of changed files: :func:`irlsim.data.prune.prune_caches`), one line each; returns
+    the bytes freed. Training and evaluation call it once their inputs are checked, before their work."""
+    parts = dataset.datasets if isinstance(dataset, AggregateDataset) else [dataset]
+    return sum(prune_caches(d) for d in parts)
 
 
 def any_selection_identities(dataset: Dataset | AggregateDataset) -> tuple[str, ...]:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim import devices
-from irlsim.data.aggregate import any_selection_identities, open_datasets
+from irlsim.data.aggregate import any_selection_identities, open_datasets, remove_obsolete_caches
 from irlsim.errors import IrlsimError
 from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
@@ -62,6 +62,7 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     dataset.legacy_identities = tuple(
         [*legacy_identities(dataset), *(i for i in any_selection_identities(dataset) if i not in accepted)]
     )
+    remove_obsolete_caches(dataset)  # the inputs are checked: the work starts
     with devices.use(device, run.precision):
         evaluate_models(
             dataset,

@@ -69,10 +69,14 @@ def test_old_aggregate_copies_go_and_nothing_else(pair, tmp_path, capsys) -> Non
         "mine/meta.json",
         "README.txt",
     }
-    capsys.readouterr()
     runs = tmp_path / "runs"
     args = ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--out", str(runs)]
     args += ["--data", str(a), "--data", str(b), "--set", 'models=["LIRL"]', "--set", "epochs=1"]
+    # bad input is one line before any work: nothing removed yet
+    before = [_files(f / CACHE_DIR) for f in pair]
+    assert main([*args, "--scenario-select", "nowhere"]) == 2
+    assert [_files(f / CACHE_DIR) for f in pair] == before
+    capsys.readouterr()
     assert main(args) == 0
     out = capsys.readouterr().out
     for folder in old:
