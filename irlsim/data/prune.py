@@ -4,12 +4,12 @@ In a dataset folder's ``.cache``:
 
 - ``aggregate-<key>/``: the copies older irlsim versions made of an aggregate's splits (in its first
   folder). An aggregate is now read from its folders' own caches (:mod:`irlsim.data.aggregate`), so
-  they are removed by the first training or evaluation that opens the folder;
+  they are removed by the first training or evaluation of the folder;
 - ``<split>/`` and ``scenarios-<key>/<split>/`` (a selection of scenarios) that are out of date: their
   split is no longer in the manifest, or they were built from other files than the split has now (an
   episode collected again) or by another cache version. ``irlsim collect`` removes them when it has
-  changed the folder, training and evaluation when they open it, and the reader before it rebuilds one
-  (:meth:`irlsim.data.reader.Dataset.split_tensors`).
+  changed the folder, training and evaluation once their inputs are checked, and the reader before it
+  rebuilds one (:meth:`irlsim.data.reader.Dataset.split_tensors`).
 
 Only complete irlsim caches are removed (a ``meta.json`` with a cache version), and of them only the
 files irlsim writes there (:func:`irlsim.data.cache.remove_cache`); a folder being built (no
