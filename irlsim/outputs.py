@@ -51,7 +51,8 @@ def _check_place(
     have = free_bytes(folder)
     if have < need:
         raise IrlsimError(
-            f"{option} {path}: {folder} has {_size(have)} free, this needs about {_size(need)}: {space_fix}"
+            f"{option} {path}: {folder} has {human_size(have)} free, this needs about {human_size(need)}: "
+            f"{space_fix}"
         )
 
 
@@ -101,7 +102,8 @@ def os_error_message(e: OSError) -> str:
     return f"{what}: {path}: {fix}"
 
 
-def _size(n: int) -> str:
+def human_size(n: int) -> str:
+    """``n`` bytes in binary units, e.g. '1.5 GiB'."""
     for unit in ("B", "KiB", "MiB", "GiB", "TiB"):
         if n < 1024 or unit == "TiB":
             return f"{n:.0f} {unit}" if unit == "B" else f"{n:.1f} {unit}"

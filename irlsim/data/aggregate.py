@@ -1,20 +1,23 @@
 """DAgger's aggregation: several dataset folders read as one (``irlsim train --data A B ...``).
 
 Each folder stays a complete dataset of its own (its manifest, seeds, ``demo_source``, its reader cache),
-and :class:`AggregateDataset` concatenates, per split, their arrays in the order given. Episode ids are
-made unique by adding ``EPISODE_OFFSET`` x (the folder's position) to each folder's ids (a split holds
-fewer than 100,000 episodes), so a temporal model's histories never run across two folders.
+and :class:`AggregateDataset` reads, per split, their arrays in the order given. Episode ids are made
+unique by adding ``EPISODE_OFFSET`` x (the folder's position) to each folder's ids (a split holds fewer
+than 100,000 episodes), so a temporal model's histories never run across two folders.
 
-The concatenation is an on-disk cache of memory-mapped ``.npy`` files like a single folder's (the paper's
-train split alone is 11 GB): ``<first folder>/.cache/aggregate-<key>/<split>/``, the key a hash of the
-folders' manifest identities in order. It is written once, part after part in chunks of
-``CHUNK_CYCLES`` cycles from the folders' own memory-mapped caches (bounded memory), each file under a
-temporary name renamed into place, ``meta.json`` last (the reader's ``AtomicNpys`` and cache helpers).
-It is reused while ``meta.json`` records the same folders (resolved paths, manifest identities) and the
-same reader caches (their ``meta.json``: inode, size, mtime), so a re-collected or re-cached folder
-rebuilds it; deleting it (or ``.cache``) is always safe. Old aggregates (earlier DAgger rounds) are not
-removed: ``.cache/aggregate-*`` of the first folder can be deleted to free disk. A split only the first
-folder has (the expert data's test split) is that folder's cache itself, nothing is copied.
+Nothing is copied: a split of the aggregate is a view over the folders' own memory-mapped caches (each
+built once, in its folder, by the reader): the per-policy arrays (features, control points, actions,
+distances, labels: all but a few bytes per cycle) are :class:`~irlsim.data.npy.RowConcat` views that
+read only the rows asked for, the per-cycle arrays (demonstration index, episode ids offset, ...) are
+concatenated in memory (25 bytes a cycle). The rows, their order and their bytes are those of the
+concatenation, so a training reads the same batches as from a copy. A DAgger round therefore adds to the
+disk only its own folder and its cache, whatever the number of rounds before it. A split only the first
+folder has (the expert data's test split) is that folder's own split.
+
+Older irlsim versions wrote the concatenation as a cache of its own
+(``<first folder>/.cache/aggregate-<key>/``); training and evaluation remove such copies, and any other
+cache of their folders that is out of date, once their inputs are checked
+(:func:`remove_obsolete_caches`), one line each.
 
 The aggregate's identity (what a checkpoint records as the dataset it was trained on) is a hash of the
 folders' manifest hashes in order (:func:`aggregate_identity`), never of their paths: a copied or moved
@@ -35,29 +38,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from irlsim.data.reader import (
-    ARRAY_NAMES,
-    CACHE_DIR,
-    AtomicNpys,
-    Dataset,
-    SplitTensors,
-    invalidate_cache,
-    open_cache,
-    open_dataset,
-    read_cache_meta,
-    write_cache_meta,
-)
+from irlsim.data.npy import RowConcat
+from irlsim.data.prune import prune_caches
+from irlsim.data.reader import Dataset, open_dataset
 from irlsim.data.scenarios import check_selection, selection_identity, selections
+from irlsim.data.tensors import ARRAY_NAMES, POLICY_ARRAYS, SplitTensors
 from irlsim.errors import IrlsimError
-from irlsim.outputs import check_output_dir
 
 #: episode ids of the i-th folder become i * EPISODE_OFFSET + id
 EPISODE_OFFSET = 100_000
-#: cycles copied at a time into an aggregate's cache (memory: one chunk of one array, ~80 MB at the paper's
-#: 2,500 policies x 10 control points)
-CHUNK_CYCLES = 256
-
-_Part = tuple[int, Dataset, SplitTensors]  # (folder position, folder, its split's tensors)
 
 
 def manifest_identity(manifest: dict[str, Any]) -> str:
@@ -149,78 +138,23 @@ class AggregateDataset:
             self.episodes(split)  # the one-line error for an unknown split
         return parts
 
-    def cache_dir(self, split: str) -> Path:
-        """The folder of the split's cache: in the first folder's ``.cache``, keyed by the identities."""
-        key = hashlib.sha256(json.dumps(self.identities).encode()).hexdigest()[:16]
-        return self.path / CACHE_DIR / f"aggregate-{key}" / split
-
     def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
-        """The folders' splits concatenated in order (episode ids offset), memory-mapped from the aggregate's
-        cache (see the module docstring); only the first ``max_cycles`` if given."""
-        parts = [(i, d, d.split_tensors(split)) for i, d in self._parts(split)]
+        """The folders' splits one after the other (episode ids offset), read in place from their own
+        caches (see the module docstring); only the first ``max_cycles`` if given."""
+        parts = [(i, d.split_tensors(split)) for i, d in self._parts(split)]
         if not parts:
             return self.datasets[0].split_tensors(split, max_cycles)
-        shapes = {t.features.shape[1:] + t.control_points.shape[2:] for _, _, t in parts}
+        shapes = {t.features.shape[1:] + t.control_points.shape[2:] for _, t in parts}
         if len(shapes) > 1:
             raise IrlsimError(
                 f"split {split} has policies of other shapes in {', '.join(map(str, self.paths))}: "
                 "aggregate datasets of one planner config"
             )
-        if len(parts) == 1 and parts[0][0] == 0:  # the first folder's own split: its ids stay, no copy
-            tensors = parts[0][2]
+        if len(parts) == 1 and parts[0][0] == 0:  # the first folder's own split: its ids stay
+            tensors = parts[0][1]
         else:
-            tensors = self._cached(split, parts)
+            tensors = SplitTensors(**{name: _rows(name, parts) for name in ARRAY_NAMES})
         return tensors if max_cycles is None else tensors.head(max_cycles)
-
-    def _cached(self, split: str, parts: list[_Part]) -> SplitTensors:
-        """The concatenation's cache, (re)built unless its meta.json records these parts."""
-        folder = self.cache_dir(split)
-        record = {
-            "split": split,
-            "cycles": sum(t.n_cycles for _, _, t in parts),
-            "parts": [self._part_record(i, d, split) for i, d, _ in parts],
-        }
-        found = read_cache_meta(folder)
-        if found is None or {k: found[0].get(k) for k in record} != record:
-            self._build_cache(folder, parts, record)
-        return open_cache(folder)
-
-    def _part_record(self, i: int, d: Dataset, split: str) -> dict[str, Any]:
-        """What the aggregate's cache was built from: the folder and its reader cache (a rebuild of that
-        cache, e.g. after a re-collection, rewrites its meta.json: another inode and mtime)."""
-        st = (d.cache_dir(split) / "meta.json").stat()
-        return {
-            "position": i,
-            "path": str(d.path.resolve()),
-            "identity": self.identities[i],
-            "cache": [st.st_ino, st.st_size, st.st_mtime_ns],
-        }
-
-    def _build_cache(self, folder: Path, parts: list[_Part], record: dict[str, Any]) -> None:
-        """Copy the parts' memory maps into new ones, chunk by chunk, meta.json last."""
-        check_output_dir(
-            folder,
-            f"the {record['split']} split of the aggregate of {len(self.paths)} datasets: its cache",
-            sum(getattr(t, n).nbytes for _, _, t in parts for n in ARRAY_NAMES),
-            fix=f"make {self.path} writable (the aggregate's memory-mapped arrays live in its {CACHE_DIR})",
-            space_fix=f"free disk space (older aggregates in {self.path / CACHE_DIR}/aggregate-* can be "
-            "deleted) or aggregate fewer datasets",
-        )
-        invalidate_cache(folder)
-        c, first = record["cycles"], parts[0][2]
-        specs = {n: ((c, *getattr(first, n).shape[1:]), getattr(first, n).dtype) for n in ARRAY_NAMES}
-        with AtomicNpys(folder, specs) as out:
-            row = 0  # first row of the part
-            for i, _, t in parts:
-                for name, dst in out.items():
-                    src = getattr(t, name)
-                    for a in range(0, t.n_cycles, CHUNK_CYCLES):
-                        chunk = src[a : a + CHUNK_CYCLES]
-                        if name == "episode":
-                            chunk = (chunk + i * EPISODE_OFFSET).astype(np.int32)
-                        dst[row + a : row + a + len(chunk)] = chunk
-                row += t.n_cycles
-        write_cache_meta(folder, record)
 
     def read_cycles(self, split: str) -> pd.DataFrame:
         """The folders' cycles rows concatenated in order (episode ids offset)."""
@@ -232,6 +166,19 @@ class AggregateDataset:
         if not frames:
             return self.datasets[0].read_cycles(split)
         return pd.concat(frames, ignore_index=True)
+
+
+def _rows(name: str, parts: list[tuple[int, SplitTensors]]) -> Any:
+    """Array ``name`` of the parts (folder position, its split) one after the other: a view of the
+    per-policy arrays, a concatenation in memory of the per-cycle ones (episode ids offset)."""
+    arrays = [getattr(t, name) for _, t in parts]
+    if name in POLICY_ARRAYS:
+        return arrays[0] if len(arrays) == 1 else RowConcat(arrays)
+    if name == "episode":
+        arrays = [(a + i * EPISODE_OFFSET).astype(np.int32) for (i, _), a in zip(parts, arrays, strict=True)]
+    out = np.concatenate(arrays)
+    out.flags.writeable = False  # read-only, as the memory maps it stands beside
+    return out
 
 
 def open_datasets(
@@ -254,6 +201,14 @@ def open_datasets(
         chosen = check_selection(", ".join(map(str, paths)), known, scenarios)
         datasets = [Dataset(d.path, d.manifest, chosen) for d in datasets]
     return AggregateDataset(datasets)
+
+
+def remove_obsolete_caches(dataset: Dataset | AggregateDataset) -> int:
+    """Remove the caches nobody reads any more from every folder of ``dataset`` (older versions' aggregate
+    copies, caches of changed files: :func:`irlsim.data.prune.prune_caches`), one line each; returns
+    the bytes freed. Training and evaluation call it once their inputs are checked, before their work."""
+    parts = dataset.datasets if isinstance(dataset, AggregateDataset) else [dataset]
+    return sum(prune_caches(d) for d in parts)
 
 
 def any_selection_identities(dataset: Dataset | AggregateDataset) -> tuple[str, ...]:

@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
-from irlsim.data.reader import CACHE_DIR, fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
+from irlsim.data.cache import CACHE_DIR
+from irlsim.data.reader import fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
 from irlsim.data.scenarios import episode_scenario, records_scenarios
 from irlsim.data.schema import TABLE_POLICIES
 

@@ -5,15 +5,14 @@
 under ``<dataset>/.cache/<split>/``: built once, one episode and one row group at a time (bounded memory),
 each file written under a temporary name and renamed, ``meta.json`` last. The cache is reused while
 ``meta.json`` records the same Parquet files (name, size, mtime) and is newer than all of them; otherwise
-it is rebuilt. Deleting ``.cache`` is always safe. :mod:`irlsim.data.aggregate` writes its caches alike.
+it is rebuilt, the out-of-date arrays removed first (:mod:`irlsim.data.cache`). Deleting ``.cache`` is
+always safe. An aggregate of folders reads each folder's own cache (:mod:`irlsim.data.aggregate`).
 """
 
 from __future__ import annotations
 
 import json
-import os
 from collections.abc import Iterator
-from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +23,16 @@ import pyarrow.parquet as pq
 
 from irlsim import N_FEATURES
 from irlsim.data import scenarios as by_scenario
-from irlsim.data.npy import AtomicNpys as AtomicNpys  # re-exported: the aggregate's caches use it
+from irlsim.data.cache import (
+    CACHE_DIR,
+    invalidate_cache,
+    open_cache,
+    read_cache_meta,
+    remove_cache,
+    write_cache_meta,
+)
+from irlsim.data.npy import AtomicNpys
 from irlsim.data.schema import (
-    DEMO_EXPERT,
-    DEMO_SOURCES,
     META_TABLE,
     META_VERSION,
     SCHEMA_VERSION,
@@ -39,98 +44,14 @@ from irlsim.data.schema import (
     policies_name,
     with_demo_source,
 )
+from irlsim.data.tensors import ARRAY_NAMES as ARRAY_NAMES  # re-exported, as SplitTensors
+from irlsim.data.tensors import SplitTensors as SplitTensors
 from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.planner.policy_set import LABEL_NAMES
-from irlsim.utils import atomic_path, write_json
+from irlsim.utils import atomic_path
 
-CACHE_DIR = ".cache"
-#: bump when the cache layout changes; an old cache is then rebuilt
-CACHE_VERSION = 2
-
-
-@dataclass(frozen=True)
-class SplitTensors:
-    """A split as arrays; C cycles ordered by (episode, cycle), N policies progress-sorted, K control points.
-
-    Arrays (usually read-only memory maps; shapes checked on construction):
-        features:       [C, N, 15] float32  path-integral feature costs (irlsim.FEATURE_NAMES)
-        control_points: [C, N, K, 3] float32  (lateral offset [m], yaw [rad], progress [m]) to the ego
-        actions:        [C, N, K, 2] float32  (longitudinal acceleration [m/s^2], lateral velocity [m/s])
-        distances:      [C, N] float32      d(zeta, pi) [m]; NaN where the window is incomplete
-        demo_index:     [C] int64           index of pi^D, -1 = no demonstration (do not train on it)
-        demo_distance:  [C] float32         d(zeta, pi^D) [m], NaN = no demonstration
-        episode:        [C] int32
-        cycle:          [C] int32
-        executed_index: [C] int32           index of the policy the driver executed
-        labels:         [C, N, 3] bool      collision, offroad, exit (LABEL_NAMES)
-        demo_source:    [C] int8            index into DEMO_SOURCES: 0 odometry (projected), 1 expert (DAgger)
-    """
-
-    features: np.ndarray
-    control_points: np.ndarray
-    actions: np.ndarray
-    distances: np.ndarray
-    demo_index: np.ndarray
-    demo_distance: np.ndarray
-    episode: np.ndarray
-    cycle: np.ndarray
-    executed_index: np.ndarray
-    labels: np.ndarray
-    demo_source: np.ndarray = None  # type: ignore[assignment]  # None: all odometry (code 0)
-
-    def __post_init__(self) -> None:
-        c, n = self.distances.shape
-        if self.demo_source is None:
-            object.__setattr__(self, "demo_source", np.zeros(c, np.int8))
-        k = self.control_points.shape[2] if self.control_points.ndim == 4 else -1
-        expected = {
-            "features": ((c, n, N_FEATURES), np.float32),
-            "control_points": ((c, n, k, 3), np.float32),
-            "actions": ((c, n, k, 2), np.float32),
-            "distances": ((c, n), np.float32),
-            "demo_index": ((c,), np.int64),
-            "demo_distance": ((c,), np.float32),
-            "episode": ((c,), np.int32),
-            "cycle": ((c,), np.int32),
-            "executed_index": ((c,), np.int32),
-            "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
-            "demo_source": ((c,), np.int8),
-        }
-        for name, (shape, dtype) in expected.items():
-            arr = getattr(self, name)
-            if arr.shape != shape or arr.dtype != dtype:
-                raise ValueError(
-                    f"SplitTensors.{name}: {arr.dtype}{list(arr.shape)}, "
-                    f"expected {dtype.__name__}{list(shape)}"
-                )
-
-    @property
-    def n_cycles(self) -> int:
-        return int(self.distances.shape[0])
-
-    @property
-    def n_policies(self) -> int:
-        return int(self.distances.shape[1])
-
-    @property
-    def expert_labelled(self) -> np.ndarray:
-        """[C] bool: cycles whose demonstration is the expert's selection (DAgger), not projected odometry."""
-        return np.asarray(self.demo_source == DEMO_SOURCES.index(DEMO_EXPERT))
-
-    @property
-    def has_demo(self) -> np.ndarray:
-        """[C] bool: cycles that have a demonstration (the ones to train and evaluate on)."""
-        return np.asarray(self.demo_index >= 0)
-
-    def head(self, n: int) -> SplitTensors:
-        """The first n cycles (views, no copy)."""
-        return SplitTensors(**{f.name: getattr(self, f.name)[:n] for f in fields(self)})
-
-
-#: the arrays of a SplitTensors, one cache file each (<name>.npy)
-ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 #: per-cycle arrays read straight from the cycles table's column of the same name
 _SMALL_COLUMNS: tuple[tuple[str, Any], ...] = (
     ("demo_index", np.int64),
@@ -316,7 +237,8 @@ class Dataset:
 
     # -- tensors -------------------------------------------------------------------------------------
 
-    def _sources(self, split: str) -> list[list[Any]]:
+    def sources(self, split: str) -> list[list[Any]]:
+        """[name, size, mtime_ns] of every Parquet file of the split: what its cache records."""
         out = []
         for ep in self.episodes(split):
             for p in (self.cycles_path(split, ep), self.policies_path(split, ep)):
@@ -332,7 +254,10 @@ class Dataset:
             return self.path / CACHE_DIR / by_scenario.selection_key(self.selection) / split
         return self.path / CACHE_DIR / split
 
-    def _cache_valid(self, split: str, sources: list[list[Any]]) -> bool:
+    def cache_valid(self, split: str, sources: list[list[Any]] | None = None) -> bool:
+        """Whether the split's cache is complete and was built from its files as they are (``sources``:
+        :meth:`sources`, read again when not given)."""
+        sources = self.sources(split) if sources is None else sources
         found = read_cache_meta(self.cache_dir(split))
         if found is None or found[0].get("sources") != sources:
             return False
@@ -340,8 +265,8 @@ class Dataset:
 
     def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
         """A split as memory-mapped arrays (``SplitTensors``); only the first ``max_cycles`` if given."""
-        sources = self._sources(split)
-        if not self._cache_valid(split, sources):
+        sources = self.sources(split)
+        if not self.cache_valid(split, sources):
             self._build_cache(split, sources)
         tensors = open_cache(self.cache_dir(split))
         return tensors if max_cycles is None else tensors.head(max_cycles)
@@ -352,6 +277,8 @@ class Dataset:
         n = int(cycles.column("n_policies")[0].as_py()) if c else 0
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
+        # the out-of-date arrays go first: the space check then counts the disk they took as free
+        remove_cache(folder, f"the cache of split {split}, out of date (other files, or another irlsim)")
         self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)))
         invalidate_cache(folder)
         specs: dict[str, tuple[tuple[int, ...], Any]] = {
@@ -400,6 +327,9 @@ class Dataset:
             with atomic_path(folder / f"{name}.npy") as tmp, open(tmp, "wb") as fh:
                 np.save(fh, arr)
         write_cache_meta(folder, {"cycles": c, "policies": n, "control_points": k, "sources": sources})
+        # Arrow's allocator keeps the row groups' freed buffers (0.2 GB and more at 2,500 policies): given
+        # back, so they do not sit in the training's anonymous memory beside what it allocates next
+        pa.default_memory_pool().release_unused()
 
     def _check_cache_place(self, folder: Path, nbytes: int) -> None:
         """Before any array is written: the cache folder takes files and its disk has ``nbytes``."""
@@ -440,38 +370,6 @@ def _check_policy_ids(path: Path, group: pa.Table, episode: np.ndarray, cycle: n
         raise IrlsimError(
             f"{path} does not match its cycles file (episode/cycle/policy ids differ): {_REGENERATE}"
         )
-
-
-def read_cache_meta(folder: Path) -> tuple[dict[str, Any], os.stat_result] | None:
-    """(meta.json, its stat) of a cache folder of this irlsim's cache and schema versions whose array files
-    are all there; None otherwise (the caller then rebuilds it). The caller compares what it records."""
-    meta_path = folder / "meta.json"
-    try:
-        meta, st = json.loads(meta_path.read_text()), meta_path.stat()
-    except (OSError, ValueError):
-        return None
-    versions = (CACHE_VERSION, SCHEMA_VERSION)
-    if not isinstance(meta, dict) or (meta.get("cache_version"), meta.get("schema_version")) != versions:
-        return None
-    return (meta, st) if all((folder / f"{n}.npy").is_file() for n in ARRAY_NAMES) else None
-
-
-def invalidate_cache(folder: Path) -> None:
-    """Before a cache folder is (re)built: it exists and has no meta.json (invalid while rebuilding)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "meta.json").unlink(missing_ok=True)
-
-
-def write_cache_meta(folder: Path, record: dict[str, Any]) -> None:
-    """The last write of a cache build: meta.json with the versions and what the cache was built from."""
-    write_json(
-        folder / "meta.json", {"cache_version": CACHE_VERSION, "schema_version": SCHEMA_VERSION, **record}
-    )
-
-
-def open_cache(folder: Path) -> SplitTensors:
-    """A valid cache folder's arrays as read-only memory maps."""
-    return SplitTensors(**{n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in ARRAY_NAMES})
 
 
 def open_dataset(path: str | Path, scenarios: tuple[str, ...] | None = None) -> Dataset:

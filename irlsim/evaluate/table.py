@@ -90,8 +90,10 @@ def predict_sequential_weights(
     if loaded.history is not None and loaded.history != H:
         resolve_history({loaded.name: loaded}, H)  # raises the one-line refusal
     if loaded.base is None:
-        return history_mean(predict_split(loaded.model, split, chunk)["theta"], episode, H), None
-    base = predict_split(loaded.base, split, chunk)
+        return history_mean(
+            predict_split(loaded.model, split, chunk, keep=("theta",))["theta"], episode, H
+        ), None
+    base = predict_split(loaded.base, split, chunk, keep=("theta", "context"))
     return predict_temporal(loaded.model, base["context"], base["theta"], episode)
 
 

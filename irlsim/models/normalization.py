@@ -50,16 +50,21 @@ class FeatureStats:
         )
 
 
-def policy_inputs_np(features: np.ndarray, control_points: np.ndarray, actions: np.ndarray) -> np.ndarray:
-    """Concatenate per-policy channels: [..., N, 15], [..., N, K, 3], [..., N, K, 2] -> [..., N, D]."""
+def policy_inputs_np(
+    features: np.ndarray, control_points: np.ndarray, actions: np.ndarray, dtype: Any = None
+) -> np.ndarray:
+    """Concatenate per-policy channels: [..., N, 15], [..., N, K, 3], [..., N, K, 2] -> [..., N, D]
+    (in ``dtype`` if given: one array, no copy in the inputs' dtype first)."""
     lead = features.shape[:-1]
-    return np.concatenate([features, control_points.reshape(*lead, -1), actions.reshape(*lead, -1)], axis=-1)
+    parts = [features, control_points.reshape(*lead, -1), actions.reshape(*lead, -1)]
+    return np.concatenate(parts, axis=-1, dtype=dtype)
 
 
 def compute_feature_stats(split: Any, max_cycles: int = 0, chunk: int = 256) -> FeatureStats:
     """Channel mean and std over all policies of the (first ``max_cycles``, 0 = all) cycles of ``split``.
 
-    Chunked float64 sums, so it is memory-bounded on memory-mapped splits.
+    Chunked float64 sums, so it is memory-bounded on memory-mapped splits: one float64 chunk in memory at
+    a time (256 cycles of the paper's 2,500 policies: 0.33 GB).
     """
     n = split.features.shape[0] if max_cycles <= 0 else min(max_cycles, split.features.shape[0])
     k = split.control_points.shape[2]
@@ -67,18 +72,16 @@ def compute_feature_stats(split: Any, max_cycles: int = 0, chunk: int = 256) -> 
     s1, s2, count = np.zeros(d), np.zeros(d), 0
     for start in range(0, n, chunk):
         sl = slice(start, min(start + chunk, n))
-        x = (
-            policy_inputs_np(
-                np.asarray(split.features[sl]),
-                np.asarray(split.control_points[sl]),
-                np.asarray(split.actions[sl]),
-            )
-            .reshape(-1, d)
-            .astype(np.float64)
-        )
+        x = policy_inputs_np(
+            np.asarray(split.features[sl]),
+            np.asarray(split.control_points[sl]),
+            np.asarray(split.actions[sl]),
+            dtype=np.float64,  # float32 -> float64 is exact: the values of a float32 copy cast after
+        ).reshape(-1, d)
         s1 += x.sum(0)
-        s2 += (x * x).sum(0)
+        s2 += np.multiply(x, x, out=x).sum(0)  # squared in place: no second float64 copy of the chunk
         count += x.shape[0]
+        del x  # freed before the next chunk is made, not after: one chunk in memory at a time
     if count == 0:
         return FeatureStats.identity(k)
     mean = s1 / count

@@ -104,11 +104,17 @@ def gather_batch(split: Any, rows: np.ndarray) -> dict[str, torch.Tensor]:
 
 @torch.no_grad()
 def predict_split(
-    model: nn.Module, split: Any, chunk: int = 64, desc: str | None = None
+    model: nn.Module,
+    split: Any,
+    chunk: int = 64,
+    desc: str | None = None,
+    keep: tuple[str, ...] = ("theta", "context", "attention"),
 ) -> dict[str, np.ndarray]:
     """Run a stage-1 model over every cycle of ``split`` in chunks.
 
-    -> {'theta': [C, 15] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}.
+    -> {'theta': [C, 15] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}, the
+    outputs named in ``keep`` only (the attention is 4 N bytes a cycle, 0.4 GB over the paper's DAgger
+    round-2 train split: a caller that does not read it leaves it out).
     """
     model.eval()
     n, n_policies = split.features.shape[:2]
@@ -124,7 +130,7 @@ def predict_split(
         rows = np.arange(start, min(start + chunk, n))
         b = gather_batch(split, rows)
         out = forward(model, b["features"], b["control_points"], b["actions"])
-        for k in ("theta", "context", "attention"):
+        for k in keep:
             if k in out:
                 parts.setdefault(k, []).append(to_numpy(out[k]))
     return (

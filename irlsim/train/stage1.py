@@ -49,7 +49,7 @@ from irlsim.train.warm_start import apply_warm_start, read_warm_start, warm_stat
 
 def validate_stage1(model: torch.nn.Module, split: Any, cfg: Stage1Config) -> dict[str, float]:
     """Sequential-split metrics of a stage-1 model with the H-cycle history mean of its thetas."""
-    thetas = predict_split(model, split, cfg.eval_batch)["theta"]
+    thetas = predict_split(model, split, cfg.eval_batch, keep=("theta",))["theta"]
     thetas = history_mean(thetas, np.asarray(split.episode), cfg.history)
     return {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, split)).items()}
 

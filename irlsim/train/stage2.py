@@ -141,8 +141,9 @@ def _train_one_stage2(
         get_split(dataset, "validation"),
     )
     n_cycles = train.features.shape[0] if not cfg.max_cycles else min(cfg.max_cycles, train.features.shape[0])
-    tr = predict_split(base, train, cfg.eval_batch, desc=f"{base_name} on train")
-    va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation")
+    keep = ("theta", "context")  # not the attention: 4 N bytes a cycle that stage 2 does not read
+    tr = predict_split(base, train, cfg.eval_batch, desc=f"{base_name} on train", keep=keep)
+    va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation", keep=keep)
     train_episode = np.asarray(train.episode)[:n_cycles]
     hist = history_indices(train_episode, H)
     targets = target_rows(train_episode, np.asarray(train.demo_index)[:n_cycles], cfg.target_ahead)

@@ -41,6 +41,8 @@ from irlsim.data.layout import (
     remove_partial,
     write_manifest,
 )
+from irlsim.data.prune import prune_caches
+from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.drive.dagger import dagger_driver_factory
 from irlsim.errors import IrlsimError
@@ -319,6 +321,17 @@ def _report_failures(
     )
 
 
+def _complete(cfg: Any, out: Path, record: dict[str, Any], collected: bool) -> Path:
+    """Write the complete manifest (``record`` with every split's episodes) and return its path. When
+    episodes were ``collected`` (an episode collected again has new files), the caches built from the
+    files before are obsolete: removed now, one line each (:func:`irlsim.data.prune.prune_caches`)."""
+    splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
+    manifest = write_manifest(out, {**record, "splits": splits, "complete": True})
+    if collected:
+        prune_caches(open_dataset(out))
+    return manifest
+
+
 def _collect(
     cfg: Any,
     out: Path,
@@ -389,10 +402,7 @@ def _collect(
     if result.failed:
         _report_failures(cfg, out, config, seeds, result.failed, total, ident)
         return dict(result.failed)
-    splits = {s: [e for e, _ in cfg.episodes(s)] for s in SPLITS}
-    manifest = write_manifest(
-        out, {"config": config, **ident, "seeds": seeds, "splits": splits, "complete": True}
-    )
+    manifest = _complete(cfg, out, {"config": config, **ident, "seeds": seeds}, bool(jobs))
     wall = time.perf_counter() - t0
     if jobs:
         print(f"collect: {cycles} cycles in {wall:.1f} s ({cycles / max(wall, 1e-9):.1f} cycles/s in total)")

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim import devices
-from irlsim.data.aggregate import any_selection_identities, open_datasets
+from irlsim.data.aggregate import any_selection_identities, open_datasets, remove_obsolete_caches
 from irlsim.errors import IrlsimError
 from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
@@ -68,6 +68,7 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     )
     if run.held_out:  # transfer: accept what the runs folder's checkpoints were trained on
         dataset.legacy_identities = (*dataset.legacy_identities, *_trained_on(run.runs))
+    remove_obsolete_caches(dataset)  # the inputs are checked: the work starts
     with devices.use(device, run.precision):
         evaluate_models(
             dataset,

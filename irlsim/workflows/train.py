@@ -16,7 +16,7 @@ from typing import Any
 
 from irlsim import devices
 from irlsim.config import to_dict
-from irlsim.data.aggregate import open_datasets
+from irlsim.data.aggregate import open_datasets, remove_obsolete_caches
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import STAGE1_MODELS, STAGE2_BASE, format_parameters
 from irlsim.outputs import check_output_dir
@@ -96,6 +96,7 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
     dataset = open_datasets(tuple(data), run.scenarios)
     check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: before anything is written
     check_output_dir(run.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
+    remove_obsolete_caches(dataset)  # the inputs are checked: the work starts
     out = stage_dir(run.out, stage)
     try:  # one training at a time per runs folder (both stages: stage 2 reads stage 1's checkpoints)
         with exclusive_lock(run.out / LOCK_NAME):

@@ -1,7 +1,9 @@
-"""Synthetic episodes for the data tests: numpy-built PolicySets and a straight-driving ego."""
+"""Fixtures of the data tests: synthetic episodes (numpy-built PolicySets and a straight-driving ego), and
+a second real tiny collection to aggregate with the expert's tiny dataset."""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +14,7 @@ from irlsim.data.demos import DemoProjector
 from irlsim.data.layout import write_manifest
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.policy_set import PolicySet
+from tests.conftest import TINY_COLLECT
 
 DT = 0.1  # [s]
 T = 51  # states over 5 s
@@ -96,3 +99,25 @@ def make_dataset(root: Path, splits: dict[str, list[int]] | None = None, **kwarg
 @pytest.fixture()
 def dataset(tmp_path: Path) -> Path:
     return make_dataset(tmp_path / "ds")
+
+
+@pytest.fixture(scope="session")
+def second_tiny(tmp_path_factory) -> Path:
+    """A second real tiny collection: seed 1, one train and one validation episode, no test split."""
+    out = tmp_path_factory.mktemp("data") / "tiny_seed1"
+    sets = ["--set", "seed=1", "--set", "train_episodes=1", "--set", "test_episodes=0"]
+    args = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *sets]
+    from irlsim.cli import main
+
+    assert main(args) == 0
+    return out
+
+
+@pytest.fixture()
+def pair(tiny_dataset: Path, second_tiny: Path, tmp_path: Path) -> tuple[Path, Path]:
+    """Fresh copies of both folders (no caches), so a test may change them."""
+    ignore = shutil.ignore_patterns(".cache", ".lock")
+    a, b = tmp_path / "expert", tmp_path / "round"
+    shutil.copytree(tiny_dataset, a, ignore=ignore)
+    shutil.copytree(second_tiny, b, ignore=ignore)
+    return a, b
