@@ -3,7 +3,8 @@
     python tools/sha_compare.py BEFORE AFTER [--alias OLD NEW ...]
 
 BEFORE and AFTER are folders (each holding e.g. ``data/`` and ``runs/``). Every file below them is
-hashed, except caches, locks and logs (``.cache/``, ``.lock``, ``*.log``). A file whose bytes differ is
+hashed, except caches, locks and logs (``.cache/``, ``.lock``, ``*.log``,
+TensorBoard's ``events.out.tfevents.*``). A file whose bytes differ is
 compared again as text with each tree's own root path replaced by ``<ROOT>`` (summaries and drive.json
 record the folders they were given), and each ``--alias OLD NEW`` pair read as the same path (e.g. the
 two checkouts whose ``configs/`` the runs read). A JSON or CSV file that still differs is compared once
@@ -26,6 +27,8 @@ from typing import Any
 SKIP_PARTS = {".cache"}
 SKIP_NAMES = {".lock"}
 SKIP_SUFFIXES = {".log"}
+#: TensorBoard event logs: their names hold the time, host and process id of the run that wrote them
+SKIP_PREFIXES = ("events.out.tfevents.",)
 #: the last part of a key (after '/') or a column name whose values are wall-clock measurements
 VOLATILE = ("wall_s", "setup_s", "epoch_s", "_ms", "_ms_mean", "_ms_p90", "per_s", "cycles_per_s")
 #: Markdown column headers that hold timings
@@ -41,6 +44,7 @@ def files(root: Path) -> dict[str, Path]:
             or SKIP_PARTS & set(rel.parts)
             or p.name in SKIP_NAMES
             or p.suffix in SKIP_SUFFIXES
+            or p.name.startswith(SKIP_PREFIXES)
         ):
             continue
         out[rel.as_posix()] = p
