@@ -138,11 +138,20 @@ def demo_distance(distances: torch.Tensor, demo_index: torch.Tensor) -> torch.Te
 
 
 def cycle_metrics(
-    theta: torch.Tensor, features: torch.Tensor, distances: torch.Tensor, demo_index: torch.Tensor
+    theta: torch.Tensor,
+    features: torch.Tensor,
+    distances: torch.Tensor,
+    demo_index: torch.Tensor,
+    log_weights: torch.Tensor | None = None,
 ) -> dict[str, torch.Tensor]:
-    """All per-cycle metrics at once: {'nll', 'evd', 'ed', 'opd', 'demo'} each [B]."""
+    """All per-cycle metrics at once: {'nll', 'evd', 'ed', 'opd', 'demo'} each [B].
+
+    ``log_weights`` [B, N]: the policies are a sample of a larger set (:func:`sample_policies`), each
+    standing for exp(log_weight) policies; the max-ent normaliser and the expectations (NLL, EVD, ED) are
+    the importance-weighted estimates over the sample (exact for the sample itself when every weight is
+    0); OPD is the sample's best policy."""
     values = policy_values(theta, features)
-    logp = torch.log_softmax(values, dim=-1)
+    logp = torch.log_softmax(values if log_weights is None else values + log_weights, dim=-1)
     p = logp.exp()
     valid, idx = _demo(demo_index)
     nan = torch.full(values.shape[:1], float("nan"), dtype=values.dtype)
@@ -155,6 +164,34 @@ def cycle_metrics(
         "opd": distances.gather(-1, values.argmax(-1, keepdim=True)).squeeze(-1),
         "demo": torch.where(valid, distances.gather(-1, idx).squeeze(-1), nan),
     }
+
+
+def sample_policies(
+    n: int, m: int, demo_index: np.ndarray, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per cycle, the demonstration and m - 1 of the other n - 1 policies drawn uniformly without
+    replacement, in their original (progress) order: the sampled max-ent normaliser of training
+    (``policy_sample``).
+
+    demo_index [B] (every entry >= 0) -> (policies [B, m] ascending indices into the n policies,
+    the demonstration's position in them [B], log_weights [B, m]: 0 for the demonstration,
+    log((n - 1) / (m - 1)) for the others, so that sum exp(V + log_weight) is an unbiased estimate of the
+    normaliser sum_pi exp(V(pi)) (the log of it, and so the NLL, is biased low: Jensen). ``m >= n`` gives
+    every policy with weight 1 (the exact normaliser)."""
+    demo_index = np.asarray(demo_index, dtype=np.int64)
+    b = len(demo_index)
+    if not (demo_index >= 0).all():
+        raise ValueError("sample_policies needs a demonstration in every cycle")
+    if m >= n:
+        return np.broadcast_to(np.arange(n), (b, n)).copy(), demo_index.copy(), np.zeros((b, n), np.float32)
+    if m < 2:
+        raise ValueError(f"a policy sample needs m >= 2 (the demonstration and one other), got {m}")
+    keys = rng.random((b, n))
+    keys[np.arange(b), demo_index] = -1.0  # the demonstration always drawn
+    policies = np.sort(np.argpartition(keys, m - 1, axis=1)[:, :m], axis=1)
+    is_demo = policies == demo_index[:, None]
+    log_w = np.where(is_demo, 0.0, np.log((n - 1) / (m - 1))).astype(np.float32)
+    return policies, is_demo.argmax(axis=1), log_w
 
 
 def attention_target(distances: torch.Tensor, pool: int, tau: float) -> torch.Tensor:

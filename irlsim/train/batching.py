@@ -16,6 +16,7 @@ from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.devices import forward, to_device, to_numpy
 from irlsim.errors import IrlsimError
+from irlsim.irl.objectives import sample_policies
 from irlsim.utils import progress
 
 STOP_LINE = FEATURE_NAMES.index("stop_line")
@@ -89,16 +90,34 @@ def to_tensor(a: Any, dtype: torch.dtype = torch.float32) -> torch.Tensor:
     return to_device(torch.as_tensor(np.ascontiguousarray(a), dtype=dtype))
 
 
-def gather_batch(split: Any, rows: np.ndarray) -> dict[str, torch.Tensor]:
+def gather_batch(split: Any, rows: np.ndarray, sample: int = 0, rng: Any = None) -> dict[str, torch.Tensor]:
     """Mini-batch of cycles ``rows`` (prefix ``b_``-style tensors): features, control_points, actions,
-    distances, demo_index."""
+    distances, demo_index.
+
+    ``sample`` > 0 (every row with a demonstration; ``rng`` a numpy Generator): each cycle's demonstration
+    and ``sample - 1`` of its other policies drawn uniformly (:func:`irlsim.irl.objectives.sample_policies`),
+    in their progress order, with the demonstration's index among them and their 'log_weights' for the
+    importance-weighted max-ent normaliser. ``sample`` >= N is the whole set, as with 0."""
     rows = np.asarray(rows)
+    n = split.features.shape[1]
+    demo = np.asarray(split.demo_index[rows])
+    if not 0 < sample < n:
+        return {
+            "features": to_tensor(split.features[rows]),
+            "control_points": to_tensor(split.control_points[rows]),
+            "actions": to_tensor(split.actions[rows]),
+            "distances": to_tensor(split.distances[rows]),
+            "demo_index": to_tensor(demo, torch.int64),
+        }
+    policies, demo, log_w = sample_policies(n, sample, demo, rng)
+    at = (np.arange(len(rows))[:, None], policies)
     return {
-        "features": to_tensor(split.features[rows]),
-        "control_points": to_tensor(split.control_points[rows]),
-        "actions": to_tensor(split.actions[rows]),
-        "distances": to_tensor(split.distances[rows]),
-        "demo_index": to_tensor(split.demo_index[rows], torch.int64),
+        "features": to_tensor(np.asarray(split.features[rows])[at]),
+        "control_points": to_tensor(np.asarray(split.control_points[rows])[at]),
+        "actions": to_tensor(np.asarray(split.actions[rows])[at]),
+        "distances": to_tensor(np.asarray(split.distances[rows])[at]),
+        "demo_index": to_tensor(demo, torch.int64),
+        "log_weights": to_tensor(log_w),
     }
 
 

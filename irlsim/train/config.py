@@ -17,6 +17,8 @@ SELECT_METRICS = ("val/opd", "val/ed", "val/nll", "last")
 """What ``select_by`` may name: a validation metric (lower is better) or 'last' (the final epoch)."""
 
 LR_SCHEDULES = ("constant", "cosine")
+FIXED_N_MODELS = ("1DCNN", "Bi1DCNN")
+"""Stage-1 models whose first layer is sized by the policy count N (no ``policy_sample``)."""
 """What ``lr_schedule`` may name (stage 1)."""
 
 #: metadata of an option added after checkpoints existed: stored in configs only when set
@@ -123,8 +125,26 @@ class Stage1Config(TrainConfig):
     DAgger round's reward; '' = random initialisation. Refused (one line) for another model, other
     sizes or another policy count. Ignored when resuming (the checkpoint's own weights continue); the
     checkpoint records it under 'warm_start'"""
+    policy_sample: int = field(default=0, metadata=_IF_SET)
+    """train each step on a sample of every cycle's policies: the demonstration and policy_sample - 1 of the
+    others drawn uniformly (a fresh draw each step, from the seed and the epoch), in their progress order,
+    importance-weighted in the max-ent normaliser (irlsim.irl.objectives.sample_policies). The network
+    sees the sample only, so a step costs about policy_sample / N of the full set's. 0 (or >= N) = every
+    policy. Validation, evaluation and driving use every policy. LIRL, PACNN and PACNN+S only (1DCNN and
+    Bi1DCNN are built for a fixed N)"""
 
     def validate(self) -> None:
+        require(
+            self.policy_sample == 0 or self.policy_sample >= 2,
+            f"policy_sample must be 0 (every policy) or >= 2 (the demonstration and one other), "
+            f"got {self.policy_sample}",
+        )
+        fixed = [m for m in self.models if m in FIXED_N_MODELS]
+        require(
+            self.policy_sample == 0 or not fixed,
+            f"policy_sample needs models that take any number of policies; {', '.join(fixed)} "
+            "are built for a fixed N: train them in a run without policy_sample",
+        )
         for m in self.models:
             require(m in STAGE1_MODELS, f"models: '{m}' is not a stage-1 model ({', '.join(STAGE1_MODELS)})")
         require(self.attention_loss_weight >= 0, "attention_loss_weight must be >= 0")

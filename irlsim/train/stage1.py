@@ -46,6 +46,9 @@ from irlsim.train.preflight import check_trainable
 from irlsim.train.repro import deterministic, provenance
 from irlsim.train.warm_start import apply_warm_start, read_warm_start, warm_stats
 
+#: the third word of the policy-sample draws' seed (seed, epoch, this): a stream of its own
+POLICY_SAMPLE_STREAM = 0x5A3D
+
 
 def validate_stage1(model: torch.nn.Module, split: Any, cfg: Stage1Config) -> dict[str, float]:
     """Sequential-split metrics of a stage-1 model with the H-cycle history mean of its thetas."""
@@ -117,11 +120,15 @@ def _train_one_stage1(name: str, dataset: Any, cfg: Stage1Config, out_dir: Path)
 
     def train_epoch(epoch: int) -> dict[str, float]:
         order = run.order(train_rows, epoch)
+        draws = np.random.default_rng([cfg.seed, epoch, POLICY_SAMPLE_STREAM])  # resumes per epoch
         sums = {"train/nll": 0.0, "train/evd": 0.0, "train/attention_loss": 0.0}
         for i, start in enumerate(range(0, len(order), cfg.batch_size)):
-            mb = gather_batch(train, np.sort(order[start : start + cfg.batch_size]))
+            rows = np.sort(order[start : start + cfg.batch_size])
+            mb = gather_batch(train, rows, cfg.policy_sample, draws)
             out = forward(model, mb["features"], mb["control_points"], mb["actions"])
-            mb_metrics = cycle_metrics(out["theta"], mb["features"], mb["distances"], mb["demo_index"])
+            mb_metrics = cycle_metrics(
+                out["theta"], mb["features"], mb["distances"], mb["demo_index"], mb.get("log_weights")
+            )
             loss = mb_metrics["nll"].mean()
             att = torch.zeros(())
             if semi:

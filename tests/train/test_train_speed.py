@@ -220,3 +220,74 @@ def test_bench_train_throughput_writes_its_table(tiny_dataset, tmp_path):
     # a lever that is no config field: one line on stderr, exit 2, before any training
     bad = ["bench", "--train-throughput", "--data", str(tiny_dataset), "--out", str(out), "--lever", "nope=1"]
     assert main(bad) == 2
+
+
+def test_policy_sample_keeps_the_demonstration_and_the_order():
+    from irlsim.irl.objectives import sample_policies
+
+    rng = np.random.default_rng(0)
+    demo = np.array([0, 5, 99, 42])
+    policies, at, log_w = sample_policies(100, 10, demo, rng)
+    assert policies.shape == (4, 10) and log_w.shape == (4, 10)
+    assert (np.diff(policies, axis=1) > 0).all()  # ascending (progress order), no repeats
+    assert (policies[np.arange(4), at] == demo).all()
+    assert (log_w[np.arange(4), at] == 0).all()
+    others = np.ones_like(log_w, bool)
+    others[np.arange(4), at] = False
+    assert np.allclose(log_w[others], np.log(99 / 9))
+    # the whole set: every policy, weight 1, the demonstration where it was
+    p, a, w = sample_policies(100, 100, demo, rng)
+    assert (p == np.arange(100)).all() and (a == demo).all() and not w.any()
+    with pytest.raises(ValueError, match="m >= 2"):
+        sample_policies(100, 1, demo, rng)
+
+
+def test_policy_sample_is_uniform_and_its_normaliser_unbiased():
+    """Each other policy is drawn with probability (m - 1) / (n - 1); E[sum exp(V + log_w)] = Z."""
+    from irlsim.irl.objectives import sample_policies
+
+    n, m, draws = 40, 6, 20000
+    rng = np.random.default_rng(1)
+    demo = np.full(draws, 7)
+    policies, _, log_w = sample_policies(n, m, demo, rng)
+    counts = np.bincount(policies.ravel(), minlength=n)
+    assert counts[7] == draws
+    freq = np.delete(counts, 7) / draws
+    assert np.allclose(freq, (m - 1) / (n - 1), atol=0.01)
+    values = np.random.default_rng(2).normal(size=n)
+    z_hat = (np.exp(values[policies] + log_w)).sum(1)
+    assert z_hat.mean() == pytest.approx(np.exp(values).sum(), rel=0.02)
+
+
+def test_weighted_metrics_with_zero_weights_are_the_plain_ones(data):
+    from irlsim.irl.objectives import cycle_metrics
+
+    mb = _batch(data)
+    theta = torch.rand(len(mb["demo_index"]), 15, generator=torch.Generator().manual_seed(0))
+    plain = cycle_metrics(theta, mb["features"], mb["distances"], mb["demo_index"])
+    zero = torch.zeros(mb["distances"].shape)
+    weighted = cycle_metrics(theta, mb["features"], mb["distances"], mb["demo_index"], zero)
+    assert all(torch.equal(plain[k], weighted[k]) for k in plain)
+
+
+def test_policy_sample_trains_repeatably(data, tmp_path):
+    """Stage 1 on sampled policy sets: the same seed gives the same bytes, the steps differ from the
+    whole set's, a sample as large as the set is the whole set (same bytes as without), the option is
+    recorded only when set, and fixed-N models or a sample of one are refused in one line."""
+    n = data.split_tensors("train").features.shape[1]
+    runs = {}
+    for name, k in (("a", 16), ("b", 16), ("full", 0), ("all", n)):
+        train_stage1(data, _smoke(epochs=1, policy_sample=k), tmp_path / name)
+        runs[name] = (tmp_path / name / "PACNN+S" / "checkpoint.pt").read_bytes()
+    assert runs["a"] == runs["b"]
+    ckpt = torch.load(tmp_path / "a" / "PACNN+S" / "checkpoint.pt", weights_only=True)
+    plain = torch.load(tmp_path / "full" / "PACNN+S" / "checkpoint.pt", weights_only=True)
+    every = torch.load(tmp_path / "all" / "PACNN+S" / "checkpoint.pt", weights_only=True)
+    assert ckpt["config"]["policy_sample"] == 16 and "policy_sample" not in plain["config"]
+    assert not all(torch.equal(ckpt["state_dict"][k], plain["state_dict"][k]) for k in plain["state_dict"])
+    assert all(torch.equal(every["state_dict"][k], plain["state_dict"][k]) for k in plain["state_dict"])
+    assert math.isfinite(ckpt["metrics"][-1]["val/opd"]) and math.isfinite(ckpt["metrics"][-1]["train/nll"])
+    for over, words in (({"models": ["1DCNN"]}, "fixed N"), ({}, "policy_sample must be 0")):
+        with pytest.raises(IrlsimError, match=words) as e:
+            load_config(Stage1Config, FAST, {"policy_sample": 1 if not over else 8, **over})
+        assert "\n" not in str(e.value)
