@@ -85,6 +85,10 @@ class DaggerConfig:
     fine_tune: bool = False
     """each round's stage-1 retraining starts from the previous round's stage-1 reward (round 1: the one
     in ``--runs``) instead of random weights, so ``epochs`` can be few; False: from scratch"""
+    overlap: bool = False
+    """collect round r + 1's learner episodes in a worker process while round r trains its stage-2 models
+    (the learner, a stage-1 model, is trained by then): the same bytes as one step after the other, in
+    less time where the cores are not all busy with one step. Needs a stage-1 driver and stage2_models"""
     scenario: str = ""
     """the road the learner drives in every round (a shipped scenario or a scenario.toml path; empty: the
     collect config's). DAgger on a road the reward was not trained on makes its data in-domain"""
@@ -128,6 +132,11 @@ class DaggerConfig:
             f"validation_episodes must be in 0..10000, got {self.validation_episodes}",
         )
         require(self.workers >= 1, f"workers must be >= 1, got {self.workers}")
+        require(
+            not self.overlap or (self.model not in STAGE2_BASE and bool(self.stage2_models)),
+            "overlap needs a stage-1 driver (model) and stage2_models: the next round's episodes are "
+            "collected while this round trains its stage-2 models",
+        )
 
     @property
     def stage1_model(self) -> str:
@@ -308,12 +317,17 @@ def _round(run: DaggerRun, r: int) -> int:
     inputs = round_inputs(run, r, driver)
     steps: list[Callable[[], bool]] = [lambda: collect_dataset(plan.collect).ok]
     steps += [functools.partial(_trained, t) for t in plan.train]
-    for step, cmd in zip(steps, plan.commands, strict=True):
+    ahead = None
+    for k, (step, cmd) in enumerate(zip(steps, plan.commands, strict=True)):
+        if k == 2 and run.config.overlap and r < run.config.rounds:  # stage 1 trained: the next learner
+            ahead = _collect_ahead(run, r + 1)
         print(f"\n$ irlsim {' '.join(cmd)}", flush=True)
         rc = exit_status(step)
         if rc != 0:
+            _join(ahead, r + 1)
             print(f"dagger: round {r} step 'irlsim {cmd[0]}' failed (exit {rc}); re-run to resume")
             return rc
+    _join(ahead, r + 1)
     record: dict[str, Any] = {
         "round": r,
         "model": run.config.model,
@@ -331,3 +345,30 @@ def _round(run: DaggerRun, r: int) -> int:
     }
     write_json(here / ROUND_DONE, record)
     return 0
+
+
+def _collect_next(collect: CollectRun) -> None:  # top level: picklable for the spawned process
+    raise SystemExit(0 if collect_dataset(collect).ok else 1)
+
+
+def _collect_ahead(run: DaggerRun, r: int) -> Any:
+    """Start round ``r``'s collection (its learner is round r - 1's stage-1 model, trained) in a spawned
+    process; round r's collect step then finds the dataset complete, or resumes it."""
+    import multiprocessing
+
+    plan = round_plan(run, r)
+    print(f"dagger: round {r}'s learner episodes are collected meanwhile into {plan.collect.out}", flush=True)
+    proc = multiprocessing.get_context("spawn").Process(target=_collect_next, args=(plan.collect,))
+    proc.start()
+    return proc
+
+
+def _join(proc: Any, r: int) -> None:
+    """Wait for a collection started by :func:`_collect_ahead`; a failed one is resumed by round r."""
+    if proc is None:
+        return
+    proc.join()
+    if proc.exitcode != 0:
+        print(
+            f"dagger: round {r}'s collection meanwhile ended with exit {proc.exitcode}; round {r} resumes it"
+        )

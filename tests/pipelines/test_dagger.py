@@ -442,3 +442,34 @@ def test_a_fine_tuning_round_starts_from_the_reward_that_drove_it(tiny_dataset, 
     assert record["inputs"]["fine_tune"] is True
     rc, _, err = _dagger(base, capsys)
     assert rc == 2 and err.count("\n") == 1 and "fine_tune" in err
+
+
+def test_overlapped_rounds_give_the_same_bytes(tiny_dataset, learner, tmp_path, capsys):
+    """overlap: round 2's learner episodes are collected while round 1 trains PTACNN+S; its data and every
+    checkpoint are the bytes of the rounds run one step after the other. Without stage-2 models there is
+    nothing to overlap with: refused in one line."""
+    collect_cfg, runs = learner
+    common = ["--data", str(tiny_dataset), "--runs", str(runs), "--set", f"collect_config='{collect_cfg}'"]
+    common += ["--set", "rounds=2", "--set", "episodes=1", "--set", "epochs=[1, 1]"]
+    common += ["--set", "stage2_models=['PTACNN+S']", "--set", "fine_tune=true"]
+    for name, overlap in (("seq", "false"), ("ovl", "true")):
+        rc, stdout, err = _dagger(
+            [*common, "--out", str(tmp_path / name), "--set", f"overlap={overlap}"], capsys
+        )
+        assert rc == 0, err
+    assert "round 2's learner episodes are collected meanwhile" in stdout
+    files = sorted(p.relative_to(tmp_path / "seq") for p in (tmp_path / "seq").glob("round_*/**/*"))
+    compared = [f for f in files if f.suffix in (".parquet", ".pt")]
+    assert any("round_2/data" in str(f) for f in compared) and any(f.suffix == ".pt" for f in compared)
+    for f in compared:  # checkpoints record their folder's path (init_from): their weights and metrics
+        a, b = tmp_path / "seq" / f, tmp_path / "ovl" / f
+        if f.suffix == ".parquet":
+            assert a.read_bytes() == b.read_bytes(), f
+            continue
+        a, b = torch.load(a, weights_only=False), torch.load(b, weights_only=False)
+        assert a["state_dict"].keys() == b["state_dict"].keys() and a["metrics"] == b["metrics"], f
+        assert all(torch.equal(a["state_dict"][k], b["state_dict"][k]) for k in a["state_dict"]), f
+    rc, _, err = _dagger(
+        [*common[:-4], "--out", str(tmp_path / "bad"), "--set", "overlap=true", "--set", "rounds=2"], capsys
+    )
+    assert rc == 2 and err.count("\n") == 1 and "overlap needs" in err

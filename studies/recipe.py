@@ -1,0 +1,178 @@
+"""Time to a driving reward: the paper-scale recipe as it was and as it is now, side by side.
+
+A recipe is a stage-1 config and a DAgger config: train PACNN+S on the expert's data with the first,
+then run the DAgger rounds of the second (each round collects learner-driven episodes the expert labels,
+retrains PACNN+S and trains PTACNN+S on it). Both recipes share one dataset (collected first), and each
+runs for every ``--seeds`` training seed, one after the other on the same cores; every step's wall time
+is recorded. Then the last round's PACNN+S and PTACNN+S of every run drive ``--episodes`` episodes of
+``--laps`` laps on the evaluation seeds (1000, 1001, ...) beside the expert, and Table I of each is taken
+on the dataset's test split:
+
+- ``old``: ``configs/train/stage1.toml`` (20 epochs on every policy), ``configs/dagger/paper.toml``
+  (rounds retrained from scratch, 20 and 10 epochs);
+- ``new``: ``configs/train/stage1_sampled.toml`` (the same, each step on a sample of every cycle's
+  policies), ``configs/dagger/paper_fast.toml`` (each round fine-tunes the reward that drove it).
+
+Every step is a command whose output is kept, so the study resumes where it stopped (a resumed step's
+time is the sum of its runs). Run from the repository root, alone on the machine for the times to mean
+something:
+
+    nice -n 5 .venv/bin/python studies/recipe.py --out runs/recipe --recipes old new --seeds 0 1
+
+The table goes to ``<out>/recipe.md`` and ``<out>/recipe.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from irlsim.drive.metrics import summarize
+
+RECIPES = {
+    "old": ("configs/train/stage1.toml", "configs/dagger/paper.toml"),
+    "new": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+}
+MODELS = ("PACNN+S", "PTACNN+S")
+EVAL_SEED = 1000
+
+
+def run(cmd: list[str], times: Path, step: str) -> None:
+    """Run ``irlsim`` ``cmd``; add its wall time to ``step`` in ``times`` (a JSON object)."""
+    print("$ irlsim", " ".join(cmd), flush=True)
+    t0 = time.perf_counter()
+    subprocess.run([str(Path(sys.executable).parent / "irlsim"), *cmd], check=True)
+    spent = json.loads(times.read_text()) if times.is_file() else {}
+    spent[step] = round(spent.get(step, 0.0) + time.perf_counter() - t0, 1)
+    times.write_text(json.dumps(spent, indent=1) + "\n")
+
+
+def recipe_run(out: Path, data: Path, recipe: str, seed: int, threads: int) -> dict[str, Any]:
+    """Stage 1 and the DAgger rounds of ``recipe`` with training seed ``seed``; their folder's record."""
+    stage1, dagger = RECIPES[recipe]
+    here = out / f"{recipe}-seed{seed}"
+    here.mkdir(parents=True, exist_ok=True)
+    times = here / "times.json"
+    common = ["--set", f"seed={seed}", "--set", f"threads={threads}"]
+    run(
+        ["train", "--stage", "1", "--config", stage1, "--data", str(data), "--out", str(here / "runs")]
+        + ["--set", 'models=["PACNN+S"]', *common],
+        times,
+        "stage 1",
+    )
+    run(
+        ["dagger", "--config", dagger, "--data", str(data), "--runs", str(here / "runs")]
+        + ["--out", str(here / "dagger"), "--set", f"seed={seed}"],
+        times,
+        "DAgger",
+    )
+    return {"recipe": recipe, "seed": seed, "folder": here, "times": json.loads(times.read_text())}
+
+
+def last_round(folder: Path) -> Path:
+    rounds = sorted(folder.glob("dagger/round_*/round.json"), key=lambda p: int(p.parent.name.split("_")[1]))
+    return rounds[-1].parent / "runs"
+
+
+def accept(r: dict[str, Any], a: Any) -> dict[str, Any]:
+    """Drive (beside the expert) and Table I of the run's last-round models; their summaries and rows."""
+    runs, here = last_round(r["folder"]), r["folder"]
+    drive, table = here / f"accept-e{a.episodes}", here / "table1"
+    times = here / "times.json"
+    if not (drive / "drive.json").is_file():
+        run(
+            [
+                "drive",
+                "--runs",
+                str(runs),
+                "--model",
+                ",".join(("expert", *MODELS)),
+                "--episodes",
+                str(a.episodes),
+            ]
+            + ["--laps", str(a.laps), "--seed", str(EVAL_SEED), "--config", a.config, "--frames", "0"]
+            + ["--workers", str(a.workers), "--out", str(drive)],
+            times,
+            "acceptance drive",
+        )
+    if not (
+        table / "results.json"
+    ).is_file():  # on what the models were trained on: its test split is the expert's
+        rounds = sorted(here.glob("dagger/round_*/data"), key=lambda d: int(d.parent.name.split("_")[1]))
+        data = [str(a.out / "data"), *map(str, rounds)]
+        run(["evaluate", "--data", *data, "--runs", str(runs), "--out", str(table)], times, "Table I")
+    eps = json.loads((drive / "drive.json").read_text())["episodes"]
+    by_model = {m: summarize([e for e in eps if e["drive/model"] == m]) for m in ("expert", *MODELS)}
+    rows = json.loads((table / "results.json").read_text())
+    rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
+    opd = {x["model"]: x.get("OPD [m]", x.get("opd")) for x in rows if isinstance(x, dict) and "model" in x}
+    return {"drive": by_model, "opd": opd}
+
+
+def meets_bar(s: dict[str, Any], expert_kmh: float) -> bool:
+    """The closed-loop bar: no collision or exit, >= 99 % of the stops, >= 90 % of the checkpoints in
+    lane, >= 90 % of the expert's mean speed."""
+    stops, passed = s["drive/stop_lines_compliant"], s["drive/stop_lines_passed"]
+    lane, checkpoints = s["drive/checkpoints_in_lane"], s["drive/checkpoints_passed"]
+    return (
+        s["drive/collisions"] == 0
+        and s["drive/exits"] == 0
+        and (passed == 0 or stops >= 0.99 * passed)
+        and checkpoints > 0
+        and lane >= 0.9 * checkpoints
+        and s["drive/mean_speed_kmh"] >= 0.9 * expert_kmh
+    )
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = "recipe | seed | model | stage 1 [min] | DAgger [min] | to a reward [min] | collisions | exits"
+    head += " | stops | checkpoints in lane | speed / expert | OPD [m] (test) | bar"
+    lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
+    for r in rows:
+        t = r["times"]
+        minutes = [t.get("stage 1", 0) / 60, t.get("DAgger", 0) / 60]
+        kmh = r["drive"]["expert"]["drive/mean_speed_kmh"]
+        for m in MODELS:
+            s = r["drive"][m]
+            cells = [r["recipe"], r["seed"], m, *(f"{x:.1f}" for x in (*minutes, sum(minutes)))]
+            cells += [s["drive/collisions"], s["drive/exits"]]
+            cells += [f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"]
+            cells += [f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}"]
+            cells += [f"{s['drive/mean_speed_kmh'] / kmh:.3f}", f"{r['opd'].get(m, float('nan')):.3f}"]
+            cells += ["yes" if meets_bar(s, kmh) else "no"]
+            lines.append("| " + " | ".join(map(str, cells)) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/recipe")
+    p.add_argument("--config", default="configs/collect/paper.toml", help="the collect config")
+    p.add_argument("--recipes", nargs="+", choices=sorted(RECIPES), default=["old", "new"])
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="training seeds")
+    p.add_argument("--episodes", type=int, default=20, help="acceptance episodes per model")
+    p.add_argument("--laps", type=int, default=2, help="laps per acceptance episode")
+    p.add_argument("--threads", type=int, default=2, help="torch threads of the stage-1 training")
+    p.add_argument("--workers", type=int, default=2, help="acceptance episodes driven in parallel")
+    a = p.parse_args()
+    a.out = Path(a.out)
+    data = a.out / "data"
+    a.out.mkdir(parents=True, exist_ok=True)
+    manifest = data / "manifest.json"
+    if not (manifest.is_file() and '"complete": true' in manifest.read_text()):
+        run(["collect", "--config", a.config, "--out", str(data)], a.out / "times.json", "collect")
+    runs = [recipe_run(a.out, data, k, s, a.threads) for k in a.recipes for s in a.seeds]
+    rows = [{**r, **accept(r, a), "folder": str(r["folder"])} for r in runs]
+    (a.out / "recipe.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (a.out / "recipe.md").write_text(table(rows))
+    print(table(rows) + f"wrote {a.out / 'recipe.md'} and {a.out / 'recipe.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
