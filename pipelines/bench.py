@@ -94,7 +94,7 @@ def _train_arguments(parser: argparse.ArgumentParser) -> None:
         "--baseline", type=Path, default=Path("configs/train/stage1.toml"), help="baseline stage-1 config"
     )
     group.add_argument(
-        "--fast", type=Path, default=Path("configs/train/stage1_fast.toml"), help="fast stage-1 config"
+        "--fast", type=Path, default=Path("configs/train/stage1_sampled.toml"), help="fast stage-1 config"
     )
     group.add_argument(
         "--lever",

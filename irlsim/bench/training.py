@@ -39,7 +39,7 @@ class ThroughputRun:
 
     data: Path
     baseline: Path = Path("configs/train/stage1.toml")
-    fast: Path | None = Path("configs/train/stage1_fast.toml")
+    fast: Path | None = Path("configs/train/stage1_sampled.toml")
     levers: tuple[str, ...] = ()
     model: str = "PACNN+S"
     max_cycles: int = 1024

@@ -1,9 +1,10 @@
 """The reader's cache folders: reading, writing, opening and removing one.
 
 A cache folder (``<dataset>/.cache/<split>/``, or ``.cache/scenarios-<key>/<split>/`` for a selection
-of scenarios) holds one memory-mapped ``<name>.npy`` per array of
-:class:`~irlsim.data.tensors.SplitTensors` and a ``meta.json``, written last, that records the cache
-and schema versions and what the arrays were built from (:mod:`irlsim.data.reader` compares it with the
+of scenarios) holds the arrays of :class:`~irlsim.data.tensors.SplitTensors`: each per-cycle one as a
+memory-mapped ``<name>.npy``, each per-policy one as rows compressed one by one (``<name>.lz4`` and
+``<name>.offsets.npy``, :mod:`irlsim.data.lz4rows`), and a ``meta.json``, written last, that records the
+cache and schema versions and what the arrays were built from (:mod:`irlsim.data.reader` compares it with the
 split's files). A folder without a ``meta.json`` is being built (or its build was killed) and is not
 read.
 
@@ -23,14 +24,16 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.data.lz4rows import Lz4Rows
+from irlsim.data.lz4rows import files as lz4_files
 from irlsim.data.schema import SCHEMA_VERSION
-from irlsim.data.tensors import ARRAY_NAMES, SplitTensors
+from irlsim.data.tensors import ARRAY_NAMES, POLICY_ARRAYS, SplitTensors, policy_array_specs
 from irlsim.outputs import human_size
 from irlsim.utils import write_json
 
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
-CACHE_VERSION = 2
+CACHE_VERSION = 3  # 3: the per-policy arrays LZ4-compressed by rows (2: float32 .npy)
 #: written last in a cache folder: the cache is complete
 META_NAME = "meta.json"
 
@@ -46,7 +49,18 @@ def read_cache_meta(folder: Path) -> tuple[dict[str, Any], os.stat_result] | Non
     versions = (CACHE_VERSION, SCHEMA_VERSION)
     if not isinstance(meta, dict) or (meta.get("cache_version"), meta.get("schema_version")) != versions:
         return None
-    return (meta, st) if all((folder / f"{n}.npy").is_file() for n in ARRAY_NAMES) else None
+    return (meta, st) if all(p.is_file() for p in cache_files(folder)) else None
+
+
+def cache_files(folder: Path, old: bool = False) -> list[Path]:
+    """The array files of a cache folder (``old``: also those of earlier cache versions' layouts)."""
+    out = []
+    for name in ARRAY_NAMES:
+        if name in POLICY_ARRAYS:
+            out += [*lz4_files(folder, name), *([folder / f"{name}.npy"] if old else [])]
+        else:
+            out.append(folder / f"{name}.npy")
+    return out
 
 
 def invalidate_cache(folder: Path) -> None:
@@ -65,8 +79,14 @@ def write_cache_meta(folder: Path, record: dict[str, Any]) -> None:
 
 
 def open_cache(folder: Path) -> SplitTensors:
-    """A valid cache folder's arrays as read-only memory maps."""
-    return SplitTensors(**{n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in ARRAY_NAMES})
+    """A valid cache folder's arrays: read-only memory maps, the per-policy ones compressed rows."""
+    small = {n: np.load(folder / f"{n}.npy", mmap_mode="r") for n in ARRAY_NAMES if n not in POLICY_ARRAYS}
+    c, n, k = (int(read_cache_meta(folder)[0][key]) for key in ("cycles", "policies", "control_points"))  # type: ignore[index]
+    big: dict[str, Any] = {
+        name: Lz4Rows.open(folder, name, shape[1:], dtype)
+        for name, (shape, dtype) in policy_array_specs(c, n, k).items()
+    }
+    return SplitTensors(**small, **big)
 
 
 def raw_cache_meta(folder: Path) -> tuple[dict[str, Any], os.stat_result] | None:
@@ -90,8 +110,7 @@ def remove_cache(folder: Path, why: str) -> int:
     meta_st = found[1]
     freed = 0
     try:
-        for name in ARRAY_NAMES:
-            path = folder / f"{name}.npy"
+        for path in cache_files(folder, old=True):
             try:
                 st = path.stat()
             except FileNotFoundError:

@@ -31,7 +31,7 @@ from irlsim.data.cache import (
     remove_cache,
     write_cache_meta,
 )
-from irlsim.data.npy import AtomicNpys
+from irlsim.data.lz4rows import Lz4RowsWriter
 from irlsim.data.schema import (
     META_TABLE,
     META_VERSION,
@@ -46,6 +46,7 @@ from irlsim.data.schema import (
 )
 from irlsim.data.tensors import ARRAY_NAMES as ARRAY_NAMES  # re-exported, as SplitTensors
 from irlsim.data.tensors import SplitTensors as SplitTensors
+from irlsim.data.tensors import policy_array_specs
 from irlsim.data.validate import _REGENERATE, BadParquetFile, check_columns, validate_manifest
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
@@ -279,18 +280,13 @@ class Dataset:
         folder = self.cache_dir(split)
         # the out-of-date arrays go first: the space check then counts the disk they took as free
         remove_cache(folder, f"the cache of split {split}, out of date (other files, or another irlsim)")
-        self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)))
+        # LZ4 takes the rows to a third to a fifth of their float32 bytes: half of those is the estimate
+        self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)) // 2)
         invalidate_cache(folder)
-        specs: dict[str, tuple[tuple[int, ...], Any]] = {
-            "features": ((c, n, N_FEATURES), np.float32),
-            "control_points": ((c, n, k, 3), np.float32),
-            "actions": ((c, n, k, 2), np.float32),
-            "distances": ((c, n), np.float32),
-            "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
-        }
+        specs = policy_array_specs(c, n, k)
         small = {name: cycles.column(name).to_numpy().astype(dtype) for name, dtype in _SMALL_COLUMNS}
         small["demo_source"] = demo_source_codes(cycles.column("demo_source"))
-        with AtomicNpys(folder, specs) as big:
+        with Lz4RowsWriter(folder, specs) as big:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):
                 path = self.policies_path(split, ep)
@@ -304,19 +300,22 @@ class Dataset:
                     g = group.num_rows // max(n, 1)
                     sl = slice(row, row + g)
                     _check_policy_ids(path, group, small["episode"][sl], small["cycle"][sl], n)
-                    big["features"][sl] = fixed_list_to_numpy(group.column("features"), N_FEATURES).reshape(
-                        g, n, N_FEATURES
+                    big["features"].append(
+                        fixed_list_to_numpy(group.column("features"), N_FEATURES).reshape(g, n, N_FEATURES)
                     )
-                    big["control_points"][sl] = fixed_list_to_numpy(
-                        group.column("control_points"), 3 * k
-                    ).reshape(g, n, k, 3)
-                    big["actions"][sl] = fixed_list_to_numpy(group.column("actions"), 2 * k).reshape(
-                        g, n, k, 2
+                    big["control_points"].append(
+                        fixed_list_to_numpy(group.column("control_points"), 3 * k).reshape(g, n, k, 3)
                     )
-                    big["distances"][sl] = group.column("distance").to_numpy().reshape(g, n)
-                    big["labels"][sl] = np.stack(
-                        [group.column(name).to_numpy(zero_copy_only=False) for name in LABEL_NAMES], axis=-1
-                    ).reshape(g, n, len(LABEL_NAMES))
+                    big["actions"].append(
+                        fixed_list_to_numpy(group.column("actions"), 2 * k).reshape(g, n, k, 2)
+                    )
+                    big["distances"].append(group.column("distance").to_numpy().reshape(g, n))
+                    big["labels"].append(
+                        np.stack(
+                            [group.column(name).to_numpy(zero_copy_only=False) for name in LABEL_NAMES],
+                            axis=-1,
+                        ).reshape(g, n, len(LABEL_NAMES))
+                    )
                     row += g
             if row != c:
                 raise IrlsimError(

@@ -8,16 +8,19 @@ maps (:mod:`irlsim.data.aggregate`), indexed by rows like an array.
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
 from irlsim import N_FEATURES
+from irlsim.data.lz4rows import Lz4Rows
 from irlsim.data.npy import RowConcat
 from irlsim.data.schema import DEMO_EXPERT, DEMO_SOURCES
 from irlsim.planner.policy_set import LABEL_NAMES
 
-#: an array [C, ...] or a view of several along their rows (what an aggregate's split holds)
-Rows = np.ndarray | RowConcat
+#: an array [C, ...], compressed rows (a cache's per-policy arrays) or a view of several along their rows
+#: (what an aggregate's split holds)
+Rows = np.ndarray | RowConcat | Lz4Rows
 
 
 @dataclass(frozen=True)
@@ -100,7 +103,20 @@ class SplitTensors:
         return SplitTensors(**{f.name: getattr(self, f.name)[:n] for f in fields(self)})
 
 
-#: the arrays of a SplitTensors, one cache file each (<name>.npy)
+#: the arrays of a SplitTensors (a cache holds each per-cycle one as <name>.npy, each per-policy one as
+#: LZ4-compressed rows: irlsim.data.lz4rows)
 ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 #: the per-policy arrays [C, N, ...] (the bulk of a cache; an aggregate views them, copies the others)
 POLICY_ARRAYS = ("features", "control_points", "actions", "distances", "labels")
+
+
+def policy_array_specs(c: int, n: int, k: int) -> dict[str, tuple[tuple[int, ...], Any]]:
+    """{name: (shape, dtype)} of the per-policy arrays of a split of ``c`` cycles of ``n`` policies with
+    ``k`` control points each."""
+    return {
+        "features": ((c, n, N_FEATURES), np.float32),
+        "control_points": ((c, n, k, 3), np.float32),
+        "actions": ((c, n, k, 2), np.float32),
+        "distances": ((c, n), np.float32),
+        "labels": ((c, n, len(LABEL_NAMES)), np.bool_),
+    }

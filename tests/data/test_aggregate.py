@@ -13,7 +13,8 @@ import pyarrow.parquet as pq
 import pytest
 
 from irlsim.data.aggregate import EPISODE_OFFSET, AggregateDataset, open_datasets
-from irlsim.data.cache import CACHE_DIR
+from irlsim.data.cache import CACHE_DIR, cache_files
+from irlsim.data.lz4rows import Lz4Rows
 from irlsim.data.npy import RowConcat
 from irlsim.data.reader import Dataset, open_dataset
 from irlsim.data.tensors import ARRAY_NAMES, POLICY_ARRAYS, SplitTensors
@@ -52,7 +53,7 @@ def _files(folder: Path) -> dict[str, tuple[int, int]]:
 
 def _cache_files(splits: tuple[str, ...]) -> set[str]:
     """What a folder's reader caches of ``splits`` hold, and all they hold."""
-    return {f"{s}/{n}" for s in splits for n in [*(f"{a}.npy" for a in ARRAY_NAMES), "meta.json"]}
+    return {f"{s}/{p.name}" for s in splits for p in [*cache_files(Path(s)), Path("meta.json")]}
 
 
 def test_aggregate_is_a_view_of_the_folders_own_caches(pair) -> None:
@@ -62,12 +63,12 @@ def test_aggregate_is_a_view_of_the_folders_own_caches(pair) -> None:
         tensors = agg.split_tensors(split)
         expected = _concatenated(pair, split)
         _assert_equal(tensors, expected)  # the round trip: the per-folder reads, one after the other
-        # read in place: each per-policy array views the folders' own memory-mapped cache files
+        # read in place: each per-policy array views the folders' own cache files (compressed rows)
         for name in POLICY_ARRAYS:
             view = getattr(tensors, name)
             assert isinstance(view, RowConcat), name
             assert [Path(p.filename) for p in view.parts] == [
-                f / CACHE_DIR / split / f"{name}.npy" for f in pair
+                f / CACHE_DIR / split / f"{name}.lz4" for f in pair
             ]
         # rows as training gathers them (sorted batches, across both folders) and pairs of indexes
         rows = np.sort(np.random.default_rng(0).choice(tensors.n_cycles, 12, replace=False))
@@ -81,7 +82,7 @@ def test_aggregate_is_a_view_of_the_folders_own_caches(pair) -> None:
             tensors.episode[:n0] < EPISODE_OFFSET
         ).all()
     head = agg.split_tensors("train", max_cycles=10)
-    assert head.n_cycles == 10 and isinstance(head.features, np.memmap)  # rows of the first folder only
+    assert head.n_cycles == 10 and isinstance(head.features, Lz4Rows)  # rows of the first folder only
     assert np.asarray(head.distances).tobytes() == _concatenated(pair, "train")["distances"][:10].tobytes()
     # no copy on disk: each folder holds its own caches of the splits read, and nothing else
     for folder in pair:

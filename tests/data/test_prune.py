@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 from irlsim.cli import main
-from irlsim.data.cache import CACHE_DIR, write_cache_meta
+from irlsim.data.cache import CACHE_DIR, cache_files, write_cache_meta
 from irlsim.data.layout import remove_episode
 from irlsim.data.npy import AtomicNpys
 from irlsim.data.reader import open_dataset
 from irlsim.data.tensors import ARRAY_NAMES
 from tests.conftest import TINY_COLLECT
 
-CACHE_FILES = {*(f"{n}.npy" for n in ARRAY_NAMES), "meta.json"}
+CACHE_FILES = {*(p.name for p in cache_files(Path("."))), "meta.json"}
 
 
 def _files(folder: Path) -> dict[str, tuple[int, int]]:
