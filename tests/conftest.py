@@ -55,6 +55,21 @@ def tiny_dataset(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="session")
+def second_tiny(tmp_path_factory):
+    """A second real tiny collection: seed 1 (other episode seeds), one train and one validation episode,
+    no test split (a DAgger round's folder, a second dataset to aggregate)."""
+    from irlsim.cli import main
+
+    out = tmp_path_factory.mktemp("data") / "tiny_seed1"
+    sets = ["--set", "seed=1", "--set", "train_episodes=1", "--set", "test_episodes=0"]
+    assert (
+        main(["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *sets])
+        == 0
+    )
+    return out
+
+
 MULTI_TOML = """
 seed = 0
 workers = 1

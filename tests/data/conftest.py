@@ -14,7 +14,6 @@ from irlsim.data.demos import DemoProjector
 from irlsim.data.layout import write_manifest
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.policy_set import PolicySet
-from tests.conftest import TINY_COLLECT
 
 DT = 0.1  # [s]
 T = 51  # states over 5 s
@@ -99,18 +98,6 @@ def make_dataset(root: Path, splits: dict[str, list[int]] | None = None, **kwarg
 @pytest.fixture()
 def dataset(tmp_path: Path) -> Path:
     return make_dataset(tmp_path / "ds")
-
-
-@pytest.fixture(scope="session")
-def second_tiny(tmp_path_factory) -> Path:
-    """A second real tiny collection: seed 1, one train and one validation episode, no test split."""
-    out = tmp_path_factory.mktemp("data") / "tiny_seed1"
-    sets = ["--set", "seed=1", "--set", "train_episodes=1", "--set", "test_episodes=0"]
-    args = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *sets]
-    from irlsim.cli import main
-
-    assert main(args) == 0
-    return out
 
 
 @pytest.fixture()

@@ -9,7 +9,6 @@ import os
 import shutil
 from pathlib import Path
 
-import pytest
 import torch
 
 from irlsim.cli import main
@@ -21,21 +20,11 @@ from tests.conftest import TINY_COLLECT
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture(scope="module")
-def round_data(tmp_path_factory) -> Path:
-    """A second real tiny collection (seed 1: other episode seeds), one train and one validation episode."""
-    out = tmp_path_factory.mktemp("data") / "seed1"
-    sets = ["--set", "seed=1", "--set", "train_episodes=1", "--set", "test_episodes=0"]
-    args = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT, *sets]
-    assert main(args) == 0
-    return out
-
-
-def _copies(tiny_dataset: Path, round_data: Path, where: Path) -> tuple[Path, Path]:
+def _copies(tiny_dataset: Path, second_tiny: Path, where: Path) -> tuple[Path, Path]:
     ignore = shutil.ignore_patterns(CACHE_DIR, ".lock")
     a, b = where / "expert", where / "round"
     shutil.copytree(tiny_dataset, a, ignore=ignore)
-    shutil.copytree(round_data, b, ignore=ignore)
+    shutil.copytree(second_tiny, b, ignore=ignore)
     return a, b
 
 
@@ -67,9 +56,9 @@ def _seeds(path: Path) -> list[int]:
 
 
 def test_a_model_trained_on_several_folders_records_their_seeds_and_drive_refuses_them(
-    tiny_dataset, round_data, tmp_path, capsys
+    tiny_dataset, second_tiny, tmp_path, capsys
 ):
-    a, b = _copies(tiny_dataset, round_data, tmp_path)
+    a, b = _copies(tiny_dataset, second_tiny, tmp_path)
     assert _train([a, b], tmp_path / "runs") == 0
     ckpt = tmp_path / "runs" / "stage1" / "LIRL" / "checkpoint.pt"
     recorded = torch.load(ckpt, weights_only=True)["dataset_seeds"]
@@ -93,8 +82,8 @@ def test_a_model_trained_on_several_folders_records_their_seeds_and_drive_refuse
     assert "records no training seeds" in capsys.readouterr().err
 
 
-def test_an_aggregate_is_identified_by_its_content_not_its_paths(tiny_dataset, round_data, tmp_path, capsys):
-    a, b = _copies(tiny_dataset, round_data, tmp_path / "first")
+def test_an_aggregate_is_identified_by_its_content_not_its_paths(tiny_dataset, second_tiny, tmp_path, capsys):
+    a, b = _copies(tiny_dataset, second_tiny, tmp_path / "first")
     runs = tmp_path / "runs"
     assert _train([a, b], runs) == 0
     # the folders copied byte for byte, moved elsewhere and named by relative paths: the same dataset
