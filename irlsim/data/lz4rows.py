@@ -20,6 +20,7 @@ import pyarrow as pa
 from irlsim.utils import atomic_path
 
 CODEC = "lz4"
+_CODEC = pa.Codec(CODEC)
 #: rows decompressed at once when a whole range is read (bounds the memory of a column read)
 CHUNK = 256
 
@@ -124,10 +125,8 @@ class Lz4Rows:
             flat = block.reshape(len(chunk), self.row_bytes // self.dtype.itemsize).view(np.uint8)
             for j, i in enumerate(chunk):
                 a, b = int(self.offsets[i]), int(self.offsets[i + 1])
-                raw = pa.decompress(
-                    self.data[a:b], decompressed_size=self.row_bytes, codec=CODEC, asbytes=True
-                )
-                flat[j] = np.frombuffer(raw, np.uint8)
+                raw = _CODEC.decompress(self.data[a:b], decompressed_size=self.row_bytes, asbytes=False)
+                flat[j] = np.frombuffer(raw, np.uint8)  # one copy: from Arrow's buffer into the rows
             sub = tuple(r[s : s + CHUNK] if a else r for r, a in zip(rest, paired, strict=True))
             pieces.append(block[(np.arange(len(chunk)), *sub)] if any(paired) else block[(slice(None), *sub)])
         return pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
