@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -70,6 +70,11 @@ bench-growth: setup
 transfer: setup
 	nice -n 5 $(BIN)/python studies/transfer.py --out runs/transfer --seeds 0 1 2 --episodes 20 \
 		--episodes-single 10 --dagger grid --threads 2 --workers 2
+
+# the paper-scale recipe, old and new side by side (docs/RESULTS.md, "Time to a driving reward"): one dataset,
+# each recipe's stage 1 and DAgger rounds for 2 training seeds, timed, then their acceptance drives and Table I
+recipe: setup
+	nice -n 5 $(BIN)/python studies/recipe.py --out runs/recipe --recipes old new --seeds 0 1
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup

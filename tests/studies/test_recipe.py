@@ -1,0 +1,51 @@
+"""The recipe study's bookkeeping (pure logic): the closed-loop bar, the last DAgger round, the table."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+_spec = importlib.util.spec_from_file_location("recipe", Path(__file__).parents[2] / "studies" / "recipe.py")
+study = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(study)  # type: ignore[union-attr]
+
+
+def _summary(**kw):
+    s = {
+        "drive/collisions": 0, "drive/exits": 0, "drive/stop_lines_compliant": 80,
+        "drive/stop_lines_passed": 80, "drive/checkpoints_in_lane": 144, "drive/checkpoints_passed": 160,
+        "drive/mean_speed_kmh": 45.0,
+    }  # fmt: skip
+    return {**s, **kw}
+
+
+def test_the_bar_at_its_edges():
+    assert study.meets_bar(_summary(), 50.0)  # 90 % of the checkpoints, 90 % of the speed: met
+    assert not study.meets_bar(_summary(**{"drive/mean_speed_kmh": 44.9}), 50.0)
+    assert not study.meets_bar(_summary(**{"drive/checkpoints_in_lane": 143}), 50.0)
+    assert not study.meets_bar(_summary(**{"drive/collisions": 1}), 50.0)
+    assert not study.meets_bar(_summary(**{"drive/exits": 1}), 50.0)
+    assert not study.meets_bar(_summary(**{"drive/stop_lines_compliant": 79}), 50.0)  # 98.75 % < 99 %
+    assert study.meets_bar(_summary(**{"drive/stop_lines_compliant": 0, "drive/stop_lines_passed": 0}), 50.0)
+
+
+def test_the_last_round_is_the_highest_number(tmp_path):
+    for r in (1, 2, 10, 9):
+        (tmp_path / "dagger" / f"round_{r}").mkdir(parents=True)
+        (tmp_path / "dagger" / f"round_{r}" / "round.json").write_text("{}")
+    (tmp_path / "dagger" / "round_11").mkdir()  # not finished: no round.json
+    assert study.last_round(tmp_path) == tmp_path / "dagger" / "round_10" / "runs"
+
+
+def test_the_table_adds_up_the_times():
+    row = {
+        "recipe": "new", "seed": 1, "times": {"stage 1": 120.0, "DAgger": 480.0},
+        "drive": {"expert": _summary(**{"drive/mean_speed_kmh": 50.0}), "PACNN+S": _summary(),
+                  "PTACNN+S": _summary(**{"drive/collisions": 2})},
+        "opd": {"PACNN+S": 0.41, "PTACNN+S": 0.4},
+    }  # fmt: skip
+    lines = study.table([row]).splitlines()
+    assert lines[2].startswith(
+        "| new | 1 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes |"
+    )
+    assert lines[3].endswith("| 2 | 0 | 80/80 | 144/160 | 0.900 | 0.400 | no |")
