@@ -211,18 +211,19 @@ def markdown_rows(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _spread(xs: list[float]) -> str:
+def _spread(xs: list[float], digits: int = 3) -> str:
     xs = [x for x in xs if x is not None]
     if not xs:
         return "–"
     mean = sum(xs) / len(xs)
     sd = (sum((x - mean) ** 2 for x in xs) / (len(xs) - 1)) ** 0.5 if len(xs) > 1 else 0.0
-    return f"{mean:.3f} ± {sd:.3f}" if len(xs) > 1 else f"{mean:.3f}"
+    return f"{mean:.{digits}f} ± {sd:.{digits}f}" if len(xs) > 1 else f"{mean:.{digits}f}"
 
 
 def bar_summary(rows: list[dict[str, Any]]) -> str:
     """One line per road, training and model: totals over the training seeds, mean ± standard deviation
-    of the speed ratio and OPD over the seeds, and on how many seeds the bar is met."""
+    of the speed ratio, the scorecard's score (0-100) and OPD over the seeds, and on how many seeds the
+    bar is met."""
     groups: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for r in rows:
         if r["model"] in REFERENCES and r["training"] != "leave-one-out":
@@ -232,7 +233,7 @@ def bar_summary(rows: list[dict[str, Any]]) -> str:
             continue
         groups.setdefault(key, []).append(r)
     head = "scenario | training | model | seeds | episodes each | collisions | exits | red | stops | mission"
-    head += " | speed / expert | OPD [m] | bar met"
+    head += " | speed / expert | score | OPD [m] | bar met"
     lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
     for (x, kind, m), rs in sorted(groups.items()):
         if kind == "reference":
@@ -243,6 +244,7 @@ def bar_summary(rows: list[dict[str, Any]]) -> str:
         met = sum(meets_bar(r) for r in rs)
         cells = [x, kind, m, len(rs), rs[0]["episodes"], tot["collisions"], tot["exits"], tot["red"]]
         cells += [_fmt(stops), _fmt(mission), _spread([r["speed_vs_expert"] for r in rs])]
+        cells += [_spread([r["score"] for r in rs], 1)]
         cells += [_spread([r["opd_m"] for r in rs]), f"{met}/{len(rs)}"]
         lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"
