@@ -79,34 +79,30 @@ def last_round(folder: Path) -> Path:
     return rounds[-1].parent / "runs"
 
 
-def accept(r: dict[str, Any], a: Any) -> dict[str, Any]:
-    """Drive (beside the expert) and Table I of the run's last-round models; their summaries and rows."""
-    runs, here = last_round(r["folder"]), r["folder"]
-    drive, table = here / f"accept-e{a.episodes}", here / "table1"
-    times = here / "times.json"
-    if not (drive / "drive.json").is_file():
+def drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any, times: Path) -> list[dict[str, Any]]:
+    """``models`` driven on the evaluation seeds into ``out`` (kept: not driven again); their episodes."""
+    if not (out / "drive.json").is_file():
         run(
-            [
-                "drive",
-                "--runs",
-                str(runs),
-                "--model",
-                ",".join(("expert", *MODELS)),
-                "--episodes",
-                str(a.episodes),
-            ]
-            + ["--laps", str(a.laps), "--seed", str(EVAL_SEED), "--config", a.config, "--frames", "0"]
-            + ["--workers", str(a.workers), "--out", str(drive)],
+            ["drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
+            + ["--episodes", str(a.episodes), "--laps", str(a.laps), "--seed", str(EVAL_SEED)]
+            + ["--config", a.config, "--frames", "0", "--workers", str(a.workers), "--out", str(out)],
             times,
             "acceptance drive",
         )
-    if not (
-        table / "results.json"
-    ).is_file():  # on what the models were trained on: its test split is the expert's
+    return list(json.loads((out / "drive.json").read_text())["episodes"])
+
+
+def accept(r: dict[str, Any], a: Any) -> dict[str, Any]:
+    """Drive and Table I of the run's last-round models, beside the expert (driven once for every run, on
+    the same seeds); their summaries and Table I rows."""
+    runs, here = last_round(r["folder"]), r["folder"]
+    table, times = here / "table1", here / "times.json"
+    eps = drive(a.out / f"expert-e{a.episodes}", None, ("expert",), a, a.out / "times.json")
+    eps += drive(here / f"accept-e{a.episodes}", runs, MODELS, a, times)
+    if not (table / "results.json").is_file():  # on the data they were trained on: the expert's test split
         rounds = sorted(here.glob("dagger/round_*/data"), key=lambda d: int(d.parent.name.split("_")[1]))
         data = [str(a.out / "data"), *map(str, rounds)]
         run(["evaluate", "--data", *data, "--runs", str(runs), "--out", str(table)], times, "Table I")
-    eps = json.loads((drive / "drive.json").read_text())["episodes"]
     by_model = {m: summarize([e for e in eps if e["drive/model"] == m]) for m in ("expert", *MODELS)}
     rows = json.loads((table / "results.json").read_text())
     rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
