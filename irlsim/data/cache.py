@@ -33,7 +33,7 @@ from irlsim.utils import write_json
 
 CACHE_DIR = ".cache"
 #: bump when the cache layout changes; an old cache is then rebuilt
-CACHE_VERSION = 3  # 3: the per-policy arrays LZ4-compressed by rows (2: float32 .npy)
+CACHE_VERSION = 4  # 4: the per-policy arrays LZ4-compressed by rows (3: framed LZ4, 2: float32 .npy)
 #: written last in a cache folder: the cache is complete
 META_NAME = "meta.json"
 
