@@ -37,6 +37,14 @@ def _train_cmd(data: Path, out: Path, model: str, epochs: int) -> list[str]:
     ]
 
 
+def _low_priority_with_default_sigint() -> None:
+    """In the child before exec: the lowest priority (a busy machine still lets the test see it mid-run)
+    and SIGINT's default action, which a test run started in the background (nohup, '&') would have
+    ignored, and an ignored signal stays ignored across exec (Python then installs no handler)."""
+    os.nice(19)
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
@@ -49,12 +57,12 @@ def test_a_checkpoint_resumed_after_a_signal_has_the_bytes_of_an_uninterrupted_r
     epochs = 200
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     subprocess.run(_train_cmd(tiny_dataset, whole, model, epochs), env=env, check=True, capture_output=True)
-    p = subprocess.Popen(  # at the lowest priority: on a busy machine this test still sees it mid-run
+    p = subprocess.Popen(
         _train_cmd(tiny_dataset, cut, model, epochs),
         env=env,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
-        preexec_fn=lambda: os.nice(19),
+        preexec_fn=_low_priority_with_default_sigint,
     )
     ckpt = cut / "stage1" / model / "checkpoint.pt"
     deadline = time.monotonic() + 120
