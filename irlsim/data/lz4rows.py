@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
+from irlsim.data.npy import flat_rows
 from irlsim.utils import atomic_path
 
 CODEC = "lz4_raw"  # LZ4 blocks without the frame: twice the decompression speed of framed LZ4
@@ -98,17 +99,7 @@ class Lz4Rows:
             if not 0 <= i < len(self):
                 raise IndexError(f"row {int(rows)} is out of bounds for {len(self)} rows")
             return self._read(np.array([i]), ())[0][rest] if rest else self._read(np.array([i]), ())[0]
-        rows = np.asarray(rows)
-        if rows.dtype == np.bool_:
-            if rows.shape != (len(self),):
-                raise IndexError(f"a boolean row mask must have shape ({len(self)},), not {rows.shape}")
-            rows = np.flatnonzero(rows)
-        if rows.size and not np.issubdtype(rows.dtype, np.integer):
-            raise IndexError(f"rows must be integers or a boolean mask, not {rows.dtype}")
-        flat = rows.astype(np.int64).ravel()
-        flat = np.where(flat < 0, flat + len(self), flat)
-        if flat.size and (flat.min() < 0 or flat.max() >= len(self)):
-            raise IndexError(f"a row index is out of bounds for {len(self)} rows")
+        rows, flat = flat_rows(np.asarray(rows), len(self))
         out = self._read(flat, rest)
         return out.reshape(*rows.shape, *out.shape[1:])
 

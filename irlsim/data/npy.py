@@ -119,16 +119,7 @@ class RowConcat:
         return pieces[0] if len(pieces) == 1 else RowConcat(pieces)
 
     def _gather(self, rows: np.ndarray, rest: tuple[Any, ...]) -> np.ndarray:
-        if rows.dtype == np.bool_:
-            if rows.shape != (len(self),):
-                raise IndexError(f"a boolean row mask must have shape ({len(self)},), not {rows.shape}")
-            rows = np.flatnonzero(rows)
-        if rows.size and not np.issubdtype(rows.dtype, np.integer):
-            raise IndexError(f"rows must be integers or a boolean mask, not {rows.dtype}")
-        flat = rows.astype(np.int64).ravel()
-        flat = np.where(flat < 0, flat + len(self), flat)
-        if flat.size and (flat.min() < 0 or flat.max() >= len(self)):
-            raise IndexError(f"a row index is out of bounds for {len(self)} rows")
+        rows, flat = flat_rows(rows, len(self))
         paired = [isinstance(r, (np.ndarray, list)) for r in rest]  # arrays pair up with the rows
         if any(paired):
             rest = tuple(np.asarray(r) if a else r for r, a in zip(rest, paired, strict=True))
@@ -159,3 +150,19 @@ def _check_basic(rest: tuple[Any, ...]) -> None:
         if not (isinstance(r, (int, np.integer, slice)) or r is Ellipsis):
             kind = type(r).__name__
             raise IndexError(f"RowConcat: an index of type {kind} for an axis after the rows is not taken")
+
+
+def flat_rows(rows: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(the int rows, flattened in range 0..n-1) of a row index into ``n`` rows: ints (negative from the
+    end) or a [n] bool mask; out of bounds or another dtype is an IndexError."""
+    if rows.dtype == np.bool_:
+        if rows.shape != (n,):
+            raise IndexError(f"a boolean row mask must have shape ({n},), not {rows.shape}")
+        rows = np.flatnonzero(rows)
+    if rows.size and not np.issubdtype(rows.dtype, np.integer):
+        raise IndexError(f"rows must be integers or a boolean mask, not {rows.dtype}")
+    flat = rows.astype(np.int64).ravel()
+    flat = np.where(flat < 0, flat + n, flat)
+    if flat.size and (flat.min() < 0 or flat.max() >= n):
+        raise IndexError(f"a row index is out of bounds for {n} rows")
+    return rows, flat
