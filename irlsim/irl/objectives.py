@@ -154,7 +154,7 @@ def cycle_metrics(
     logp = torch.log_softmax(values if log_weights is None else values + log_weights, dim=-1)
     p = logp.exp()
     valid, idx = _demo(demo_index)
-    nan = torch.full(values.shape[:1], float("nan"), dtype=values.dtype)
+    nan = torch.full(values.shape[:1], float("nan"), dtype=values.dtype, device=values.device)
     v_demo = values.gather(-1, idx).squeeze(-1)
     evd = ((p * values).sum(-1) - v_demo).abs() / v_demo.abs().clamp_min(EVD_EPS)
     return {

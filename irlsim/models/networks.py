@@ -350,7 +350,8 @@ class PTACNN(nn.Module):
         assert contexts.shape == (b, self.history, self.context_dim), f"contexts {tuple(contexts.shape)}"
         assert thetas.shape == (b, self.history, N_FEATURES), f"thetas {tuple(thetas.shape)}"
         if self.training and self.drop_newest > 0 and self.history > 1:
-            drop = (torch.rand(b) < self.drop_newest)[:, None, None]
+            # drawn on the CPU whatever the device: the same draws (and so the same training) on any device
+            drop = (torch.rand(b) < self.drop_newest)[:, None, None].to(contexts.device)
             contexts = torch.where(drop, torch.cat([contexts[:, :1], contexts[:, :-1]], 1), contexts)
             thetas = torch.where(drop, torch.cat([thetas[:, :1], thetas[:, :-1]], 1), thetas)
         scaled = thetas * self.theta_scale

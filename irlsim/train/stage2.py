@@ -195,8 +195,10 @@ def _train_one_stage2(
                 to_tensor(train.demo_index[rows], torch.int64),
             )
             # mean over each sample's targets, then over the batch
-            per = torch.zeros(len(mb_t), dtype=m["nll"].dtype).index_add_(0, torch.as_tensor(b_idx), m["nll"])
-            per = per / torch.as_tensor((tgt >= 0).sum(1), dtype=per.dtype)
+            nll = m["nll"]
+            per = torch.zeros(len(mb_t), dtype=nll.dtype, device=nll.device)
+            per = per.index_add_(0, to_tensor(b_idx, torch.int64), nll)
+            per = per / to_tensor((tgt >= 0).sum(1), per.dtype)
             loss = per.mean()
             if cfg.weight_reg > 0:
                 loss = loss + cfg.weight_reg * weight_regulariser(out["weights"], cfg.weight_reg_kind).mean()

@@ -105,16 +105,17 @@ def test_cuda_training_loads_on_the_cpu(dataset, tmp_path):
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
-def test_cuda_and_cpu_training_give_the_same_reward(dataset, tmp_path):
+@pytest.mark.parametrize("sample", [0, 12])
+def test_cuda_and_cpu_training_give_the_same_reward(dataset, tmp_path, sample):
     """The CPU is the reference: the same seed trained on the GPU and on the CPU gives the same thetas
     within float tolerance (reductions run in another order on the GPU), and so does inference of one
-    checkpoint on either device."""
+    checkpoint on either device; also on sampled policy sets (their draws are the CPU's on any device)."""
     with devices.use("cpu", "fp32"):
-        train_stage1(dataset, _cfg(), tmp_path / "cpu")
+        train_stage1(dataset, _cfg(policy_sample=sample), tmp_path / "cpu")
         ref = predict_split(load_model(tmp_path / "cpu" / "PACNN+S" / "checkpoint.pt").model,
                             dataset.split_tensors("test"))  # fmt: skip
     with devices.use("cuda", "fp32"):
-        train_stage1(dataset, _cfg(), tmp_path / "cuda")
+        train_stage1(dataset, _cfg(policy_sample=sample), tmp_path / "cuda")
         on_gpu = predict_split(load_model(tmp_path / "cpu" / "PACNN+S" / "checkpoint.pt").model,
                                dataset.split_tensors("test"))  # fmt: skip
     with devices.use("cpu", "fp32"):
@@ -123,3 +124,27 @@ def test_cuda_and_cpu_training_give_the_same_reward(dataset, tmp_path):
     np.testing.assert_allclose(on_gpu["theta"], ref["theta"], rtol=1e-3, atol=1e-4)
     scale = np.abs(ref["theta"]).max()
     np.testing.assert_allclose(gpu_trained["theta"], ref["theta"], rtol=2e-2, atol=2e-3 * scale)
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
+def test_cuda_stage2_and_predictor_match_the_cpu(dataset, tmp_path):
+    """Stage 2 (PTACNN on its PACNN) trained on the GPU gives the CPU's rewards within float tolerance,
+    and the predictor that drives gives the same reward from one checkpoint on either device."""
+    for dev in ("cpu", "cuda"):
+        with devices.use(dev, "fp32"):
+            train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path / dev)
+            cfg2 = dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1)
+            summary = train_stage2(dataset, cfg2, tmp_path / dev)
+        assert summary["PTACNN"]["provenance"]["device"].startswith(dev)
+    test = dataset.split_tensors("test")
+
+    def rewards(trained_on: str, device: str) -> np.ndarray:
+        with devices.use(device, "fp32"):
+            p = RewardPredictor(tmp_path / trained_on / "PTACNN" / "checkpoint.pt")
+            return np.array([p.predict(test.features[t], test.control_points[t], test.actions[t])[0]
+                             for t in range(6)])  # fmt: skip
+
+    ref = rewards("cpu", "cpu")
+    scale = np.abs(ref).max()
+    np.testing.assert_allclose(rewards("cpu", "cuda"), ref, rtol=1e-3, atol=1e-4 * scale)
+    np.testing.assert_allclose(rewards("cuda", "cpu"), ref, rtol=2e-2, atol=2e-3 * scale)
