@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe rounds lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -75,6 +75,11 @@ transfer: setup
 # each recipe's stage 1 and DAgger rounds for 2 training seeds, timed, then their acceptance drives and Table I
 recipe: setup
 	nice -n 5 $(BIN)/python studies/recipe.py --out runs/recipe --recipes old new --seeds 0 1
+
+# DAgger round sizes chosen by measurement (docs/RESULTS.md, "DAgger round sizes"): after `make recipe`, the
+# new recipe's stage 1 with each schedule of rounds, driven on development seeds; the rule picks the cheapest
+rounds: setup
+	nice -n 5 $(BIN)/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup

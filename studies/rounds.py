@@ -1,0 +1,174 @@
+"""DAgger round sizes chosen by measurement: how the reward of each schedule drives, against its cost.
+
+A schedule is the learner-driven train episodes of each DAgger round ("6" one round of 6, "6,20" two
+rounds of 6 and 20). For every run folder ``<out>/new-seed<s>/`` of ``studies/recipe.py`` (its stage-1
+``runs`` and its own DAgger rounds) and every schedule of ``--schedules``, the study
+
+- runs the schedule's DAgger rounds in ``<folder>/rounds-<schedule>/`` with the recipe's DAgger config
+  (configs/dagger/paper_fast.toml) and only the episodes changed; a round whose inputs are the recipe's
+  own (the same episodes and driver) is the recipe's round, linked, not run again;
+- drives the last round's PACNN+S and PTACNN+S ``--episodes`` episodes of ``--laps`` laps on the
+  development seeds (2000, 2001, ...; never the evaluation seeds), beside the expert on the same seeds;
+- writes ``<out>/rounds.md`` and ``<out>/rounds.json``: learner episodes, DAgger wall time (the sum of
+  the rounds' recorded times), the closed-loop summary and the bar of each (schedule, seed, model).
+
+The rule, fixed before the runs: the recipe takes the schedule with the fewest learner episodes whose
+PACNN+S and PTACNN+S both meet the bar with every training seed. Run from the repository root, alone on
+the machine for the times to mean something:
+
+    nice -n 5 .venv/bin/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).parent))
+import recipe  # noqa: E402  (studies/recipe.py: the bar, the timed irlsim commands)
+
+from irlsim.drive.metrics import summarize  # noqa: E402
+
+DEV_SEED = 2000
+DAGGER_CONFIG = recipe.RECIPES["new"][1]
+
+
+def parse_schedule(text: str) -> tuple[int, ...]:
+    """'6,20' -> (6, 20): positive episode counts per round."""
+    try:
+        sizes = tuple(int(x) for x in text.split(","))
+    except ValueError:
+        raise SystemExit(f"--schedules: {text!r} is not a comma-separated list of episode counts") from None
+    if not sizes or min(sizes) < 1:
+        raise SystemExit(f"--schedules: {text!r} needs one or more rounds of at least 1 episode")
+    return sizes
+
+
+def shared_rounds(schedule: tuple[int, ...], own: tuple[int, ...]) -> int:
+    """How many leading rounds ``schedule`` shares with the recipe's own schedule ``own`` (their inputs are
+    the same: the same episodes, each driven by the same previous round)."""
+    n = 0
+    while n < min(len(schedule), len(own)) and schedule[n] == own[n]:
+        n += 1
+    return n
+
+
+def schedule_run(folder: Path, data: Path, schedule: tuple[int, ...], own: tuple[int, ...]) -> Path:
+    """The schedule's DAgger folder under ``folder`` (rounds shared with the recipe's linked, the others
+    run or resumed); returns it."""
+    name = "-".join(map(str, schedule))
+    here = folder / f"rounds-{name}"
+    here.mkdir(exist_ok=True)
+    for r in range(1, shared_rounds(schedule, own) + 1):
+        link = here / f"round_{r}"
+        if not link.exists():
+            link.symlink_to((folder / "dagger" / f"round_{r}").resolve(), target_is_directory=True)
+    episodes = "[" + ", ".join(map(str, schedule)) + "]"
+    epochs = "[" + ", ".join("5" for _ in schedule) + "]"
+    sets = [f"rounds={len(schedule)}", f"episodes={episodes}", f"epochs={epochs}", f"seed={_seed(folder)}"]
+    recipe.run(
+        ["dagger", "--config", DAGGER_CONFIG, "--data", str(data), "--runs", str(folder / "runs")]
+        + ["--out", str(here), *(x for s in sets for x in ("--set", s))],
+        here / "times.json",
+        "DAgger",
+    )
+    return here
+
+
+def _seed(folder: Path) -> int:
+    return int(folder.name.rsplit("seed", 1)[1])
+
+
+def dagger_seconds(here: Path) -> float:
+    """The schedule's DAgger wall time: the sum of its rounds' recorded times."""
+    rounds = here.glob("round_*/round.json")
+    return round(sum(float(json.loads(p.read_text()).get("wall_s", 0.0)) for p in rounds), 1)
+
+
+def dev_drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any) -> list[dict[str, Any]]:
+    """``models`` on the development seeds into ``out`` (kept); their episodes."""
+    if not (out / "drive.json").is_file():
+        cmd = ["drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
+        cmd += ["--episodes", str(a.episodes), "--laps", str(a.laps), "--seed", str(DEV_SEED)]
+        cmd += ["--config", a.config, "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
+        recipe.run(cmd, out.parent / "times.json", f"development drive {out.name}")
+    return list(json.loads((out / "drive.json").read_text())["episodes"])
+
+
+def choose(rows: list[dict[str, Any]]) -> str | None:
+    """The rule: the schedule with the fewest learner episodes whose every row (both models, every seed)
+    meets the bar; None when none does."""
+    ok: dict[str, bool] = {}
+    for r in rows:
+        ok[r["schedule"]] = ok.get(r["schedule"], True) and bool(r["bar"])
+    passing = [s for s, good in ok.items() if good]
+    return min(passing, key=lambda s: (sum(parse_schedule(s)), len(parse_schedule(s)))) if passing else None
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = "schedule | seed | model | learner episodes | DAgger [min] | collisions | exits | stops"
+    head += " | checkpoints in lane | speed / expert | bar"
+    lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
+    for r in rows:
+        s = r["drive"]
+        cells = [r["schedule"], r["seed"], r["model"], r["episodes"], f"{r['dagger_s'] / 60:.1f}"]
+        cells += [s["drive/collisions"], s["drive/exits"]]
+        cells += [f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"]
+        cells += [f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}"]
+        cells += [f"{r['speed_ratio']:.3f}", "yes" if r["bar"] else "no"]
+        lines.append("| " + " | ".join(map(str, cells)) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/recipe", help="the recipe study's folder (studies/recipe.py)")
+    p.add_argument("--config", default="configs/collect/paper.toml", help="the collect config")
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1], help="training seeds")
+    p.add_argument("--schedules", nargs="+", default=["6", "6,10", "6,20"])
+    p.add_argument("--episodes", type=int, default=10, help="development episodes per model")
+    p.add_argument("--laps", type=int, default=2, help="laps per episode")
+    p.add_argument("--workers", type=int, default=2, help="episodes driven in parallel")
+    a = p.parse_args()
+    a.out = Path(a.out)
+    schedules = [parse_schedule(s) for s in a.schedules]
+    own = tuple(recipe_episodes())
+    folders = [a.out / f"new-seed{s}" for s in a.seeds]
+    for f in folders:
+        if not (f / "dagger").is_dir():
+            raise SystemExit(f"{f} has no DAgger rounds: run studies/recipe.py --recipes new first")
+    expert = summarize(dev_drive(a.out / f"expert-dev{a.episodes}", None, ("expert",), a))
+    rows = []
+    for f in folders:
+        for sched in schedules:
+            here = schedule_run(f, a.out / "data", sched, own)
+            last = here / f"round_{len(sched)}" / "runs"
+            eps = dev_drive(here / f"dev{a.episodes}", last, recipe.MODELS, a)
+            for m in recipe.MODELS:
+                s = summarize([e for e in eps if e["drive/model"] == m])
+                kmh = expert["drive/mean_speed_kmh"]
+                rows.append({
+                    "schedule": ",".join(map(str, sched)), "seed": _seed(f), "model": m,
+                    "episodes": sum(sched), "dagger_s": dagger_seconds(here), "drive": s,
+                    "speed_ratio": s["drive/mean_speed_kmh"] / kmh, "bar": recipe.meets_bar(s, kmh),
+                })  # fmt: skip
+    chosen = choose(rows)
+    text = table(rows) + f"\nchosen by the rule: {chosen or 'none meets the bar'}\n"
+    (a.out / "rounds.json").write_text(json.dumps({"rows": rows, "chosen": chosen}, indent=1) + "\n")
+    (a.out / "rounds.md").write_text(text)
+    print(text + f"wrote {a.out / 'rounds.md'} and {a.out / 'rounds.json'}")
+    return 0
+
+
+def recipe_episodes() -> list[int]:
+    """The recipe's own schedule: the episodes of its DAgger config."""
+    import tomllib
+
+    return list(tomllib.loads(Path(DAGGER_CONFIG).read_text())["episodes"])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,53 @@
+"""The round-size study's bookkeeping (pure logic): schedules, the rounds a schedule shares with the
+recipe's own, the DAgger time of a schedule, and the rule that picks one."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+_spec = importlib.util.spec_from_file_location("rounds", Path(__file__).parents[2] / "studies" / "rounds.py")
+study = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(study)  # type: ignore[union-attr]
+
+
+def test_schedules_parse_or_exit_with_one_line():
+    assert study.parse_schedule("6,20") == (6, 20)
+    assert study.parse_schedule("6") == (6,)
+    for bad in ("6,x", "", "0,5", "6,-1"):
+        with pytest.raises(SystemExit) as e:
+            study.parse_schedule(bad)
+        assert "\n" not in str(e.value)
+
+
+def test_shared_rounds_are_the_leading_equal_ones():
+    assert study.shared_rounds((6, 20), (6, 20)) == 2
+    assert study.shared_rounds((6, 10), (6, 20)) == 1
+    assert study.shared_rounds((6,), (6, 20)) == 1
+    assert study.shared_rounds((10, 20), (6, 20)) == 0  # round 2 differs too: its driver is another
+
+
+def test_the_recipe_schedule_is_its_dagger_config():
+    assert study.recipe_episodes() == [6, 20]
+
+
+def test_dagger_time_is_the_sum_of_the_rounds(tmp_path):
+    for r, wall in ((1, 316.2), (2, 532.0)):
+        (tmp_path / f"round_{r}").mkdir()
+        (tmp_path / f"round_{r}" / "round.json").write_text(json.dumps({"round": r, "wall_s": wall}))
+    assert study.dagger_seconds(tmp_path) == 848.2
+
+
+def _row(schedule, seed, model, bar):
+    return {"schedule": schedule, "seed": seed, "model": model, "bar": bar}
+
+
+def test_the_rule_takes_the_fewest_episodes_that_pass_everywhere():
+    rows = [_row(s, seed, m, True) for s in ("6", "6,10", "6,20") for seed in (0, 1) for m in ("a", "b")]
+    assert study.choose(rows) == "6"
+    rows[1]["bar"] = False  # one model of one seed fails with one round: the schedule fails
+    assert study.choose(rows) == "6,10"
+    assert study.choose([r | {"bar": False} for r in rows]) is None
