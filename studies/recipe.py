@@ -13,8 +13,9 @@ on the dataset's test split:
 - ``new``: ``configs/train/stage1_sampled.toml`` (the same, each step on a sample of every cycle's
   policies), ``configs/dagger/paper_fast.toml`` (each round fine-tunes the reward that drove it).
 
-Every step is a command whose output is kept, so the study resumes where it stopped (a resumed step's
-time is the sum of its runs). Run from the repository root, alone on the machine for the times to mean
+Every step is a command whose output is kept, so the study resumes where it stopped: a finished step is
+recorded with its wall time and not run again (an interrupted one runs again, and its time is the run
+that finished it). Run from the repository root, alone on the machine for the times to mean
 something:
 
     nice -n 5 .venv/bin/python studies/recipe.py --out runs/recipe --recipes old new --seeds 0 1
@@ -43,12 +44,16 @@ EVAL_SEED = 1000
 
 
 def run(cmd: list[str], times: Path, step: str) -> None:
-    """Run ``irlsim`` ``cmd``; add its wall time to ``step`` in ``times`` (a JSON object)."""
+    """Run ``irlsim`` ``cmd`` and record its wall time as ``step`` in ``times`` (a JSON object); a step
+    recorded there finished before and is not run again (its time stays the one it took)."""
+    spent = json.loads(times.read_text()) if times.is_file() else {}
+    if step in spent:
+        print(f"{step}: finished before ({spent[step]} s in {times})", flush=True)
+        return
     print("$ irlsim", " ".join(cmd), flush=True)
     t0 = time.perf_counter()
     subprocess.run([str(Path(sys.executable).parent / "irlsim"), *cmd], check=True)
-    spent = json.loads(times.read_text()) if times.is_file() else {}
-    spent[step] = round(spent.get(step, 0.0) + time.perf_counter() - t0, 1)
+    spent[step] = round(time.perf_counter() - t0, 1)
     times.write_text(json.dumps(spent, indent=1) + "\n")
 
 

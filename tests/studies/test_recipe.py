@@ -49,3 +49,11 @@ def test_the_table_adds_up_the_times():
         "| new | 1 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes |"
     )
     assert lines[3].endswith("| 2 | 0 | 80/80 | 144/160 | 0.900 | 0.400 | no |")
+
+
+def test_a_recorded_step_is_not_run_again(tmp_path, capsys):
+    times = tmp_path / "times.json"
+    times.write_text('{"stage 1": 354.3}\n')
+    study.run(["no-such-command"], times, "stage 1")  # would fail if it ran
+    assert "finished before (354.3 s" in capsys.readouterr().out
+    assert times.read_text() == '{"stage 1": 354.3}\n'
