@@ -28,7 +28,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -318,16 +318,22 @@ def _round(run: DaggerRun, r: int) -> int:
     steps: list[Callable[[], bool]] = [lambda: collect_dataset(plan.collect).ok]
     steps += [functools.partial(_trained, t) for t in plan.train]
     ahead = None
+    spent: dict[str, float] = {}  # where the round's time went, step by step
     for k, (step, cmd) in enumerate(zip(steps, plan.commands, strict=True)):
         if k == 2 and run.config.overlap and r < run.config.rounds:  # stage 1 trained: the next learner
             ahead = _collect_ahead(run, r + 1)
         print(f"\n$ irlsim {' '.join(cmd)}", flush=True)
+        t_step = time.perf_counter()
         rc = exit_status(step)
+        spent[step_name(cmd)] = round(time.perf_counter() - t_step, 1)
         if rc != 0:
             _join(ahead, r + 1)
             print(f"dagger: round {r} step 'irlsim {cmd[0]}' failed (exit {rc}); re-run to resume")
             return rc
+    t_join = time.perf_counter()
     _join(ahead, r + 1)
+    if ahead is not None:
+        spent[f"waiting for round {r + 1}'s collection"] = round(time.perf_counter() - t_join, 1)
     record: dict[str, Any] = {
         "round": r,
         "model": run.config.model,
@@ -340,11 +346,17 @@ def _round(run: DaggerRun, r: int) -> int:
         ],
         "commands": [["irlsim", *c] for c in plan.commands],
         "wall_s": round(time.perf_counter() - t0, 1),
+        "steps_s": spent,
         "inputs": inputs,
         "outputs": round_outputs(run, here),
     }
     write_json(here / ROUND_DONE, record)
     return 0
+
+
+def step_name(cmd: Sequence[str]) -> str:
+    """A round step's name in its record: 'collect', 'train stage 1', 'train stage 2'."""
+    return f"train stage {cmd[cmd.index('--stage') + 1]}" if cmd[0] == "train" else cmd[0]
 
 
 def _collect_next(collect: CollectRun) -> None:  # top level: picklable for the spawned process

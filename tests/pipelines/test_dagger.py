@@ -110,6 +110,9 @@ def test_dagger_round_end_to_end(tiny_dataset, learner, dagger_run):
     assert summary["data"] == [str(tiny_dataset), str(data)]
     record = json.loads((out / "round_1" / "round.json").read_text())
     assert record["trained_on"] == [str(tiny_dataset), str(data)]
+    steps = record["steps_s"]  # where the round's time went: every step, within the round's wall time
+    assert list(steps) == ["collect", "train stage 1"]
+    assert all(t > 0 for t in steps.values()) and sum(steps.values()) <= record["wall_s"]
     assert f"dagger: round 1 wrote {data}" in stdout
     # the training reader exposes demo_source: the aggregate's train split holds both kinds, in order
     from irlsim.data.aggregate import open_datasets
@@ -458,6 +461,8 @@ def test_overlapped_rounds_give_the_same_bytes(tiny_dataset, learner, tmp_path, 
         )
         assert rc == 0, err
     assert "round 2's learner episodes are collected meanwhile" in stdout
+    ovl = json.loads((tmp_path / "ovl" / "round_1" / "round.json").read_text())["steps_s"]
+    assert list(ovl) == ["collect", "train stage 1", "train stage 2", "waiting for round 2's collection"]
     files = sorted(p.relative_to(tmp_path / "seq") for p in (tmp_path / "seq").glob("round_*/**/*"))
     compared = [f for f in files if f.suffix in (".parquet", ".pt")]
     assert any("round_2/data" in str(f) for f in compared) and any(f.suffix == ".pt" for f in compared)
