@@ -5,8 +5,9 @@ rounds of 6 and 20). For every run folder ``<out>/new-seed<s>/`` of ``studies/re
 ``runs`` and its own DAgger rounds) and every schedule of ``--schedules``, the study
 
 - runs the schedule's DAgger rounds in ``<folder>/rounds-<schedule>/`` with the recipe's DAgger config
-  (configs/dagger/paper_fast.toml) and only the episodes changed; a round whose inputs are the recipe's
-  own (the same episodes and driver) is the recipe's round, linked, not run again;
+  (configs/dagger/paper_fast.toml) and only the episodes changed, each step the command ``irlsim dagger``
+  runs; a round whose inputs are the recipe's own (the same episodes and driver) is the recipe's round,
+  linked, not run again;
 - drives the last round's PACNN+S and PTACNN+S ``--episodes`` episodes of ``--laps`` laps on the
   development seeds (2000, 2001, ...; never the evaluation seeds), beside the expert on the same seeds;
 - writes ``<out>/rounds.md`` and ``<out>/rounds.json``: learner episodes, DAgger wall time (the sum of
@@ -30,7 +31,9 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).parent))
 import recipe  # noqa: E402  (studies/recipe.py: the bar, the timed irlsim commands)
 
+from irlsim.config import load_config  # noqa: E402
 from irlsim.drive.metrics import summarize  # noqa: E402
+from irlsim.workflows.dagger import DaggerConfig, DaggerRun, round_commands, step_name  # noqa: E402
 
 DEV_SEED = 2000
 DAGGER_CONFIG = recipe.RECIPES["new"][1]
@@ -57,24 +60,22 @@ def shared_rounds(schedule: tuple[int, ...], own: tuple[int, ...]) -> int:
 
 
 def schedule_run(folder: Path, data: Path, schedule: tuple[int, ...], own: tuple[int, ...]) -> Path:
-    """The schedule's DAgger folder under ``folder`` (rounds shared with the recipe's linked, the others
-    run or resumed); returns it."""
-    name = "-".join(map(str, schedule))
-    here = folder / f"rounds-{name}"
+    """The schedule's DAgger folder under ``folder``: the rounds it shares with the recipe's own linked,
+    each other round's steps run (or resumed) as ``irlsim dagger`` runs them, one timed command each
+    (:func:`irlsim.workflows.dagger.round_commands`); returns it."""
+    here = folder / f"rounds-{'-'.join(map(str, schedule))}"
     here.mkdir(exist_ok=True)
-    for r in range(1, shared_rounds(schedule, own) + 1):
+    shared = shared_rounds(schedule, own)
+    for r in range(1, shared + 1):
         link = here / f"round_{r}"
         if not link.exists():
             link.symlink_to((folder / "dagger" / f"round_{r}").resolve(), target_is_directory=True)
-    episodes = "[" + ", ".join(map(str, schedule)) + "]"
-    epochs = "[" + ", ".join("5" for _ in schedule) + "]"
-    sets = [f"rounds={len(schedule)}", f"episodes={episodes}", f"epochs={epochs}", f"seed={_seed(folder)}"]
-    recipe.run(
-        ["dagger", "--config", DAGGER_CONFIG, "--data", str(data), "--runs", str(folder / "runs")]
-        + ["--out", str(here), *(x for s in sets for x in ("--set", s))],
-        here / "times.json",
-        "DAgger",
-    )
+    overrides = {"rounds": len(schedule), "episodes": list(schedule), "epochs": [5] * len(schedule)}
+    cfg = load_config(DaggerConfig, DAGGER_CONFIG, {**overrides, "seed": _seed(folder)})
+    run = DaggerRun(cfg, data, folder / "runs", here)
+    for r in range(shared + 1, len(schedule) + 1):
+        for cmd in round_commands(run, r):  # after round r - 1: round r's plan names its checkpoint
+            recipe.run(cmd, here / "times.json", f"round {r} {step_name(cmd)}")
     return here
 
 
@@ -83,9 +84,12 @@ def _seed(folder: Path) -> int:
 
 
 def dagger_seconds(here: Path) -> float:
-    """The schedule's DAgger wall time: the sum of its rounds' recorded times."""
-    rounds = here.glob("round_*/round.json")
-    return round(sum(float(json.loads(p.read_text()).get("wall_s", 0.0)) for p in rounds), 1)
+    """The schedule's DAgger wall time: the recorded times of the rounds it shares with the recipe
+    (their ``round.json``) and of the steps it ran itself (its ``times.json``)."""
+    linked = sum(float(json.loads(p.read_text()).get("wall_s", 0.0)) for p in here.glob("round_*/round.json"))
+    times = here / "times.json"
+    steps = json.loads(times.read_text()) if times.is_file() else {}
+    return round(linked + sum(v for k, v in steps.items() if k.startswith("round ")), 1)
 
 
 def dev_drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any) -> list[dict[str, Any]]:

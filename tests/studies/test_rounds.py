@@ -34,11 +34,13 @@ def test_the_recipe_schedule_is_its_dagger_config():
     assert study.recipe_episodes() == [6, 20]
 
 
-def test_dagger_time_is_the_sum_of_the_rounds(tmp_path):
-    for r, wall in ((1, 316.2), (2, 532.0)):
-        (tmp_path / f"round_{r}").mkdir()
-        (tmp_path / f"round_{r}" / "round.json").write_text(json.dumps({"round": r, "wall_s": wall}))
-    assert study.dagger_seconds(tmp_path) == 848.2
+def test_dagger_time_is_the_linked_rounds_and_the_steps_run(tmp_path):
+    (tmp_path / "round_1").mkdir()  # linked: the recipe's own round 1
+    (tmp_path / "round_1" / "round.json").write_text(json.dumps({"round": 1, "wall_s": 316.2}))
+    assert study.dagger_seconds(tmp_path) == 316.2
+    steps = {"round 2 collect": 61.5, "round 2 train stage 1": 200.0, "round 2 train stage 2": 70.3}
+    (tmp_path / "times.json").write_text(json.dumps({**steps, "development drive dev10": 160.0}))
+    assert study.dagger_seconds(tmp_path) == 648.0  # the drive is not DAgger time
 
 
 def _row(schedule, seed, model, bar):
