@@ -3,14 +3,16 @@ a round is finished only when its outputs exist and match what it recorded; a re
 (model, seed, epochs, episodes, configs, the data or the driver) is refused in one line; the ``--runs``
 model must have been trained on ``--data`` and the collect config must be the data's.
 
-Identities are by content (sha256 of files, manifest identities), never paths, so a copied or moved
-DAgger folder is the same rounds.
+Identities are by content (configs by their values, checkpoints by their bytes, datasets by their
+manifest identities), never paths, so a copied or moved DAgger folder is the same rounds, and a config
+whose comments were edited is the same config.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,29 @@ ROUND_SET_KEYS = ("train_episodes", "validation_episodes", "test_episodes", "wor
 
 def file_sha(path: Path) -> str:
     return "sha256:" + hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def config_identity(path: Path) -> str:
+    """A TOML config by its values: comments, order and layout do not change it (by its bytes if it is
+    not TOML; loading it names that in one line first)."""
+    try:
+        values = tomllib.loads(Path(path).read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError):
+        return file_sha(path)
+    text = json.dumps(values, sort_keys=True, default=str)
+    return "values:sha256:" + hashlib.sha256(text.encode()).hexdigest()
+
+
+def _bytes_recorded_as_values(had: dict[str, Any], asked: dict[str, Any], cfg: Any) -> None:
+    """A record of an older irlsim names configs by their bytes: where those are the file's bytes now,
+    it is the same config (recorded again by its values)."""
+    configs = had.get("configs")
+    if not isinstance(configs, dict):
+        return
+    for name, value in configs.items():
+        path = Path(str(getattr(cfg, name, "")))
+        if str(value).startswith("sha256:") and path.is_file() and value == file_sha(path):
+            configs[name] = asked["configs"].get(name)
 
 
 def _manifest(folder: Path) -> dict[str, Any] | None:
@@ -64,7 +89,7 @@ def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
         "stage2_models": list(cfg.stage2_models),
         "scenario": cfg.scenario,
         "configs": {
-            name: file_sha(Path(getattr(cfg, name)))
+            name: config_identity(Path(getattr(cfg, name)))
             for name in ("collect_config", "stage1_config", "stage2_config")
         },
         "data": expert_identity(run),
@@ -105,7 +130,15 @@ def round_finished(run: Any, r: int, here: Path, driver: Path | None) -> bool:
     if not isinstance(had, dict):
         print(f"dagger: round {r} in {here} records no inputs (an older irlsim): running it again")
         return False
+    _bytes_recorded_as_values(had, asked, run.config)
     diff = first_difference(had, asked)
+    if diff is not None and diff[0].startswith("configs."):
+        name = diff[0].split(".", 1)[1]
+        older = " (or an older irlsim recorded it by its bytes)" if str(diff[1]).startswith("sha256:") else ""
+        raise IrlsimError(
+            f"dagger: round {r} in {here} was run with another {name} than {getattr(run.config, name)}: "
+            f"their values differ{older}; choose another --out, or delete {here} to run it again"
+        )
     if diff is not None:
         key, was, now = diff
         raise IrlsimError(

@@ -32,6 +32,7 @@ from irlsim.planner.expert import ExpertDriver
 from irlsim.reward.predictor import RewardPredictor
 from irlsim.rollout import ObserverBase
 from irlsim.train.checkpoint import save_checkpoint
+from irlsim.workflows.dagger_record import file_sha
 from tests.conftest import TINY_COLLECT
 
 MODEL = "PACNN+S"
@@ -345,6 +346,23 @@ def test_a_round_is_finished_only_as_it_was_asked_and_made(
     assert rc == 0 and "round 1 finished before" in stdout
     rc, _, err = _dagger([*base, "--set", "seed=5"], capsys)
     assert rc == 2 and err.count("\n") == 1 and "was run with seed = None, now 5" in err
+    # configs by their values: comments and layout edited is the same round, a value changed is not
+    text = Path("configs/train/tiny_stage1.toml").read_text()
+    edited, changed = tmp_path / "edited.toml", tmp_path / "changed.toml"
+    edited.write_text("# a comment added since the round ran\n" + text.replace(" = ", "="))
+    changed.write_text(text.replace("lr = 1e-2", "lr = 2e-2"))
+    rc, stdout, err = _dagger([*base, "--set", f"stage1_config='{edited}'"], capsys)
+    assert rc == 0 and "round 1 finished before" in stdout, err
+    rc, _, err = _dagger([*base, "--set", f"stage1_config='{changed}'"], capsys)
+    assert rc == 2 and err.count("\n") == 1 and f"another stage1_config than {changed}" in err
+    record_file = out / "round_1" / "round.json"  # an older irlsim's record: the config by its bytes
+    record = json.loads(record_file.read_text())
+    record["inputs"]["configs"]["stage1_config"] = file_sha(Path("configs/train/tiny_stage1.toml"))
+    record_file.write_text(json.dumps(record))
+    rc, stdout, err = _dagger(base, capsys)
+    assert rc == 0 and "round 1 finished before" in stdout, err
+    rc, _, err = _dagger([*base, "--set", f"stage1_config='{edited}'"], capsys)  # bytes: cannot tell
+    assert rc == 2 and "older irlsim recorded it by its bytes" in err
     ckpt = out / "round_1" / "runs" / "stage1" / MODEL / "checkpoint.pt"
     before = ckpt.read_bytes()
     ckpt.unlink()
