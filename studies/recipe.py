@@ -84,15 +84,24 @@ def last_round(folder: Path) -> Path:
     return rounds[-1].parent / "runs"
 
 
-def drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any, times: Path) -> list[dict[str, Any]]:
-    """``models`` driven on the evaluation seeds into ``out`` (kept: not driven again); their episodes."""
+def drive(
+    out: Path,
+    runs: Path | None,
+    models: tuple[str, ...],
+    a: Any,
+    times: Path,
+    seed: int = EVAL_SEED,
+    step: str = "acceptance drive",
+) -> list[dict[str, Any]]:
+    """``models`` driven ``a.episodes`` episodes from ``seed`` into ``out`` (kept: not driven again);
+    their episodes."""
     if not (out / "drive.json").is_file():
         run(
             ["drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-            + ["--episodes", str(a.episodes), "--laps", str(a.laps), "--seed", str(EVAL_SEED)]
+            + ["--episodes", str(a.episodes), "--laps", str(a.laps), "--seed", str(seed)]
             + ["--config", a.config, "--frames", "0", "--workers", str(a.workers), "--out", str(out)],
             times,
-            "acceptance drive",
+            step,
         )
     return list(json.loads((out / "drive.json").read_text())["episodes"])
 

@@ -94,12 +94,8 @@ def dagger_seconds(here: Path) -> float:
 
 def dev_drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any) -> list[dict[str, Any]]:
     """``models`` on the development seeds into ``out`` (kept); their episodes."""
-    if not (out / "drive.json").is_file():
-        cmd = ["drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-        cmd += ["--episodes", str(a.episodes), "--laps", str(a.laps), "--seed", str(DEV_SEED)]
-        cmd += ["--config", a.config, "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
-        recipe.run(cmd, out.parent / "times.json", f"development drive {out.name}")
-    return list(json.loads((out / "drive.json").read_text())["episodes"])
+    times, step = out.parent / "times.json", f"development drive {out.name}"
+    return recipe.drive(out, runs, models, a, times, seed=DEV_SEED, step=step)
 
 
 def choose(rows: list[dict[str, Any]]) -> str | None:
