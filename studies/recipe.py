@@ -4,14 +4,16 @@ A recipe is a stage-1 config and a DAgger config: train PACNN+S on the expert's 
 then run the DAgger rounds of the second (each round collects learner-driven episodes the expert labels,
 retrains PACNN+S and trains PTACNN+S on it). Both recipes share one dataset (collected first), and each
 runs for every ``--seeds`` training seed, one after the other on the same cores; every step's wall time
-is recorded. Then the last round's PACNN+S and PTACNN+S of every run drive ``--episodes`` episodes of
-``--laps`` laps on the evaluation seeds (1000, 1001, ...) beside the expert, and Table I of each is taken
-on the dataset's test split:
+is recorded (a DAgger round's own record, ``round.json``, gives its wall time; the DAgger time of a run is
+the sum over the recipe's rounds). Then the PACNN+S and PTACNN+S of the recipe's last round (its DAgger
+config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` laps on the evaluation seeds
+(1000, 1001, ...) beside the expert, and Table I of each is taken on the dataset's test split:
 
 - ``old``: ``configs/train/stage1.toml`` (20 epochs on every policy), ``configs/dagger/paper.toml``
-  (rounds retrained from scratch, 20 and 10 epochs);
+  (two rounds of 6 and 20 learner episodes, each retrained from scratch, 20 and 10 epochs);
 - ``new``: ``configs/train/stage1_sampled.toml`` (the same, each step on a sample of every cycle's
-  policies), ``configs/dagger/paper_fast.toml`` (each round fine-tunes the reward that drove it).
+  policies), ``configs/dagger/paper_fast.toml`` (one round of 6 learner episodes that fine-tunes the
+  reward that drove it for 5 epochs; the round sizes chosen by ``studies/rounds.py``).
 
 Every step is a command whose output is kept, so the study resumes where it stopped: a finished step is
 recorded with its wall time and not run again (an interrupted one runs again, and its time is the run
@@ -30,6 +32,7 @@ import json
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -76,12 +79,29 @@ def recipe_run(out: Path, data: Path, recipe: str, seed: int, threads: int) -> d
         times,
         "DAgger",
     )
-    return {"recipe": recipe, "seed": seed, "folder": here, "times": json.loads(times.read_text())}
+    n = recipe_rounds(recipe)
+    record = {"recipe": recipe, "seed": seed, "folder": here, "times": json.loads(times.read_text())}
+    return {**record, "rounds": n, "dagger_s": dagger_seconds(here, n)}
 
 
-def last_round(folder: Path) -> Path:
-    rounds = sorted(folder.glob("dagger/round_*/round.json"), key=lambda p: int(p.parent.name.split("_")[1]))
-    return rounds[-1].parent / "runs"
+def recipe_rounds(recipe: str) -> int:
+    """The DAgger rounds of ``recipe``: its DAgger config's ``rounds``."""
+    return int(tomllib.loads(Path(RECIPES[recipe][1]).read_text())["rounds"])
+
+
+def last_round(folder: Path, n: int) -> Path:
+    """The runs of round ``n`` of the run in ``folder``; exits with one line when it did not finish."""
+    here = folder / "dagger" / f"round_{n}"
+    if not (here / "round.json").is_file():
+        raise SystemExit(f"{here} has not finished: run the study again to resume it")
+    return here / "runs"
+
+
+def dagger_seconds(folder: Path, n: int) -> float:
+    """The wall time of rounds 1..n of the run in ``folder``: the sum of their records' (a folder may hold
+    more rounds, run when the recipe had more)."""
+    records = [folder / "dagger" / f"round_{r}" / "round.json" for r in range(1, n + 1)]
+    return round(sum(float(json.loads(p.read_text())["wall_s"]) for p in records if p.is_file()), 1)
 
 
 def drive(
@@ -109,14 +129,16 @@ def drive(
 def accept(r: dict[str, Any], a: Any) -> dict[str, Any]:
     """Drive and Table I of the run's last-round models, beside the expert (driven once for every run, on
     the same seeds); their summaries and Table I rows."""
-    runs, here = last_round(r["folder"]), r["folder"]
-    table, times = here / "table1", here / "times.json"
+    n, here = r["rounds"], r["folder"]
+    runs, table, times = last_round(here, n), here / f"table1-round{n}", here / "times.json"
     eps = drive(a.out / f"expert-e{a.episodes}", None, ("expert",), a, a.out / "times.json")
-    eps += drive(here / f"accept-e{a.episodes}", runs, MODELS, a, times)
+    eps += drive(
+        here / f"accept-round{n}-e{a.episodes}", runs, MODELS, a, times, step=f"acceptance drive, round {n}"
+    )
     if not (table / "results.json").is_file():  # on the data they were trained on: the expert's test split
-        rounds = sorted(here.glob("dagger/round_*/data"), key=lambda d: int(d.parent.name.split("_")[1]))
-        data = [str(a.out / "data"), *map(str, rounds)]
-        run(["evaluate", "--data", *data, "--runs", str(runs), "--out", str(table)], times, "Table I")
+        data = [str(a.out / "data"), *(str(here / "dagger" / f"round_{k}" / "data") for k in range(1, n + 1))]
+        cmd = ["evaluate", "--data", *data, "--runs", str(runs), "--out", str(table)]
+        run(cmd, times, f"Table I, round {n}")
     by_model = {m: summarize([e for e in eps if e["drive/model"] == m]) for m in ("expert", *MODELS)}
     rows = json.loads((table / "results.json").read_text())
     rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
@@ -140,16 +162,16 @@ def meets_bar(s: dict[str, Any], expert_kmh: float) -> bool:
 
 
 def table(rows: list[dict[str, Any]]) -> str:
-    head = "recipe | seed | model | stage 1 [min] | DAgger [min] | to a reward [min] | collisions | exits"
-    head += " | stops | checkpoints in lane | speed / expert | OPD [m] (test) | bar"
+    head = "recipe | seed | rounds | model | stage 1 [min] | DAgger [min] | to a reward [min]"
+    head += " | collisions | exits | stops | checkpoints in lane | speed / expert | OPD [m] (test) | bar"
     lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
     for r in rows:
         t = r["times"]
-        minutes = [t.get("stage 1", 0) / 60, t.get("DAgger", 0) / 60]
+        minutes = [t.get("stage 1", 0) / 60, r["dagger_s"] / 60]
         kmh = r["drive"]["expert"]["drive/mean_speed_kmh"]
         for m in MODELS:
             s = r["drive"][m]
-            cells = [r["recipe"], r["seed"], m, *(f"{x:.1f}" for x in (*minutes, sum(minutes)))]
+            cells = [r["recipe"], r["seed"], r["rounds"], m, *(f"{x:.1f}" for x in (*minutes, sum(minutes)))]
             cells += [s["drive/collisions"], s["drive/exits"]]
             cells += [f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"]
             cells += [f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}"]

@@ -135,7 +135,6 @@ def main() -> int:
     a = p.parse_args()
     a.out = Path(a.out)
     schedules = [parse_schedule(s) for s in a.schedules]
-    own = tuple(recipe_episodes())
     folders = [a.out / f"new-seed{s}" for s in a.seeds]
     for f in folders:
         if not (f / "dagger").is_dir():
@@ -144,7 +143,7 @@ def main() -> int:
     rows = []
     for f in folders:
         for sched in schedules:
-            here = schedule_run(f, a.out / "data", sched, own)
+            here = schedule_run(f, a.out / "data", sched, own_schedule(f))
             last = here / f"round_{len(sched)}" / "runs"
             eps = dev_drive(here / f"dev{a.episodes}", last, recipe.MODELS, a)
             for m in recipe.MODELS:
@@ -163,11 +162,10 @@ def main() -> int:
     return 0
 
 
-def recipe_episodes() -> list[int]:
-    """The recipe's own schedule: the episodes of its DAgger config."""
-    import tomllib
-
-    return list(tomllib.loads(Path(DAGGER_CONFIG).read_text())["episodes"])
+def own_schedule(folder: Path) -> tuple[int, ...]:
+    """The schedule the run in ``folder`` made its own DAgger rounds with (their records' episodes)."""
+    records = sorted(folder.glob("dagger/round_*/round.json"), key=lambda p: int(p.parent.name.split("_")[1]))
+    return tuple(int(json.loads(p.read_text())["inputs"]["episodes"]) for p in records)
 
 
 if __name__ == "__main__":

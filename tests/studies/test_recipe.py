@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
+
+import pytest
 
 _spec = importlib.util.spec_from_file_location("recipe", Path(__file__).parents[2] / "studies" / "recipe.py")
 study = importlib.util.module_from_spec(_spec)
@@ -29,24 +32,30 @@ def test_the_bar_at_its_edges():
     assert study.meets_bar(_summary(**{"drive/stop_lines_compliant": 0, "drive/stop_lines_passed": 0}), 50.0)
 
 
-def test_the_last_round_is_the_highest_number(tmp_path):
-    for r in (1, 2, 10, 9):
+def test_the_recipe_rounds_and_their_time(tmp_path):
+    assert study.recipe_rounds("old") == 2
+    for r, wall in ((1, 316.2), (2, 532.0)):
         (tmp_path / "dagger" / f"round_{r}").mkdir(parents=True)
-        (tmp_path / "dagger" / f"round_{r}" / "round.json").write_text("{}")
-    (tmp_path / "dagger" / "round_11").mkdir()  # not finished: no round.json
-    assert study.last_round(tmp_path) == tmp_path / "dagger" / "round_10" / "runs"
+        (tmp_path / "dagger" / f"round_{r}" / "round.json").write_text(json.dumps({"wall_s": wall}))
+    (tmp_path / "dagger" / "round_3").mkdir()  # not finished: no round.json
+    assert study.last_round(tmp_path, 2) == tmp_path / "dagger" / "round_2" / "runs"
+    assert study.dagger_seconds(tmp_path, 1) == 316.2  # a folder run with more rounds than the recipe's
+    assert study.dagger_seconds(tmp_path, 2) == 848.2
+    with pytest.raises(SystemExit, match="round_3 has not finished"):
+        study.last_round(tmp_path, 3)
 
 
 def test_the_table_adds_up_the_times():
     row = {
-        "recipe": "new", "seed": 1, "times": {"stage 1": 120.0, "DAgger": 480.0},
+        "recipe": "new", "seed": 1, "rounds": 2, "dagger_s": 480.0,
+        "times": {"stage 1": 120.0, "DAgger": 490.0},
         "drive": {"expert": _summary(**{"drive/mean_speed_kmh": 50.0}), "PACNN+S": _summary(),
                   "PTACNN+S": _summary(**{"drive/collisions": 2})},
         "opd": {"PACNN+S": 0.41, "PTACNN+S": 0.4},
     }  # fmt: skip
     lines = study.table([row]).splitlines()
     assert lines[2].startswith(
-        "| new | 1 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes |"
+        "| new | 1 | 2 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes |"
     )
     assert lines[3].endswith("| 2 | 0 | 80/80 | 144/160 | 0.900 | 0.400 | no |")
 

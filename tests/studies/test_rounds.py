@@ -30,8 +30,12 @@ def test_shared_rounds_are_the_leading_equal_ones():
     assert study.shared_rounds((10, 20), (6, 20)) == 0  # round 2 differs too: its driver is another
 
 
-def test_the_recipe_schedule_is_its_dagger_config():
-    assert study.recipe_episodes() == [6, 20]
+def test_the_own_schedule_is_the_rounds_the_run_made(tmp_path):
+    for r, episodes in ((1, 6), (2, 20), (10, 3)):
+        (tmp_path / "dagger" / f"round_{r}").mkdir(parents=True)
+        record = {"round": r, "inputs": {"episodes": episodes}}
+        (tmp_path / "dagger" / f"round_{r}" / "round.json").write_text(json.dumps(record))
+    assert study.own_schedule(tmp_path) == (6, 20, 3)
 
 
 def test_dagger_time_is_the_linked_rounds_and_the_steps_run(tmp_path):
