@@ -12,8 +12,8 @@ config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` la
 - ``old``: ``configs/train/stage1.toml`` (20 epochs on every policy), ``configs/dagger/paper.toml``
   (two rounds of 6 and 20 learner episodes, each retrained from scratch, 20 and 10 epochs);
 - ``new``: ``configs/train/stage1_sampled.toml`` (the same, each step on a sample of every cycle's
-  policies), ``configs/dagger/paper_fast.toml`` (one round of 6 learner episodes that fine-tunes the
-  reward that drove it for 5 epochs; the round sizes chosen by ``studies/rounds.py``).
+  policies), ``configs/dagger/paper_fast.toml`` (the same rounds, each fine-tuning the reward that drove
+  it for 5 epochs).
 
 Every step is a command whose output is kept, so the study resumes where it stopped: a finished step is
 recorded with its wall time and not run again (an interrupted one runs again, and its time is the run
