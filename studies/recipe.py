@@ -161,6 +161,17 @@ def meets_bar(s: dict[str, Any], expert_kmh: float) -> bool:
     )
 
 
+def closed_loop_cells(s: dict[str, Any]) -> list[Any]:
+    """A drive summary's collisions, exits, stops (compliant/passed), checkpoints (in lane/passed)."""
+    stops = f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"
+    return [
+        s["drive/collisions"],
+        s["drive/exits"],
+        stops,
+        f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}",
+    ]
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = "recipe | seed | rounds | model | stage 1 [min] | DAgger [min] | to a reward [min]"
     head += " | collisions | exits | stops | checkpoints in lane | speed / expert | OPD [m] (test) | bar"
@@ -172,10 +183,8 @@ def table(rows: list[dict[str, Any]]) -> str:
         for m in MODELS:
             s = r["drive"][m]
             cells = [r["recipe"], r["seed"], r["rounds"], m, *(f"{x:.1f}" for x in (*minutes, sum(minutes)))]
-            cells += [s["drive/collisions"], s["drive/exits"]]
-            cells += [f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"]
-            cells += [f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}"]
-            cells += [f"{s['drive/mean_speed_kmh'] / kmh:.3f}", f"{r['opd'].get(m, float('nan')):.3f}"]
+            cells += [*closed_loop_cells(s), f"{s['drive/mean_speed_kmh'] / kmh:.3f}"]
+            cells += [f"{r['opd'].get(m, float('nan')):.3f}"]
             cells += ["yes" if meets_bar(s, kmh) else "no"]
             lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"

@@ -115,10 +115,7 @@ def table(rows: list[dict[str, Any]]) -> str:
     for r in rows:
         s = r["drive"]
         cells = [r["schedule"], r["seed"], r["model"], r["episodes"], f"{r['dagger_s'] / 60:.1f}"]
-        cells += [s["drive/collisions"], s["drive/exits"]]
-        cells += [f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"]
-        cells += [f"{s['drive/checkpoints_in_lane']}/{s['drive/checkpoints_passed']}"]
-        cells += [f"{r['speed_ratio']:.3f}", "yes" if r["bar"] else "no"]
+        cells += [*recipe.closed_loop_cells(s), f"{r['speed_ratio']:.3f}", "yes" if r["bar"] else "no"]
         lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"
 
