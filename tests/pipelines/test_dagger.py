@@ -113,7 +113,9 @@ def test_dagger_round_end_to_end(tiny_dataset, learner, dagger_run):
     assert record["trained_on"] == [str(tiny_dataset), str(data)]
     steps = record["steps_s"]  # where the round's time went: every step, within the round's wall time
     assert list(steps) == ["collect", "train stage 1"]
-    assert all(t > 0 for t in steps.values()) and sum(steps.values()) <= record["wall_s"]
+    # each time is rounded to 0.1 s, so the sum may pass the wall time by half a tenth per rounding
+    slack = 0.05 * (len(steps) + 1)
+    assert all(t > 0 for t in steps.values()) and sum(steps.values()) <= record["wall_s"] + slack
     assert f"dagger: round 1 wrote {data}" in stdout
     # the training reader exposes demo_source: the aggregate's train split holds both kinds, in order
     from irlsim.data.aggregate import open_datasets
