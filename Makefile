@@ -79,7 +79,7 @@ recipe: setup
 # DAgger round sizes chosen by measurement (docs/RESULTS.md, "DAgger round sizes"): after `make recipe`, the
 # new recipe's stage 1 with each schedule of rounds, driven on development seeds; the rule picks the cheapest
 rounds: setup
-	nice -n 5 $(BIN)/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20
+	nice -n 5 $(BIN)/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20 --episodes 20
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup
