@@ -351,6 +351,8 @@ def _round(run: DaggerRun, r: int) -> int:
         "outputs": round_outputs(run, here),
     }
     write_json(here / ROUND_DONE, record)
+    where = ", ".join(f"{name} {t:.1f} s" for name, t in spent.items())
+    print(f"dagger: round {r} took {record['wall_s']:.1f} s ({where})", flush=True)
     return 0
 
 
