@@ -85,6 +85,10 @@ class DaggerConfig:
     fine_tune: bool = False
     """each round's stage-1 retraining starts from the previous round's stage-1 reward (round 1: the one
     in ``--runs``) instead of random weights, so ``epochs`` can be few; False: from scratch"""
+    stage2_every_round: bool = True
+    """False: ``stage2_models`` train in the last round only. The next round's driver is the stage-1
+    model, so an earlier round's stage-2 models serve only that round's own evaluation (a stage-2 driver
+    is trained in every round all the same); the last round's models are the same bytes either way"""
     overlap: bool = False
     """collect round r + 1's learner episodes in a worker process while round r trains its stage-2 models
     (the learner, a stage-1 model, is trained by then): the same bytes as one step after the other, in
@@ -137,6 +141,11 @@ class DaggerConfig:
             "overlap needs a stage-1 driver (model) and stage2_models: the next round's episodes are "
             "collected while this round trains its stage-2 models",
         )
+        require(
+            not self.overlap or self.stage2_every_round,
+            "overlap needs stage2_every_round = true: the next round's episodes are collected while this "
+            "round trains its stage-2 models",
+        )
 
     @property
     def stage1_model(self) -> str:
@@ -147,6 +156,13 @@ class DaggerConfig:
         """The stage-2 models each round trains: the driver if it is one, then ``stage2_models``."""
         first = [self.model] if self.model in STAGE2_BASE else []
         return first + [m for m in self.stage2_models if m not in first]
+
+    def round_stage2(self, r: int) -> list[str]:
+        """The stage-2 models round ``r`` trains: :attr:`trained_stage2`, or only a stage-2 driver in a
+        round before the last when ``stage2_every_round`` is off."""
+        if self.stage2_every_round or r >= self.rounds:
+            return self.trained_stage2
+        return [self.model] if self.model in STAGE2_BASE else []
 
     def round_episodes(self, r: int) -> int:
         """Learner-driven train episodes of round ``r`` (1-based)."""
@@ -235,8 +251,8 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
     stages: list[tuple[int, str, type, list[str]]] = [
         (1, cfg.stage1_config, Stage1Config, [cfg.stage1_model])
     ]
-    if cfg.trained_stage2:
-        stages.append((2, cfg.stage2_config, Stage2Config, cfg.trained_stage2))
+    if cfg.round_stage2(r):
+        stages.append((2, cfg.stage2_config, Stage2Config, cfg.round_stage2(r)))
     train = []
     for stage, path, kind, models in stages:
         overrides = {"models": models, **cfg.round_train_overrides(r, stage)}
@@ -348,7 +364,7 @@ def _round(run: DaggerRun, r: int) -> int:
         "wall_s": round(time.perf_counter() - t0, 1),
         "steps_s": spent,
         "inputs": inputs,
-        "outputs": round_outputs(run, here),
+        "outputs": round_outputs(run, r, here),
     }
     write_json(here / ROUND_DONE, record)
     where = ", ".join(f"{name} {t:.1f} s" for name, t in spent.items())

@@ -99,13 +99,13 @@ def round_inputs(run: Any, r: int, driver: Path) -> dict[str, Any]:
     }
 
 
-def round_outputs(run: Any, here: Path) -> dict[str, Any] | None:
-    """The round's outputs by content, or None when one is missing: its dataset's manifest identity and
-    every trained model's checkpoint hash."""
+def round_outputs(run: Any, r: int, here: Path) -> dict[str, Any] | None:
+    """Round r's outputs by content, or None when one is missing: its dataset's manifest identity and
+    the checkpoint hash of every model the round trains."""
     manifest = _manifest(here / "data")
     if manifest is None or not manifest.get("complete"):
         return None
-    names = [run.config.stage1_model, *run.config.trained_stage2]
+    names = [run.config.stage1_model, *run.config.round_stage2(r)]
     ckpts = {name: find_checkpoint(here / "runs", name) for name in names}
     if any(p is None for p in ckpts.values()):
         return None
@@ -145,14 +145,26 @@ def round_finished(run: Any, r: int, here: Path, driver: Path | None) -> bool:
             f"dagger: round {r} in {here} was run with {key} = {was!r}, now {now!r}: choose another --out, "
             f"or delete {here} to run it again with the new inputs"
         )
-    made = round_outputs(run, here)
-    if made is None or made != record.get("outputs"):
+    made = round_outputs(run, r, here)
+    if made is None or not _same_outputs(made, record.get("outputs")):
         print(
             f"dagger: round {r} in {here}: its outputs are missing or changed since it finished: "
             "running it again"
         )
         return False
     return True
+
+
+def _same_outputs(made: dict[str, Any], had: Any) -> bool:
+    """The outputs asked for now are the recorded ones: the same data, and each checkpoint the round
+    trains now as recorded (a round that also trained stage-2 models, as the last round of a shorter
+    run, is finished for a longer run that does not ask for them)."""
+    if not isinstance(had, dict) or not isinstance(had.get("checkpoints"), dict):
+        return False
+    recorded = had["checkpoints"]
+    return made["data"] == had.get("data") and all(
+        recorded.get(n) == h for n, h in made["checkpoints"].items()
+    )
 
 
 def check_driver_and_data(run: Any) -> None:

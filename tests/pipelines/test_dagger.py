@@ -469,34 +469,49 @@ def test_a_fine_tuning_round_starts_from_the_reward_that_drove_it(tiny_dataset, 
     assert rc == 2 and err.count("\n") == 1 and "fine_tune" in err
 
 
-def test_overlapped_rounds_give_the_same_bytes(tiny_dataset, learner, tmp_path, capsys):
+def test_overlapped_and_last_only_rounds_give_the_same_bytes(tiny_dataset, learner, tmp_path, capsys):
     """overlap: round 2's learner episodes are collected while round 1 trains PTACNN+S; its data and every
-    checkpoint are the bytes of the rounds run one step after the other. Without stage-2 models there is
-    nothing to overlap with: refused in one line."""
+    checkpoint are the bytes of the rounds run one step after the other. stage2_every_round = false: round
+    1 trains no PTACNN+S, and every file it does make is the same bytes. A run's rounds that trained more
+    are finished for a run that asks for less. Without stage-2 models, or with them in the last round
+    only, there is nothing to overlap with: refused in one line."""
     collect_cfg, runs = learner
     common = ["--data", str(tiny_dataset), "--runs", str(runs), "--set", f"collect_config='{collect_cfg}'"]
     common += ["--set", "rounds=2", "--set", "episodes=1", "--set", "epochs=[1, 1]"]
     common += ["--set", "stage2_models=['PTACNN+S']", "--set", "fine_tune=true"]
-    for name, overlap in (("seq", "false"), ("ovl", "true")):
-        rc, stdout, err = _dagger(
-            [*common, "--out", str(tmp_path / name), "--set", f"overlap={overlap}"], capsys
-        )
+    variants = {"seq": ["overlap=false"], "ovl": ["overlap=true"], "last": ["stage2_every_round=false"]}
+    for name, sets in variants.items():
+        rc, stdout, err = _dagger([*common, "--out", str(tmp_path / name), "--set", *sets], capsys)
         assert rc == 0, err
-    assert "round 2's learner episodes are collected meanwhile" in stdout
+        if name == "ovl":
+            assert "round 2's learner episodes are collected meanwhile" in stdout
     ovl = json.loads((tmp_path / "ovl" / "round_1" / "round.json").read_text())["steps_s"]
     assert list(ovl) == ["collect", "train stage 1", "train stage 2", "waiting for round 2's collection"]
+    last = json.loads((tmp_path / "last" / "round_1" / "round.json").read_text())["steps_s"]
+    assert list(last) == ["collect", "train stage 1"]
     files = sorted(p.relative_to(tmp_path / "seq") for p in (tmp_path / "seq").glob("round_*/**/*"))
     compared = [f for f in files if f.suffix in (".parquet", ".pt")]
     assert any("round_2/data" in str(f) for f in compared) and any(f.suffix == ".pt" for f in compared)
-    for f in compared:  # checkpoints record their folder's path (init_from): their weights and metrics
-        a, b = tmp_path / "seq" / f, tmp_path / "ovl" / f
-        if f.suffix == ".parquet":
-            assert a.read_bytes() == b.read_bytes(), f
-            continue
-        a, b = torch.load(a, weights_only=False), torch.load(b, weights_only=False)
-        assert a["state_dict"].keys() == b["state_dict"].keys() and a["metrics"] == b["metrics"], f
-        assert all(torch.equal(a["state_dict"][k], b["state_dict"][k]) for k in a["state_dict"]), f
+    for other in ("ovl", "last"):
+        for f in compared:  # checkpoints record their folder's path (init_from): their weights and metrics
+            a, b = tmp_path / "seq" / f, tmp_path / other / f
+            if other == "last" and f.parts[:3] == ("round_1", "runs", "stage2"):
+                assert not b.exists(), f  # round 1 trains no stage-2 model
+                continue
+            if f.suffix == ".parquet":
+                assert a.read_bytes() == b.read_bytes(), (other, f)
+                continue
+            a, b = torch.load(a, weights_only=False), torch.load(b, weights_only=False)
+            assert a["state_dict"].keys() == b["state_dict"].keys() and a["metrics"] == b["metrics"], f
+            assert all(torch.equal(a["state_dict"][k], b["state_dict"][k]) for k in a["state_dict"]), f
+    assert (tmp_path / "last" / "round_2" / "runs" / "stage2" / "PTACNN+S" / "checkpoint.pt").is_file()
+    rc, stdout, err = _dagger([*common, "--out", str(tmp_path / "seq"), "--set", *variants["last"]], capsys)
+    assert rc == 0 and stdout.count("finished before") == 2, err
     rc, _, err = _dagger(
         [*common[:-4], "--out", str(tmp_path / "bad"), "--set", "overlap=true", "--set", "rounds=2"], capsys
     )
     assert rc == 2 and err.count("\n") == 1 and "overlap needs" in err
+    rc, _, err = _dagger(
+        [*common, "--out", str(tmp_path / "bad"), "--set", "overlap=true", "--set", *variants["last"]], capsys
+    )
+    assert rc == 2 and err.count("\n") == 1 and "overlap needs stage2_every_round" in err

@@ -47,7 +47,7 @@ def _setup(root: Path) -> tuple[DaggerRun, Path, Path]:
         {f"{k}_config": str(root / f"{k}.toml") for k in ("collect", "stage1", "stage2")},
     )
     run = DaggerRun(cfg, data, root / "runs", root)
-    record = {"round": 1, "inputs": round_inputs(run, 1, driver), "outputs": round_outputs(run, here)}
+    record = {"round": 1, "inputs": round_inputs(run, 1, driver), "outputs": round_outputs(run, 1, here)}
     write_json(here / "round.json", record)
     return run, here, driver
 
