@@ -115,7 +115,7 @@ def test_dagger_round_end_to_end(tiny_dataset, learner, dagger_run):
     assert list(steps) == ["collect", "train stage 1"]
     # each time is rounded to 0.1 s, so the sum may pass the wall time by half a tenth per rounding
     slack = 0.05 * (len(steps) + 1)
-    assert all(t > 0 for t in steps.values()) and sum(steps.values()) <= record["wall_s"] + slack
+    assert all(t >= 0 for t in steps.values()) and sum(steps.values()) <= record["wall_s"] + slack
     assert f"dagger: round 1 wrote {data}" in stdout
     took = f"dagger: round 1 took {record['wall_s']:.1f} s (collect {steps['collect']:.1f} s, train stage 1"
     assert took in stdout  # the same times, printed as the round ends
