@@ -160,9 +160,8 @@ class DaggerConfig:
     def round_stage2(self, r: int) -> list[str]:
         """The stage-2 models round ``r`` trains: :attr:`trained_stage2`, or only a stage-2 driver in a
         round before the last when ``stage2_every_round`` is off."""
-        if self.stage2_every_round or r >= self.rounds:
-            return self.trained_stage2
-        return [self.model] if self.model in STAGE2_BASE else []
+        every = self.trained_stage2
+        return every if self.stage2_every_round or r >= self.rounds else [m for m in every if m == self.model]
 
     def round_episodes(self, r: int) -> int:
         """Learner-driven train episodes of round ``r`` (1-based)."""
@@ -251,8 +250,8 @@ def round_plan(run: DaggerRun, r: int) -> RoundPlan:
     stages: list[tuple[int, str, type, list[str]]] = [
         (1, cfg.stage1_config, Stage1Config, [cfg.stage1_model])
     ]
-    if cfg.round_stage2(r):
-        stages.append((2, cfg.stage2_config, Stage2Config, cfg.round_stage2(r)))
+    if second := cfg.round_stage2(r):
+        stages.append((2, cfg.stage2_config, Stage2Config, second))
     train = []
     for stage, path, kind, models in stages:
         overrides = {"models": models, **cfg.round_train_overrides(r, stage)}
