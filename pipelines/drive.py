@@ -116,5 +116,5 @@ def request(args: argparse.Namespace) -> DriveRun:
 
 
 def run(args: argparse.Namespace) -> int:
-    devices.resolve_device(args.device)  # a missing device is one line, before any work
+    devices.resolve(args.device, args.precision)  # a missing device or precision: one line, before any work
     return 0 if drive_models(request(args)) is not None else 1

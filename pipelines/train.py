@@ -71,6 +71,6 @@ def request(args: argparse.Namespace) -> TrainRun:
 
 
 def run(args: argparse.Namespace) -> int:
-    devices.resolve_device(args.device)  # a missing device is one line, before any work
+    devices.resolve(args.device, args.precision)  # a missing device or precision: one line, before any work
     train_models(request(args))
     return 0

@@ -21,7 +21,6 @@ from typing import Any
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides
-from irlsim.devices import check_precision
 from irlsim.train.batching import as_dataset, get_split
 from irlsim.train.config import Stage1Config
 from irlsim.train.metrics_log import read_metrics
@@ -55,7 +54,9 @@ def variants(run: ThroughputRun) -> dict[str, tuple[Stage1Config, str]]:
     out = {"baseline": (load_config(Stage1Config, run.baseline, dict(common)), "fp32")}
     for lever in run.levers:
         sets = parse_overrides([s for s in lever.split(",") if s.strip()])
-        precision = check_precision(str(sets.pop(PRECISION_KEY, "fp32")))
+        precision = devices.check_precision_on(
+            devices.resolve_device("cpu"), str(sets.pop(PRECISION_KEY, "fp32"))
+        )
         out[lever] = (load_config(Stage1Config, run.baseline, {**common, **sets}), precision)
     if run.fast is not None:
         out["fast"] = (load_config(Stage1Config, run.fast, dict(common)), "fp32")

@@ -139,7 +139,7 @@ def drive_models(run: DriveRun) -> DriveResult | None:
     the tables); returns the episode records and summaries, or None (after one line on stderr) when an
     episode failed twice. Raises :class:`~irlsim.errors.IrlsimError` (one line) before any work for a
     missing device, an unknown model, seeds the models were trained on or an unusable output folder."""
-    device = devices.resolve_device(run.device)  # a missing device is one line, before any work
+    device = devices.resolve(run.device, run.precision)  # one line, before any work
     with devices.use(device, run.precision):
         return _run(run, str(device))
 

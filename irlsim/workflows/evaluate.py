@@ -55,7 +55,7 @@ def evaluate_runs(run: EvaluateRun) -> Path:
         raise IrlsimError(f"--history must be >= 1, got {run.history}")
     if run.threads < 1:
         raise IrlsimError(f"--threads must be >= 1, got {run.threads}")
-    device = devices.resolve_device(run.device)
+    device = devices.resolve(run.device, run.precision)
     out = run.out or run.runs / "eval"
     check_output_dir(out, "--out")
     if not run.runs.is_dir():

@@ -81,7 +81,7 @@ def train_models(run: TrainRun) -> dict[str, dict[str, Any]]:
     one line per model. Returns the summary per model. Raises
     :class:`~irlsim.errors.IrlsimError` (one line) before any work for a missing device, stage-1 folder,
     dataset or an unusable or busy runs folder."""
-    device = devices.resolve_device(run.device)  # a missing device is one line, before any work
+    device = devices.resolve(run.device, run.precision)  # one line, before any work
     with devices.use(device, run.precision):
         return _train(run)
 

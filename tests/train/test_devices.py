@@ -1,5 +1,6 @@
-"""--device / --precision: devices resolve or fail in one line, bf16 autocast really runs (on the CPU),
-the provenance records both, checkpoints load on another device. The CUDA test runs where CUDA is."""
+"""--device / --precision: devices resolve or fail in one line, bf16 autocast really runs (on a CPU with a
+native bf16 path) or is refused in one line before any work (on one without, e.g. AVX2 only), the
+provenance records both, checkpoints load on another device. The CUDA test runs where CUDA is."""
 
 from __future__ import annotations
 
@@ -21,6 +22,13 @@ from irlsim.train.batching import predict_split
 @pytest.fixture(scope="module")
 def dataset():
     return make_synthetic_dataset(n_train=64, n_eval=24, n_policies=32, seed=0)
+
+
+#: why bf16 cannot run on this CPU, or None: the bf16 tests below run where it can, the refusal test where not
+NO_BF16 = devices.bf16_problem("cpu")
+needs_bf16 = pytest.mark.skipif(
+    NO_BF16 is not None, reason=f"no native bf16 here ({NO_BF16}); the refusal test covers this CPU"
+)
 
 
 def _cfg(**kw):
@@ -51,6 +59,7 @@ def test_missing_device_is_one_line_before_any_work(tmp_path, capsys):
     assert not (tmp_path / "r").exists()
 
 
+@needs_bf16
 def test_bf16_autocast_trains_on_the_cpu_and_is_recorded(dataset, tmp_path):
     """bf16 changes the numbers (autocast is really on) but not by much, and the provenance says so."""
     with devices.use("cpu", "fp32"):
@@ -74,6 +83,7 @@ def test_bf16_autocast_trains_on_the_cpu_and_is_recorded(dataset, tmp_path):
     assert 0 < rel < 0.05, rel
 
 
+@needs_bf16
 def test_predictor_in_bf16_matches_fp32_closely(dataset, tmp_path):
     train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path)
     train_stage2(dataset, dataclasses.replace(Stage2Config.smoke(), models=("PTACNN",), epochs=1), tmp_path)
@@ -86,6 +96,53 @@ def test_predictor_in_bf16_matches_fp32_closely(dataset, tmp_path):
                                  for t in range(3)]  # fmt: skip
     a, b = np.array(thetas["fp32"]), np.array(thetas["bf16"])
     assert not np.array_equal(a, b) and np.allclose(a, b, rtol=0.05, atol=1e-3 * np.abs(a).max())
+
+
+def test_bf16_probe_agrees_with_the_lstm():
+    """The rule is what the hardware does: bf16 is accepted exactly where PTACNN's LSTM (the operation
+    without an emulated fallback) runs under bf16 autocast with a float32 input."""
+    lstm = torch.nn.LSTM(6, 4, num_layers=2, batch_first=True)
+    try:
+        with torch.autocast("cpu", dtype=torch.bfloat16):
+            out, _ = lstm(torch.randn(3, 4, 6))
+        runs = out.dtype == torch.bfloat16
+    except RuntimeError:
+        runs = False
+    if not runs:
+        assert NO_BF16 is not None
+    if NO_BF16 is None:
+        assert runs
+        with devices.use("cpu", "bf16"):
+            assert devices.current() == (torch.device("cpu"), "bf16")
+
+
+@pytest.mark.skipif(NO_BF16 is None, reason="this CPU has a native bf16 path: the bf16 tests above run")
+def test_bf16_without_a_native_path_is_refused_in_one_line_before_any_work(dataset, tmp_path, capsys):
+    """On a CPU without native bf16 (AVX2 only) every command with --precision bf16 stops in one line
+    that says why and what to use, before it writes anything; the library refuses it too."""
+    with pytest.raises(IrlsimError, match="--precision bf16 on cpu: .*use --precision fp32") as e:
+        with devices.use("cpu", "bf16"):
+            pass
+    assert "\n" not in str(e.value)
+    assert devices.current() == (torch.device("cpu"), "fp32")  # nothing was pushed
+    with devices.use("cpu", "fp32"):  # a real stage 1 for stage 2 and evaluate to start from
+        train_stage1(dataset, _cfg(models=("PACNN",), epochs=1), tmp_path / "runs")
+    capsys.readouterr()
+    commands = {
+        "train2": ["train", "--stage", "2", "--config", "configs/train/stage2.toml",
+                   "--set", "models=['PTACNN']",
+                   "--data", str(tmp_path / "none"), "--out", str(tmp_path / "runs")],
+        "evaluate": ["evaluate", "--data", str(tmp_path / "none"), "--runs", str(tmp_path / "runs"),
+                     "--out", str(tmp_path / "eval")],
+        "drive": ["drive", "--runs", str(tmp_path / "runs"), "--model", "PACNN", "--episodes", "1",
+                  "--out", str(tmp_path / "drive")],
+    }  # fmt: skip
+    for name, argv in commands.items():
+        before = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*"))
+        assert main([*argv, "--device", "cpu", "--precision", "bf16"]) == 2, name
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and "no native bfloat16" in err[0] and "--precision fp32" in err[0], (name, err)
+        assert sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*")) == before, name
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA device")
