@@ -24,8 +24,11 @@ setup: $(BIN)/.installed
 net: setup
 	$(IRLSIM) net
 
+# the suite's time budget (DEVELOPERS.md): the slowest tests printed, then tools/test_budget.py's report
 test: setup
-	$(BIN)/pytest -q -m "not slow"
+	@mkdir -p build
+	$(BIN)/pytest -q -m "not slow" --durations=15 --junitxml=build/test-report.xml; rc=$$?; \
+		$(BIN)/python tools/test_budget.py build/test-report.xml; exit $$rc
 
 test-slow: setup
 	$(BIN)/pytest -q -m slow

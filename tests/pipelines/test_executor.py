@@ -350,6 +350,7 @@ def test_a_hung_worker_is_killed_retried_then_named_and_recollected(tiny_dataset
     assert man["complete"] is True and "failed" not in man
 
 
+@pytest.mark.slow  # run_jobs' timeout is tested fast above and through collect's CLI
 def test_drive_a_hung_worker_is_killed_retried_then_named(tmp_path):
     """drive with two local workers: the expert episode whose worker and retry's worker are stopped is
     killed after --episode-timeout each time, and the command ends with exit 1 naming it, no drive.json."""
@@ -489,7 +490,14 @@ def _drive_json(out: Path) -> dict[str, Any]:
     }
 
 
-def test_drive_same_json_for_workers_and_executors(ray_cluster, tiny_runs, tmp_path):  # noqa: F811
+@pytest.mark.parametrize(
+    "other",
+    ["two", pytest.param("ray", marks=pytest.mark.slow)],  # Ray's bytes: collect's tests above, fast
+)
+def test_drive_same_json_for_workers_and_executors(request, tiny_runs, tmp_path, other):  # noqa: F811
+    """drive.json is the same for one worker, two local workers and two Ray workers (but its clocks)."""
+    if other == "ray":
+        request.getfixturevalue("ray_cluster")
     base = [
         "drive",
         "--runs",
@@ -505,15 +513,11 @@ def test_drive_same_json_for_workers_and_executors(ray_cluster, tiny_runs, tmp_p
         "--config",
         "configs/collect/tiny.toml",
     ]
+    extra = {"two": ["--workers", "2"], "ray": ["--workers", "2", "--executor", "ray"]}[other]
     results = {}
-    for name, extra in {
-        "one": [],
-        "two": ["--workers", "2"],
-        "ray": ["--workers", "2", "--executor", "ray"],
-    }.items():
-        assert main([*base, "--out", str(tmp_path / name), *extra]) == 0
+    for name, more in {"one": [], other: extra}.items():
+        assert main([*base, "--out", str(tmp_path / name), *more]) == 0
         results[name] = _drive_json(tmp_path / name)
     assert [e["drive/seed"] for e in results["one"]["episodes"]] == [100, 101, 100, 101]
     assert results["one"]["episodes"][0]["drive/cycles"] == 25
-    assert results["two"] == results["one"]
-    assert results["ray"] == results["one"]
+    assert results[other] == results["one"]

@@ -74,13 +74,3 @@ def make_vehicles(road: Road, items: list[tuple[float, float, float]]) -> Vehicl
         np.full(m, 4.5),
         np.full(m, 1.8),
     )
-
-
-def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Skip @pytest.mark.slow tests unless selected with -m (``make test-slow`` / ``pytest -m slow``)."""
-    if "slow" in (config.option.markexpr or ""):
-        return
-    skip = pytest.mark.skip(reason="slow: run with 'pytest -m slow' or 'make test-slow'")
-    for item in items:
-        if "slow" in item.keywords:
-            item.add_marker(skip)

@@ -81,6 +81,7 @@ def _assert_expert_figures(st: dict) -> None:
     assert st["sim/checkpoints_in_lane"] >= st["sim/checkpoints_passed"] - 1
 
 
+@pytest.mark.slow  # a lap with the 2,500-policy planner; the fast suite drives the 500-policy lap of drive
 def test_expert_closed_loop_one_lap(road):
     st = _closed_loop(seed=0, laps=1)
     assert st["sim/laps"] == 1

@@ -49,7 +49,10 @@ def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-@pytest.mark.parametrize("sig, model", [(signal.SIGINT, "PACNN+S"), (signal.SIGTERM, "LIRL")])
+@pytest.mark.parametrize(
+    "sig, model",
+    [(signal.SIGINT, "PACNN+S"), pytest.param(signal.SIGTERM, "LIRL", marks=pytest.mark.slow)],
+)
 def test_a_checkpoint_resumed_after_a_signal_has_the_bytes_of_an_uninterrupted_run(
     tiny_dataset, tmp_path, sig, model
 ):

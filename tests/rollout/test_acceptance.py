@@ -1,5 +1,6 @@
 """The expert on every shipped scenario against SUMO's own driver model on the same seeds (real SUMO):
-a short version in the fast suite (one seed each: the safety bounds), the full bar on 10 seeds in the
+a short version (one seed each: the safety bounds) in the fast suite for two roads and in the slow one
+for the others, the full bar on 10 seeds in the
 slow one (``make test-slow``), where the mean speed must be within 15 % of SUMO's driver's."""
 
 from __future__ import annotations
@@ -17,7 +18,14 @@ def test_every_shipped_scenario_is_covered():
     assert {"oval", "motorway", "ramp", "corridor", "grid"} <= set(shipped_scenarios())
 
 
-@pytest.mark.parametrize("scenario", OTHER_ROADS)
+#: the fast suite drives the ramp (lanes added and dropped, an off-ramp trap) and the corridor (traffic
+#: lights); the other roads' short runs are acceptance runs of make test-slow (the suite's time budget)
+FAST_ROADS = ("ramp", "corridor")
+
+
+@pytest.mark.parametrize(
+    "scenario", [s if s in FAST_ROADS else pytest.param(s, marks=pytest.mark.slow) for s in OTHER_ROADS]
+)
 def test_expert_drives_each_scenario_safely(scenario):
     acc = check_scenario(scenario, (7,), ScenarioConfig(max_time=120.0))
     e = acc.expert
