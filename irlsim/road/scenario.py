@@ -10,6 +10,7 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     file = "net.net.xml"     #   a SUMO network (.net.xml or .net.xml.gz), relative to this file or absolute
     # netconvert = "x.cfg"   #   a netconvert configuration (plain node/edge XML), built into a cache
     # osm = "map.osm"        #   an OpenStreetMap extract, built with netconvert into a cache
+    # opendrive = "map.xodr" #   an OpenDRIVE map (CARLA's, esmini's), built with netconvert into a cache
     # sumo_tools = "game/highway/highway.net.xml"   # a network inside the installed eclipse-sumo wheel
 
     [route]                  # the ego's route: a list of edges, or from/to (the shortest path on the net)
@@ -52,7 +53,7 @@ from irlsim.road.network import SUMO_NET_DIR, _netconvert_error, strip_header, s
 from irlsim.utils import atomic_path
 
 SCENARIO_FILE = "scenario.toml"
-NETWORK_SOURCES = ("file", "netconvert", "osm", "sumo_tools", "netgenerate")
+NETWORK_SOURCES = ("file", "netconvert", "osm", "sumo_tools", "netgenerate", "opendrive")
 DEFAULT_SCENARIO = "oval"
 
 
@@ -70,6 +71,9 @@ class NetworkSpec:
     """a network inside the installed eclipse-sumo wheel, relative to its ``tools/`` folder"""
     netgenerate: str = ""
     """a netgenerate configuration (a grid, spider or random network); built once into the cache"""
+    opendrive: str = ""
+    """an OpenDRIVE map (.xodr: CARLA's and esmini's format); built once with netconvert into the cache
+    (its driving lanes, as netconvert imports them by default)"""
 
     def validate(self) -> None:
         given = [k for k in NETWORK_SOURCES if getattr(self, k)]
@@ -249,6 +253,16 @@ def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:
     if spec.netgenerate:
         cfg = base / spec.netgenerate
         return _built_cached(cfg, path, build, "netgenerate configuration", "netgenerate", ["-c", cfg.name])
+    if spec.opendrive:
+        xodr = base / spec.opendrive
+        return _built_cached(
+            xodr,
+            path,
+            build,
+            "OpenDRIVE map",
+            "netconvert",
+            ["--opendrive-files", xodr.name, "--no-warnings"],
+        )
     osm = base / spec.osm
     return _built_cached(
         osm, path, build, "OpenStreetMap file", "netconvert", ["--osm-files", osm.name, *OSM_OPTIONS]
