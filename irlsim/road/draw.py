@@ -59,7 +59,9 @@ def draw_routes(net: Any, n: int, seed: int, min_length: float = MIN_ROUTE_LENGT
     out = []
     for k in range(n):
         if len(edges) < 2:
-            out.append(DrawnRoute(k, (), 0.0, "network: it has no edge that admits passenger cars"))
+            out.append(
+                DrawnRoute(k, (), 0.0, "network: it has fewer than two edges that admit passenger cars")
+            )
             continue
         out.append(_draw_one(net, edges, k, seed, min_length))
     return out

@@ -7,10 +7,10 @@ The reasons, in the order they are tried (the first whose pattern is in the mess
                   rail lane on the way), or a network with no edge for cars at all
     lane-width    lanes of different widths on one route (irlsim keeps one lane width per route)
     lane-count    lanes that do not continue across a junction: no lane of an edge leads into the next
-                  one, or a route edge that does not lead into the next at all
     loop-lanes    a loop whose lanes do not join up (a lane added or dropped for good on a loop)
     too-short     a route shorter than the planner's look-ahead (200 m)
-    no-path       no path between the drawn edges, or no pair of car edges joined by a long enough path
+    no-path       edges that do not connect (no path from one to the other, a route edge that does not
+                  lead into the next), or no pair of car edges joined by a long enough path
     no-checkpoint a route with nothing to check (no derived checkpoint, none in the file)
     left-hand     a network that drives on the left
     network       a network that is missing or cannot be read
@@ -24,12 +24,12 @@ from __future__ import annotations
 
 #: reason -> substrings of the refusal message that mean it (tried in this order; 'other' last)
 REASONS: dict[str, tuple[str, ...]] = {
-    "no-car-lane": ("does not admit passenger cars", "no edge that admits passenger cars"),
+    "no-car-lane": ("admit passenger cars",),
     "lane-width": (" m wide where the route's lanes",),
-    "lane-count": ("no lane of '", "(no connection)"),
+    "lane-count": ("no lane of '",),
     "loop-lanes": ("the loop's lanes do not join up",),
     "too-short": ("shorter than the",),
-    "no-path": ("no path from", "no pair of car edges"),
+    "no-path": ("no path from", "(no connection)", "no pair of car edges"),
     "no-checkpoint": ("route has no checkpoint",),
     "left-hand": ("drives on the left",),
     "network": ("is malformed", "not found"),

@@ -34,7 +34,7 @@ from irlsim.errors import IrlsimError
 from irlsim.executor import Job, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
-from irlsim.road.draw import MIN_ROUTE_LENGTH, draw_routes, read_network
+from irlsim.road.draw import MIN_ROUTE_LENGTH, car_edges, draw_routes, read_network
 from irlsim.road.refusals import refusal_reason
 from irlsim.road.scenario import read_scenario_file
 from irlsim.rollout.drivers import make_driver
@@ -218,11 +218,14 @@ def _draw(run: SweepRun, networks: list[tuple[str, Path]]) -> list[RouteTask]:
 
 def _draw_network(run: SweepRun, name: str, path: Path, marker: Path) -> None:
     try:
-        routes = draw_routes(read_network(path), run.routes, run.seed, run.min_length)
+        net = read_network(path)
     except IrlsimError as e:  # a network sumolib cannot read: every route refused with its line
-        routes = []
         for k in range(run.routes):
             _write_record(run.out, _base_record(name, k, run.seed + k, (), 0.0, "", "refused", str(e)))
+        write_json(marker, {"network": str(path.resolve()), "drawn": [], "car_lanes": True})
+        return
+    cars = bool(car_edges(net))
+    routes = draw_routes(net, run.routes, run.seed, run.min_length) if cars else []
     drawn = []
     for r in routes:
         scn = run.out / "scenarios" / name / f"route_{r.index:04d}.toml"
@@ -232,7 +235,6 @@ def _draw_network(run: SweepRun, name: str, path: Path, marker: Path) -> None:
             continue
         atomic_write_text(scn, scenario_text(name, r.index, path, r.edges, r.length))
         drawn.append(r.index)
-    cars = bool(routes) and not all(r.refusal.startswith("network:") for r in routes)
     write_json(marker, {"network": str(path.resolve()), "drawn": drawn, "car_lanes": cars})
 
 
