@@ -171,3 +171,19 @@ def test_check_a_shipped_scenario(tmp_path, capsys):
     assert record["expert"]["mean_speed_kmh"] > 10 and record["sumo"]["mean_speed_kmh"] > 10
     assert "| grid | 3 | 0 |" in printed and str(out / "check.md") in printed
     assert (out / "check.md").read_text().startswith("| scenario | seeds |")
+
+
+def test_the_docs_commands_parse():
+    """Every ``irlsim scenario check | sweep | generate`` line of the docs names options that exist."""
+    import re
+    import shlex
+
+    from pipelines.commands import build_parser
+
+    root = Path(__file__).resolve().parents[2]
+    text = "".join((root / "docs" / name).read_text() for name in ("SCENARIOS.md", "GUIDE.md"))
+    lines = re.findall(r"irlsim (scenario (?:check|sweep|generate) [^`\n]*)", text)
+    assert len(lines) >= 6
+    for line in lines:
+        args = build_parser("scenario").parse_args(shlex.split(line))
+        assert args.action in ("check", "sweep", "generate"), line
