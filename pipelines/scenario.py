@@ -89,8 +89,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"{name:12s} {load_scenario(name, build=False).description}")
         return 0
     if args.action == "check":
-        out = args.out if args.out is not None else Path("runs/check") / Path(str(args.scenario)).name
-        acc = check_scenario_run(CheckRun(args.scenario, out, args.episodes, args.seed, args.max_time))
+        acc = check_scenario_run(CheckRun(args.scenario, args.out, args.episodes, args.seed, args.max_time))
         return 0 if not acc.failures else 1
     if args.action == "sweep":
         sweep_networks(

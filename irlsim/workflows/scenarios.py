@@ -29,8 +29,8 @@ class CheckRun:
 
     scenario: str
     """a shipped name or a scenario.toml path (or its folder)"""
-    out: Path
-    """output folder: check.md, check.json"""
+    out: Path | None = None
+    """output folder: check.md, check.json (None: runs/check/<the scenario's name>)"""
     episodes: int = 10
     """episodes per driver (the expert, SUMO's driver), on the same seeds"""
     seed: int = 1000
@@ -75,12 +75,13 @@ def check_scenario_run(run: CheckRun) -> Acceptance:
     if run.max_time is not None and not run.max_time > 0:
         raise IrlsimError(f"--max-time must be > 0 s, got {run.max_time}")
     scn = load_scenario(run.scenario)
-    check_output_dir(run.out, "--out")
+    out = run.out if run.out is not None else Path("runs/check") / scn.name
+    check_output_dir(out, "--out")
     overrides: dict[str, Any] = {} if run.max_time is None else {"max_time": run.max_time}
     cfg = scenario_config(run.scenario, **overrides)
     seeds = tuple(range(run.seed, run.seed + run.episodes))
-    run.out.mkdir(parents=True, exist_ok=True)
-    with owned_output(run.out, "scenario check"):
+    out.mkdir(parents=True, exist_ok=True)
+    with owned_output(out, "scenario check"):
         bar = progress(total=2 * run.episodes, desc=f"check {scn.name}", unit="episode")
         acc = check_scenario(run.scenario, seeds, cfg, on_episode=lambda: bar.update(1))
         bar.close()
@@ -96,10 +97,10 @@ def check_scenario_run(run: CheckRun) -> Acceptance:
             "failures": acc.failures,
             "meets_bar": not acc.failures,
         }
-        write_json(run.out / "check.json", record)
-        atomic_write_text(run.out / "check.md", md)
+        write_json(out / "check.json", record)
+        atomic_write_text(out / "check.md", md)
     print(md)
-    print(f"check: {run.out / 'check.md'}, {run.out / 'check.json'}")
+    print(f"check: {out / 'check.md'}, {out / 'check.json'}")
     return acc
 
 
