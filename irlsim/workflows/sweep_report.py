@@ -105,9 +105,22 @@ def summarize(records: list[dict[str, Any]], networks: list[str], no_cars: list[
         },
         "networks_without_car_lanes": no_cars,
         "refused_by_reason": reasons,
+        "crashes_by_error": _by_error(crashes),
         "crashes": crashes,
         "failures": failures,
     }
+
+
+def _by_error(crashes: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Crashes grouped by their line (type, message, where), most routes first: one row per defect."""
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for c in crashes:
+        groups.setdefault((c["stage"], c["error"]), []).append(c)
+    rows = [
+        {"stage": stage, "error": error, "routes": len(sel), "networks": len({c["network"] for c in sel})}
+        for (stage, error), sel in groups.items()
+    ]
+    return sorted(rows, key=lambda r: (-r["routes"], r["stage"], r["error"]))
 
 
 #: the rows of the counts table: key of ``counts``, its label
@@ -147,7 +160,9 @@ def markdown(summary: dict[str, Any], request: dict[str, Any]) -> str:
     ]
     for reason, v in summary["refused_by_reason"].items():
         lines.append(f"| {reason} | {v['routes']} | {v['networks']} | {_cell(v['example'])} |")
-    lines += ["", "## Crashes (defects of the road or the simulation)", ""]
+    lines += ["", "## Crashes (defects of the road or the simulation), by error", ""]
+    lines += _rows(summary["crashes_by_error"], ("stage", "error", "routes", "networks"))
+    lines += ["", "Every crash:", ""]
     lines += _rows(summary["crashes"], ("network", "route", "seed", "stage", "error"))
     lines += ["", "## Failures (driven outside the safety bounds, or refused when driven)", ""]
     lines += _rows(summary["failures"], ("network", "route", "seed", "failure", "end_reason", "scenario"))

@@ -110,6 +110,7 @@ def test_sweep_counts_add_up_and_a_rerun_is_a_no_op(networks, tmp_path, capsys):
     ) + routes("crashed_driving")
     assert routes("driven") == c["loaded"]["networks"]  # one per network that has a route that loads
     assert len(summary["crashes"]) == routes("crashed_loading") + routes("crashed_driving")
+    assert sum(g["routes"] for g in summary["crashes_by_error"]) == len(summary["crashes"])
     rows = list(csv.DictReader(io_text(out / "routes.csv")))
     assert len(rows) == 6 and {r["load"] for r in rows} <= {"loaded", "refused", "crash"}
     assert sum(r["driven"] == "True" for r in rows) == routes("driven")
