@@ -12,6 +12,8 @@ The reasons, in the order they are tried (the first whose pattern is in the mess
     no-path       edges that do not connect (no path from one to the other, a route edge that does not
                   lead into the next), or no pair of car edges joined by a long enough path
     no-checkpoint a route with nothing to check (no derived checkpoint, none in the file)
+    no-start      a route that leaves the ego no place to start (the start's clearances from stop lines,
+                  exits and checkpoints cover it): refused when the episode begins, not when it loads
     left-hand     a network that drives on the left
     network       a network that is missing or cannot be read
     other         any other one-line refusal (its message is kept in the sweep's table)
@@ -31,6 +33,7 @@ REASONS: dict[str, tuple[str, ...]] = {
     "too-short": ("shorter than the",),
     "no-path": ("no path from", "(no connection)", "no pair of car edges"),
     "no-checkpoint": ("route has no checkpoint",),
+    "no-start": ("leave no start on the route",),
     "left-hand": ("drives on the left",),
     "network": ("is malformed", "not found"),
 }

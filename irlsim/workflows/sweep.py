@@ -346,7 +346,7 @@ def _drive_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for
         with Simulation(road, cfg) as sim:
             result = EpisodeRunner(sim).run(make_driver("expert", road, cfg), task.seed)
     except IrlsimError as e:
-        return {"outcome": "refused", "failure": f"{refusal_reason(str(e))}: {e}"}
+        return {"outcome": "refused", "failure": str(e)}
     except Exception as e:  # a defect of the road or the simulation
         return {"outcome": "crash", "failure": crash_line(e)}
     st = result.stats

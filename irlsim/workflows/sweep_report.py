@@ -16,9 +16,11 @@ import json
 from pathlib import Path
 from typing import Any
 
-from irlsim.road.refusals import REASON_NAMES
+from irlsim.road.refusals import REASON_NAMES, refusal_reason
 from irlsim.utils import atomic_write_text, write_json
 
+#: what the failures table shows of a driven route
+FAILURE_COLUMNS = ("network", "route", "seed", "failure_reason", "failure", "end_reason", "scenario")
 CSV_COLUMNS = (
     "network",
     "route",
@@ -29,6 +31,7 @@ CSV_COLUMNS = (
     "message",
     "driven",
     "outcome",
+    "failure_reason",
     "failure",
     "end_reason",
     "edges",
@@ -46,8 +49,20 @@ def read_records(out: Path, networks: list[str]) -> tuple[list[dict[str, Any]], 
             no_cars.append(name)
             continue
         for p in sorted(folder.glob("[0-9]*.json")):
-            records.append(json.loads(p.read_text()))
+            records.append(_classified(json.loads(p.read_text())))
     return records, no_cars
+
+
+def _classified(rec: dict[str, Any]) -> dict[str, Any]:
+    """A record with its reasons sorted now (:mod:`irlsim.road.refusals`), so a record written before the
+    list changed is counted by today's list: ``reason`` of a refused load, ``failure_reason`` of a
+    driven route (a refusal's reason, 'safety' for a bound broken, 'crash')."""
+    if rec["load"] == "refused":
+        rec["reason"] = refusal_reason(rec["message"])
+    outcome = rec.get("outcome", "")
+    reasons = {"refused": refusal_reason(rec.get("failure", "")), "failed": "safety", "crash": "crash"}
+    rec["failure_reason"] = reasons.get(outcome, "")
+    return rec
 
 
 def summarize(records: list[dict[str, Any]], networks: list[str], no_cars: list[str]) -> dict[str, Any]:
@@ -86,7 +101,7 @@ def summarize(records: list[dict[str, Any]], networks: list[str], no_cars: list[
         for r in by_outcome["crash"]
     ]
     failures = [
-        {k: r[k] for k in ("network", "route", "seed", "failure", "end_reason", "scenario")}
+        {k: "" if r.get(k) is None else r[k] for k in FAILURE_COLUMNS}
         for r in by_outcome["failed"] + by_outcome["refused"]
     ]
     return {
@@ -165,7 +180,7 @@ def markdown(summary: dict[str, Any], request: dict[str, Any]) -> str:
     lines += ["", "Every crash:", ""]
     lines += _rows(summary["crashes"], ("network", "route", "seed", "stage", "error"))
     lines += ["", "## Failures (driven outside the safety bounds, or refused when driven)", ""]
-    lines += _rows(summary["failures"], ("network", "route", "seed", "failure", "end_reason", "scenario"))
+    lines += _rows(summary["failures"], FAILURE_COLUMNS)
     if summary["networks_without_car_lanes"]:
         lines += ["", "Networks without car lanes: " + ", ".join(summary["networks_without_car_lanes"])]
     return "\n".join(lines) + "\n"
