@@ -3,7 +3,8 @@
 Route ``k`` of a network is drawn from ``numpy.random.default_rng([seed, k])`` alone, so it is the same
 whatever the other routes drew: a pair of different edges that admit passenger cars, joined by SUMO's
 shortest path for a passenger car (``sumolib``'s Dijkstra), kept when that path is at least
-``min_length`` long; up to :data:`DRAW_TRIES` pairs are tried. What the route then says on the network
+``min_length`` long and turns round nowhere (no edge followed by its reverse: a U-turn is no route a
+driver would be given); up to :data:`DRAW_TRIES` pairs are tried. What the route then says on the network
 (lanes, widths, junctions) is the road layer's to judge when the scenario is loaded.
 """
 
@@ -72,7 +73,7 @@ def _draw_one(net: Any, edges: list[Any], k: int, seed: int, min_length: float) 
     for _ in range(DRAW_TRIES):
         i, j = rng.choice(len(edges), size=2, replace=False)
         path, _cost = net.getShortestPath(edges[i], edges[j], vClass="passenger")
-        if path is None:
+        if path is None or _turns_round(path):
             continue
         length = float(sum(e.getLength() for e in path))
         if length >= min_length:
@@ -82,4 +83,12 @@ def _draw_one(net: Any, edges: list[Any], k: int, seed: int, min_length: float) 
         (),
         0.0,
         f"route: no pair of car edges joined by a path of at least {min_length:.0f} m in {DRAW_TRIES} draws",
+    )
+
+
+def _turns_round(path: list[Any]) -> bool:
+    """True when an edge of ``path`` is followed by its reverse (a U-turn)."""
+    return any(
+        b.getFromNode() is a.getToNode() and b.getToNode() is a.getFromNode()
+        for a, b in zip(path, path[1:], strict=False)
     )

@@ -87,6 +87,20 @@ def networks(tmp_path_factory):
     return out / "a"
 
 
+def test_routes_are_drawn_per_seed_and_route(networks):
+    """Route k depends on (seed, k) alone, is a connected car path of the minimum length, no U-turn."""
+    from irlsim.road.draw import MIN_ROUTE_LENGTH, draw_routes, read_network
+
+    net = read_network(networks / "0001_spider.net.xml")
+    three = draw_routes(net, 3, seed=5)
+    assert draw_routes(net, 2, seed=5) == three[:2] and draw_routes(net, 3, seed=6) != three
+    for r in three:
+        assert not r.refusal and r.length >= MIN_ROUTE_LENGTH
+        for a, b in zip(r.edges, r.edges[1:], strict=False):
+            edge_a, edge_b = net.getEdge(a), net.getEdge(b)
+            assert edge_b in edge_a.getOutgoing() and edge_b.getToNode() is not edge_a.getFromNode()
+
+
 def _outputs(out: Path) -> dict[str, bytes]:
     return {name: (out / name).read_bytes() for name in ("sweep.md", "sweep.json", "routes.csv")}
 
