@@ -137,6 +137,11 @@ def test_sweep_counts_add_up_and_a_rerun_is_a_no_op(networks, tmp_path, capsys):
     assert main(argv + ["--workers", "2"]) == 0  # resumed with other workers: nothing left to do
     assert _outputs(out) == before
     assert {p: p.stat().st_mtime_ns for p in (out / "records").rglob("*.json")} == stamps
+    other = [
+        a if a != "0" else "1" for a in argv
+    ]  # another --seed into the same --out: one line, nothing done
+    assert main(other) == 2 and "holds a sweep with other seed" in capsys.readouterr().err
+    assert _outputs(out) == before
     for p in (out / "records").rglob("0*.json"):  # lose every record: the same command, the same bytes
         p.unlink()
     assert main(argv) == 0
