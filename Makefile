@@ -83,8 +83,8 @@ rounds: setup
 
 # "any SUMO network" at scale (docs/SCENARIOS.md, "Sweeps over many networks"): SWEEP_NETWORKS generated
 # networks, 5 random car routes each (the first that loads driven by the expert), then every network of the
-# eclipse-sumo wheel's tools/game/ with 20 routes each; resumable (rerun it after an interruption); about an
-# hour at the default size on 2 cores. Small: make sweep SWEEP_NETWORKS=12
+# eclipse-sumo wheel's tools/game/ with 20 routes each; resumable (rerun it after an interruption); estimated
+# at 30-60 min at the default size on 2 cores. Small: make sweep SWEEP_NETWORKS=12
 SWEEP          ?= runs/sweep
 SWEEP_NETWORKS ?= 500
 SWEEP_WORKERS  ?= 2

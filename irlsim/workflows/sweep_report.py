@@ -181,6 +181,12 @@ def markdown(summary: dict[str, Any], request: dict[str, Any]) -> str:
     lines += _rows(summary["crashes"], ("network", "route", "seed", "stage", "error"))
     lines += ["", "## Failures (driven outside the safety bounds, or refused when driven)", ""]
     lines += _rows(summary["failures"], FAILURE_COLUMNS)
+    if summary["failures"]:
+        lines += [
+            "",
+            "Drive one again (the expert and SUMO's driver): `irlsim scenario check SCENARIO --seed SEED "
+            f"--episodes 1 --max-time {request['max_time']:g}`.",
+        ]
     if summary["networks_without_car_lanes"]:
         lines += ["", "Networks without car lanes: " + ", ".join(summary["networks_without_car_lanes"])]
     return "\n".join(lines) + "\n"
