@@ -102,9 +102,10 @@ class RouteTask:
     max_time: float
 
 
-def find_networks(source: Path) -> list[tuple[str, Path]]:
+def find_networks(source: Path, exclude: Path | None = None) -> list[tuple[str, Path]]:
     """(name, path) of every network of ``source``, by name; a name is the path below the folder without
-    its suffix, '/' written '__'. One line, before any work, when there is none or one is not a network."""
+    its suffix, '/' written '__'; nothing under ``exclude`` (the sweep's own output, where unpacked
+    copies of .gz networks lie). One line, before any work, when there is none or one is not a network."""
     if not source.exists():
         raise IrlsimError(
             f"{source} does not exist: give a SUMO network (.net.xml, .net.xml.gz) or a folder of them"
@@ -117,7 +118,14 @@ def find_networks(source: Path) -> list[tuple[str, Path]]:
         files = [source]
         names = [_strip_suffix(source.name)]
     else:
-        files = sorted(p for p in source.rglob("*") if p.is_file() and p.name.endswith(NET_SUFFIXES))
+        skip = exclude.resolve() if exclude is not None else None
+        files = sorted(
+            p
+            for p in source.rglob("*")
+            if p.is_file()
+            and p.name.endswith(NET_SUFFIXES)
+            and not (skip and p.resolve().is_relative_to(skip))
+        )
         if not files:
             raise IrlsimError(
                 f"{source} holds no SUMO network (*.net.xml, *.net.xml.gz): choose another folder"
@@ -159,7 +167,7 @@ def check_request(run: SweepRun) -> list[tuple[str, Path]]:
         raise IrlsimError(f"--max-time must be > 0 s, got {run.max_time}")
     if run.workers < 1:
         raise IrlsimError(f"--workers must be >= 1, got {run.workers}")
-    networks = find_networks(run.source)
+    networks = find_networks(run.source, exclude=run.out)
     check_output_dir(run.out, "--out")
     asked = run.identity()
     request = run.out / "request.json"
