@@ -26,13 +26,18 @@ HELP = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
-    sub.add_parser("list", help="the shipped scenarios", description="the shipped scenarios")
-    p = sub.add_parser("show", help="what irlsim derives from a scenario, and its picture")
+    _action(sub, "list", "the shipped scenarios")
+    p = _action(sub, "show", "what irlsim derives from a scenario, and its picture")
     p.add_argument("scenario", nargs="?", default=None, help="a shipped name or a scenario.toml path")
     p.add_argument("--out", type=Path, default=None, help="draw it into this PNG (default: none)")
     _add_check(sub)
     _add_sweep(sub)
-    p = sub.add_parser("generate", help="generate SUMO networks to sweep (grid, spider, random)")
+    p = _action(
+        sub,
+        "generate",
+        "generate SUMO networks to sweep (grid, spider, random; 1-4 lanes, 30-130 km/h, signals or priority, "
+        "left-turn lanes, sidewalks and bike lanes), the same bytes per seed (docs/SCENARIOS.md)",
+    )
     p.add_argument("--count", type=int_in(1), required=True, help="networks to generate")
     p.add_argument(
         "--seed", type=int_in(0, MAX_SEED), default=0, help="network i is drawn from (S, i) (default: 0)"
@@ -40,10 +45,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, help="output folder (kept networks are not rebuilt)")
 
 
+def _action(sub: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:  # type: ignore[type-arg]
+    return sub.add_parser(name, help=text.split(" (")[0].split(";")[0], description=text)  # type: ignore[no-any-return]
+
+
 def _add_check(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
+    p = _action(
+        sub,
         "check",
-        help="the expert and SUMO's driver on the same seeds of a scenario: the bar and the table",
+        "the expert and SUMO's driver on the same seeds of a scenario: the bar and the table (check.md, "
+        "check.json); exits 1 when the expert misses the bar",
     )
     p.add_argument("scenario", help="a shipped name or a scenario.toml path")
     p.add_argument("--episodes", type=int_in(1), default=10, help="episodes per driver (default: 10)")
@@ -58,9 +69,12 @@ def _add_check(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
 
 
 def _add_sweep(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
-    p = sub.add_parser(
+    p = _action(
+        sub,
         "sweep",
-        help="draw random car routes on a network or a folder of them, load each and drive some: the table",
+        "draw random car routes on a network or a folder of them, load each as a scenario and let the expert "
+        "drive the first that load: routes loaded, refused by reason, driven within the safety bounds, "
+        "crashes (sweep.md, sweep.json, routes.csv); resumable (docs/SCENARIOS.md)",
     )
     p.add_argument("source", type=Path, help="a SUMO network (.net.xml, .net.xml.gz) or a folder of them")
     p.add_argument("--routes", type=int_in(1), required=True, help="routes drawn per network")
