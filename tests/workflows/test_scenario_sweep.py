@@ -32,9 +32,20 @@ EDGES = (
 )
 
 
-def _netconvert(folder: Path, name: str, *extra: str) -> Path:
-    (folder / "n.nod.xml").write_text(f"<nodes>{NODES}</nodes>")
-    (folder / "e.edg.xml").write_text(f"<edges>{EDGES}</edges>")
+#: a square ring of 600 m sides, 2 lanes all round: a loop with nothing that derives a checkpoint
+RING_NODES = "".join(
+    f'<node id="{n}" x="{x}" y="{y}" type="priority"/>'
+    for n, x, y in (("a", 0, 0), ("b", 600, 0), ("c", 600, 600), ("d", 0, 600))
+)
+RING_EDGES = "".join(
+    f'<edge id="{a}{b}" from="{a}" to="{b}" numLanes="2" speed="13.9"/>' for a, b in ("ab", "bc", "cd", "da")
+)
+
+
+def _netconvert(folder: Path, name: str, *extra: str, nodes: str = NODES, edges: str = EDGES) -> Path:
+    folder.mkdir(exist_ok=True)
+    (folder / "n.nod.xml").write_text(f"<nodes>{nodes}</nodes>")
+    (folder / "e.edg.xml").write_text(f"<edges>{edges}</edges>")
     out = folder / f"{name}.net.xml"
     cmd = [sumo_binary("netconvert"), "-n", "n.nod.xml", "-e", "e.edg.xml", "-o", out.name, *extra]
     subprocess.run(
@@ -67,8 +78,10 @@ def test_reasons_of_real_refusals(tmp_path):
     for route, reason in cases.items():
         message = _refusal(tmp_path, net, route)
         assert message.count("\n") == 0 and refusal_reason(message) == reason, (route, message)
-    left = _netconvert(tmp_path / "..", "left", "--lefthand")
+    left = _netconvert(tmp_path / "left", "left", "--lefthand")
     assert refusal_reason(_refusal(tmp_path, left, 'edges = ["ab", "bc"]')) == "left-hand"
+    ring = _netconvert(tmp_path / "ring", "ring", nodes=RING_NODES, edges=RING_EDGES)
+    assert refusal_reason(_refusal(tmp_path, ring, 'edges = ["ab", "bc", "cd", "da"]')) == "no-checkpoint"
     broken = tmp_path / "broken.net.xml"
     broken.write_bytes(net.read_bytes()[:3000])
     assert refusal_reason(_refusal(tmp_path, broken, 'edges = ["ab", "bc"]')) == "network"
