@@ -181,11 +181,12 @@ def markdown(summary: dict[str, Any], request: dict[str, Any]) -> str:
     lines += _rows(summary["crashes"], ("network", "route", "seed", "stage", "error"))
     lines += ["", "## Failures (driven outside the safety bounds, or refused when driven)", ""]
     lines += _rows(summary["failures"], FAILURE_COLUMNS)
-    if summary["failures"]:
+    if summary["failures"] or summary["crashes"]:
         lines += [
             "",
-            "Drive one again (the expert and SUMO's driver): `irlsim scenario check SCENARIO --seed SEED "
-            f"--episodes 1 --max-time {request['max_time']:g}`.",
+            "Drive a failure or a crash again (the expert and SUMO's driver, a crash with its traceback): "
+            f"`irlsim scenario check SCENARIO --seed SEED --episodes 1 --max-time {request['max_time']:g}`, "
+            "SCENARIO the route's file in `scenarios/`.",
         ]
     if summary["networks_without_car_lanes"]:
         lines += ["", "Networks without car lanes: " + ", ".join(summary["networks_without_car_lanes"])]
