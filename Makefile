@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe rounds lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe rounds sweep lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -83,6 +83,21 @@ recipe: setup
 # new recipe's stage 1 with each schedule of rounds, driven on development seeds; the rule picks the cheapest
 rounds: setup
 	nice -n 5 $(BIN)/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20 --episodes 20
+
+# "any SUMO network" at scale (docs/SCENARIOS.md, "Sweeps over many networks"): SWEEP_NETWORKS generated
+# networks, 5 random car routes each (the first that loads driven by the expert), then every network of the
+# eclipse-sumo wheel's tools/game/ with 20 routes each; resumable (rerun it after an interruption); estimated
+# at 30-60 min at the default size on 2 cores. Small: make sweep SWEEP_NETWORKS=12
+SWEEP          ?= runs/sweep
+SWEEP_NETWORKS ?= 500
+SWEEP_WORKERS  ?= 2
+SUMO_GAME       = $$($(BIN)/python -c 'import sumo; print(sumo.SUMO_HOME)')/tools/game
+sweep: setup
+	$(IRLSIM) scenario generate --count $(SWEEP_NETWORKS) --seed $(SEED) --out $(SWEEP)/networks
+	$(IRLSIM) scenario sweep $(SWEEP)/networks --routes 5 --drive 1 --seed $(SEED) --workers $(SWEEP_WORKERS) \
+		--out $(SWEEP)/generated
+	$(IRLSIM) scenario sweep "$(SUMO_GAME)" --routes 20 --drive 1 --seed $(SEED) --workers $(SWEEP_WORKERS) \
+		--out $(SWEEP)/game
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup

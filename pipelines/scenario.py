@@ -1,5 +1,7 @@
-"""``irlsim scenario list | show NAME|PATH``: the shipped scenarios, and what irlsim derives from one
-(route, lanes, stops, exits, mission, traffic) with a picture."""
+"""``irlsim scenario list | show | check | sweep | generate``: the shipped scenarios; what irlsim derives
+from one (route, lanes, stops, exits, mission, traffic) with a picture; the acceptance of one (the expert
+and SUMO's driver on the same seeds: :mod:`irlsim.workflows.scenarios`); a sweep of random routes over
+many networks (:mod:`irlsim.workflows.sweep`); generated networks to sweep."""
 
 from __future__ import annotations
 
@@ -8,18 +10,91 @@ from pathlib import Path
 
 import numpy as np
 
+from irlsim.config import MAX_SEED, float_in, int_in
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_file
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import load_scenario, shipped_scenarios
+from irlsim.workflows.scenarios import CheckRun, GenerateRun, check_scenario_run, generate_networks
+from irlsim.workflows.sweep import SweepRun, sweep_networks
 
-HELP = "list the shipped scenarios, or show what irlsim derives from one (and draw it)"
+HELP = (
+    "list the shipped scenarios, show what irlsim derives from one, check the expert on one, sweep "
+    "random routes over many networks, generate networks to sweep"
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("action", choices=("list", "show"), help="list the shipped ones, or show one")
-    parser.add_argument("scenario", nargs="?", default=None, help="a shipped name or a scenario.toml path")
-    parser.add_argument("--out", type=Path, default=None, help="draw it into this PNG (default: none)")
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    _action(sub, "list", "the shipped scenarios")
+    p = _action(sub, "show", "what irlsim derives from a scenario, and its picture")
+    p.add_argument("scenario", nargs="?", default=None, help="a shipped name or a scenario.toml path")
+    p.add_argument("--out", type=Path, default=None, help="draw it into this PNG (default: none)")
+    _add_check(sub)
+    _add_sweep(sub)
+    p = _action(
+        sub,
+        "generate",
+        "generate SUMO networks to sweep (grid, spider, random; 1-4 lanes, 30-130 km/h, signals or priority, "
+        "left-turn lanes, sidewalks and bike lanes), the same bytes per seed (docs/SCENARIOS.md)",
+    )
+    p.add_argument("--count", type=int_in(1), required=True, help="networks to generate")
+    p.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="network i is drawn from (S, i) (default: 0)"
+    )
+    p.add_argument("--out", type=Path, required=True, help="output folder (kept networks are not rebuilt)")
+
+
+def _action(sub: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:  # type: ignore[type-arg]
+    return sub.add_parser(name, help=text.split(" (")[0].split(";")[0], description=text)  # type: ignore[no-any-return]
+
+
+def _add_check(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = _action(
+        sub,
+        "check",
+        "the expert and SUMO's driver on the same seeds of a scenario: the bar and the table (check.md, "
+        "check.json); exits 1 when the expert misses the bar",
+    )
+    p.add_argument("scenario", help="a shipped name or a scenario.toml path")
+    p.add_argument("--episodes", type=int_in(1), default=10, help="episodes per driver (default: 10)")
+    p.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=1000, help="episode i uses seed S + i (default: 1000)"
+    )
+    p.add_argument(
+        "--max-time", type=float_in(0.0, above=True), default=None,
+        help="[s] simulated time of an episode at most (default: the scenario's, 600 s)",
+    )  # fmt: skip
+    p.add_argument("--out", type=Path, default=None, help="output folder (default: runs/check/<scenario>)")
+
+
+def _add_sweep(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = _action(
+        sub,
+        "sweep",
+        "draw random car routes on a network or a folder of them, load each as a scenario and let the expert "
+        "drive the first that load: routes loaded, refused by reason, driven within the safety bounds, "
+        "crashes (sweep.md, sweep.json, routes.csv); resumable (docs/SCENARIOS.md)",
+    )
+    p.add_argument("source", type=Path, help="a SUMO network (.net.xml, .net.xml.gz) or a folder of them")
+    p.add_argument("--routes", type=int_in(1), required=True, help="routes drawn per network")
+    p.add_argument(
+        "--seed", type=int_in(0, MAX_SEED), default=0, help="route k is drawn from (S, k), driven with S + k"
+    )
+    p.add_argument("--out", type=Path, required=True, help="output folder (a rerun resumes it)")
+    p.add_argument(
+        "--drive",
+        type=int_in(0),
+        default=1,
+        help="routes driven per network: the first that load (default: 1)",
+    )
+    p.add_argument(
+        "--max-time", type=float_in(0.0, above=True), default=90.0,
+        help="[s] simulated time of a driven episode at most (default: 90)",
+    )  # fmt: skip
+    p.add_argument(
+        "--workers", type=int_in(1, 256), default=1, help="processes loading and driving routes (default: 1)"
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -27,6 +102,21 @@ def run(args: argparse.Namespace) -> int:
         for name in shipped_scenarios():
             print(f"{name:12s} {load_scenario(name, build=False).description}")
         return 0
+    if args.action == "check":
+        acc = check_scenario_run(CheckRun(args.scenario, args.out, args.episodes, args.seed, args.max_time))
+        return 0 if not acc.failures else 1
+    if args.action == "sweep":
+        sweep_networks(
+            SweepRun(args.source, args.routes, args.out, args.seed, args.drive, args.max_time, args.workers)
+        )
+        return 0
+    if args.action == "generate":
+        generate_networks(GenerateRun(args.count, args.out, args.seed))
+        return 0
+    return show(args)
+
+
+def show(args: argparse.Namespace) -> int:
     if args.scenario is None:
         raise IrlsimError("scenario show needs a scenario: irlsim scenario show NAME|PATH")
     if args.out is not None:

@@ -6,6 +6,7 @@ the one SUMO's driver reaches (``irlsim scenario check``, the scenario tests).""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -60,8 +61,15 @@ class Acceptance:
 HEADER = "scenario  eps coll exit  red stops  mission  km/h  sumo  ratio"
 
 
-def drive_seeds(scenario: str, driver: str, seeds: tuple[int, ...], cfg: ScenarioConfig) -> dict[str, float]:
-    """Sums over ``seeds`` of one driver's episodes on ``scenario`` (mean speed over all of them)."""
+def drive_seeds(
+    scenario: str,
+    driver: str,
+    seeds: tuple[int, ...],
+    cfg: ScenarioConfig,
+    on_episode: Callable[[], None] | None = None,
+) -> dict[str, float]:
+    """Sums over ``seeds`` of one driver's episodes on ``scenario`` (mean speed over all of them);
+    ``on_episode`` is called after each episode (a progress bar)."""
     road = load_road(scenario=scenario)
     totals = dict.fromkeys(
         (
@@ -93,17 +101,25 @@ def drive_seeds(scenario: str, driver: str, seeds: tuple[int, ...], cfg: Scenari
                 totals[key] += float(st.get(stat, 0))
             speed += float(st["sim/mean_speed_kmh"]) * int(st["sim/steps"])
             steps += int(st["sim/steps"])
+            if on_episode is not None:
+                on_episode()
     totals["mean_speed_kmh"] = speed / max(steps, 1)
     return totals
 
 
-def check_scenario(scenario: str, seeds: tuple[int, ...], cfg: ScenarioConfig | None = None) -> Acceptance:
-    """The expert and SUMO's driver on ``seeds`` of ``scenario`` (a loop: 2 laps each)."""
+def check_scenario(
+    scenario: str,
+    seeds: tuple[int, ...],
+    cfg: ScenarioConfig | None = None,
+    on_episode: Callable[[], None] | None = None,
+) -> Acceptance:
+    """The expert and SUMO's driver on ``seeds`` of ``scenario`` (a loop: 2 laps each); ``on_episode``
+    is called after each of the 2 x len(seeds) episodes."""
     base = cfg or scenario_config(scenario)
     cfg = dataclasses.replace(base, name=scenario, laps=min(base.laps, 2))
     return Acceptance(
         scenario,
         tuple(seeds),
-        drive_seeds(scenario, "expert", seeds, cfg),
-        drive_seeds(scenario, "sumo", seeds, cfg),
+        drive_seeds(scenario, "expert", seeds, cfg, on_episode),
+        drive_seeds(scenario, "sumo", seeds, cfg, on_episode),
     )
