@@ -101,11 +101,11 @@ sweep: setup
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits
 lint: setup
-	$(BIN)/ruff check irlsim pipelines tests
-	$(BIN)/ruff format --check irlsim pipelines tests
+	$(BIN)/ruff check irlsim pipelines tests studies tools examples
+	$(BIN)/ruff format --check irlsim pipelines tests studies tools examples
 	$(BIN)/mypy irlsim pipelines
 	$(BIN)/lint-imports
-	$(BIN)/python tools/check_sizes.py irlsim pipelines
+	$(BIN)/python tools/check_sizes.py irlsim pipelines tests studies tools examples
 
 $(BIN)/.docs-installed: pyproject.toml $(BIN)/.installed
 	$(BIN)/pip install -q -e '.[docs]'

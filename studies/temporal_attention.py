@@ -49,6 +49,44 @@ def run(cmd: list[str]) -> None:
     subprocess.run(cmd, check=True)
 
 
+def train_and_evaluate(args: argparse.Namespace, folder: Path, sets: list[str]) -> None:
+    """Stage 2's PTACNN+S of one variant on the frozen base, then Table I on the validation split."""
+    irlsim = str(Path(sys.executable).with_name("irlsim"))
+    stage1 = folder / "stage1"
+    folder.mkdir(parents=True, exist_ok=True)
+    if not stage1.exists():  # the frozen base, so evaluate shows its H-mean row beside PTACNN+S
+        stage1.mkdir()
+        os.symlink(Path(args.base).resolve() / "PACNN+S", stage1 / "PACNN+S")
+    cmd = [irlsim, "train", "--stage", "2", "--config", args.config, "--data", args.data]
+    cmd += ["--out", str(folder), "--base", args.base, "--set", 'models=["PTACNN+S"]']
+    cmd += ["--set", f"threads={args.threads}"]
+    for s in sets:
+        cmd += ["--set", s]
+    run(cmd)
+    evaluate = [irlsim, "evaluate", "--data", args.data, "--runs", str(folder), "--split", "validation"]
+    run([*evaluate, "--out", str(folder / "val"), "--threads", str(args.threads), "--no-references"])
+
+
+def markdown(table: list[dict]) -> str:
+    """The study's table, one row per variant."""
+    lines = [
+        "| configuration | val OPD [m] | val ED [m] | PACNN+S H-mean OPD / ED [m] "
+        "| plan change [m] (at switches) "
+        "| PACNN+S plan change [m] | theta change (PACNN+S) | newest weight (at switches) "
+        "| weight shift (at switches) | epoch |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in table:
+        lines.append(
+            f"| {r['name']} | {r['opd']:.3f} | {r['ed']:.3f} | {r['base_opd']:.3f} / {r['base_ed']:.3f} | "
+            f"{r['plan_change']:.3f} ({r['plan_change_switch']:.3f}) | {r['base_plan_change']:.3f} | "
+            f"{r['theta_change']:.3f} ({r['base_theta_change']:.3f}) | "
+            f"{r['newest_weight']:.3f} ({r['newest_weight_switch']:.3f}) | "
+            f"{r['weight_shift']:.3f} ({r['weight_shift_switch']:.3f}) | {r['epoch']} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", required=True)
@@ -59,7 +97,6 @@ def main() -> int:
     p.add_argument("--only", nargs="*", help="names of VARIANTS to run (default: all)")
     p.add_argument("--set", action="append", default=[], help="extra override for every variant")
     args = p.parse_args()
-    irlsim = str(Path(sys.executable).with_name("irlsim"))
     out = Path(args.out)
     names = args.only or list(VARIANTS)
     table = []
@@ -68,34 +105,7 @@ def main() -> int:
         folder = out / slug(name)
         res = folder / "val" / "results.json"
         if not res.exists():
-            stage1 = folder / "stage1"
-            folder.mkdir(parents=True, exist_ok=True)
-            if not stage1.exists():  # the frozen base, so evaluate shows its H-mean row beside PTACNN+S
-                stage1.mkdir()
-                os.symlink(Path(args.base).resolve() / "PACNN+S", stage1 / "PACNN+S")
-            cmd = [irlsim, "train", "--stage", "2", "--config", args.config, "--data", args.data]
-            cmd += ["--out", str(folder), "--base", args.base, "--set", 'models=["PTACNN+S"]']
-            cmd += ["--set", f"threads={args.threads}"]
-            for s in sets:
-                cmd += ["--set", s]
-            run(cmd)
-            run(
-                [
-                    irlsim,
-                    "evaluate",
-                    "--data",
-                    args.data,
-                    "--runs",
-                    str(folder),
-                    "--split",
-                    "validation",
-                    "--out",
-                    str(folder / "val"),
-                    "--threads",
-                    str(args.threads),
-                    "--no-references",
-                ]
-            )
+            train_and_evaluate(args, folder, sets)
         rows = {r["model"]: r for r in json.loads(res.read_text())["rows"]}
         t, b = rows["PTACNN+S"], rows["PACNN+S"]
         table.append(
@@ -118,22 +128,7 @@ def main() -> int:
                 "epoch": t.get("selected_epoch"),
             }
         )
-    lines = [
-        "| configuration | val OPD [m] | val ED [m] | PACNN+S H-mean OPD / ED [m] "
-        "| plan change [m] (at switches) "
-        "| PACNN+S plan change [m] | theta change (PACNN+S) | newest weight (at switches) "
-        "| weight shift (at switches) | epoch |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in table:
-        lines.append(
-            f"| {r['name']} | {r['opd']:.3f} | {r['ed']:.3f} | {r['base_opd']:.3f} / {r['base_ed']:.3f} | "
-            f"{r['plan_change']:.3f} ({r['plan_change_switch']:.3f}) | {r['base_plan_change']:.3f} | "
-            f"{r['theta_change']:.3f} ({r['base_theta_change']:.3f}) | "
-            f"{r['newest_weight']:.3f} ({r['newest_weight_switch']:.3f}) | "
-            f"{r['weight_shift']:.3f} ({r['weight_shift_switch']:.3f}) | {r['epoch']} |"
-        )
-    md = "\n".join(lines) + "\n"
+    md = markdown(table)
     print(md)
     if not args.only:
         from irlsim.utils import atomic_write_text, write_json

@@ -22,11 +22,8 @@ from typing import Any
 import pytest
 
 from irlsim.cli import main
-from irlsim.config import load_config
-from irlsim.data.collection import CollectConfig
 from irlsim.data.layout import episode_paths
 from irlsim.executor import KILL_GRACE_S, RAY_CANCEL_WAIT_S, Job, run_jobs
-from irlsim.workflows.collect import default_episode_timeout, episode_timeout
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 
@@ -186,33 +183,6 @@ def test_a_hung_worker_is_killed_retried_then_named(executor, request):
         pids = [int(m[1]) for r in reasons if (m := re.search(r"worker process (\d+) killed$", r))]
         assert len(pids) == 2 and pids[0] != pids[1]  # the retry ran in a fresh worker
         assert not [p for p in pids if Path(f"/proc/{p}").exists()], "a hung worker is still there"
-
-
-def test_default_episode_timeout_follows_the_scenario():
-    """600 s + 2 x the simulated time limit (max_time, or max_cycles x cycle when shorter); none for the
-    local executor's one worker in this process unless asked, and then the asked one."""
-    cfg = load_config(CollectConfig, "configs/collect/default.toml")  # max_cycles 800 of 0.2 s, max_time 600
-    assert default_episode_timeout(cfg.scenario, cfg.max_cycles) == 600 + 2 * 160 == 920
-    assert default_episode_timeout(cfg.scenario, 0) == 600 + 2 * 600  # drive without --max-cycles
-    assert default_episode_timeout(cfg.scenario, 10_000) == 1800  # max_time is the shorter
-    assert episode_timeout(None, "local", 2, cfg.scenario, 800) == 920
-    assert episode_timeout(None, "ray", 1, cfg.scenario, 800) == 920
-    assert episode_timeout(None, "local", 1, cfg.scenario, 800) is None
-    assert episode_timeout(30.0, "local", 1, cfg.scenario, 800) == 30.0
-
-
-def test_ray_without_the_extra_is_one_line(tmp_path, capsys, monkeypatch):
-    """Without Ray installed ('ray' not importable), --executor ray is one line naming the extra."""
-    monkeypatch.setitem(sys.modules, "ray", None)  # what an environment without the extra sees
-    assert main(_collect_args(tmp_path / "x", "--executor", "ray")) == 2
-    err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "pip install -e '.[ray]'" in err[0], err
-    assert not (tmp_path / "x").exists()
-
-
-def test_address_without_ray_is_refused(tmp_path, capsys):
-    assert main(_collect_args(tmp_path / "x", "--address", "auto")) == 2
-    assert "--executor ray" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------------------- collect, same bytes
