@@ -188,7 +188,10 @@ class Road:
         self.lane_shapes = (
             []
             if self.layout.varies
-            else [route.lane_shape(self.net, self.edges, k, self.closed) for k in range(self.n_lanes)]
+            else [
+                route.lane_shape(self.net, self.edges, self.layout, k, self.closed)
+                for k in range(self.n_lanes)
+            ]
         )
         centre = route.reference_shape(self.net, self.edges, self.layout, self.closed)
         if self.closed:
