@@ -322,6 +322,30 @@ def junction_controls(
     return stops, signals
 
 
+#: SUMO link states at which a vehicle yields without a sign (a minor road, equal rank, a zipper merge)
+YIELD_STATES = ("m", "=", "Z")
+
+
+def yield_ends(net: object, edges: tuple[str, ...], closed: bool) -> tuple[int, ...]:
+    """Indices of the route edges whose way into the route's next edge yields (a merge, a minor road:
+    SUMO link state 'm', '=' or 'Z'); SUMO refuses a departure too close before such a junction to brake."""
+    n = len(edges)
+    out = []
+    for i, eid in enumerate(edges):
+        if i == n - 1 and not closed:
+            break
+        nxt = edges[(i + 1) % n]
+        states = {
+            c.getState()
+            for ln in net.getEdge(eid).getLanes()  # type: ignore[attr-defined]
+            for c in ln.getOutgoing()
+            if c.getTo().getID() == nxt
+        }
+        if states & set(YIELD_STATES):
+            out.append(i)
+    return tuple(out)
+
+
 def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray]]:
     """Every road for cars the route's rightmost car lane can turn into other than the route's next edge:
     (edge id, the junction lane into it and its rightmost car lane [P, 2]). Leaving the route there is

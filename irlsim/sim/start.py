@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import Road
+from irlsim.road import Road, route
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import VehicleStates
@@ -35,7 +35,9 @@ def draw_start(
     if not cfg.ego_start_random:
         return cfg.ego_start_s, cfg.ego_start_lane, cfg.ego_start_speed
     rng = np.random.default_rng([int(seed), START_STREAM])
-    marks = np.array([sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits])
+    # stop lines, exits and the junctions where the route yields (SUMO refuses a start too close to one)
+    yields = [float(e.s1[i]) % lap for i in route.yield_ends(road.net, road.edges, road.closed)]
+    marks = np.array([sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits] + yields)
     cps = np.array([c.s for c in road.checkpoints])
     for _ in range(8):
         s = rng.uniform(0.0, lap, 256)
