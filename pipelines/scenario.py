@@ -130,7 +130,8 @@ def show(args: argparse.Namespace) -> int:
     if args.out is not None:
         from irlsim.viz.road_map import draw_scenario  # lazy: matplotlib
 
-        print(f"picture: {draw_scenario(road, args.out, f'{scn.name}: {scn.description}')}")
+        title = f"{scn.name}: {scn.description}" if scn.description else scn.name
+        print(f"picture: {draw_scenario(road, args.out, title)}")
     return 0
 
 

@@ -188,7 +188,10 @@ class Road:
         self.lane_shapes = (
             []
             if self.layout.varies
-            else [route.lane_shape(self.net, self.edges, k, self.closed) for k in range(self.n_lanes)]
+            else [
+                route.lane_shape(self.net, self.edges, self.layout, k, self.closed)
+                for k in range(self.n_lanes)
+            ]
         )
         centre = route.reference_shape(self.net, self.edges, self.layout, self.closed)
         if self.closed:
@@ -232,6 +235,9 @@ class Road:
     def _checkpoints(self, given: tuple[tuple[float, float, int], ...] | None) -> tuple[Checkpoint, ...]:
         """The given checkpoints (x, y, lane), or those derived from the route (the mission points)."""
         points = route.mission_points(self.net, self.edges, self.closed, self.layout) if given is None else []
+        if given is None and not points:  # a loop without a mission: one checkpoint where any lane will do
+            x, y = self.net.getEdge(self.edges[0]).getLane(self.middle_lane[self.edges[0]]).getShape()[-1]
+            points = [(float(x), float(y), -1, ())]
         xyl = tuple((x, y, lane) for x, y, lane, _ in points) if given is None else given
         out = []
         for i, (x, y, lane) in enumerate(xyl):

@@ -49,17 +49,33 @@ def is_closed(net: object, edges: tuple[str, ...]) -> bool:
     return len(edges) > 1 and _connects(net, edges[-1], edges[0])
 
 
+#: the vehicle class whose lanes are the route's lanes (the ego's and the background traffic's)
+CAR_CLASS = "passenger"
+
+
+def car_lanes(edge: object) -> tuple[int, ...]:
+    """SUMO indices of the lanes of ``edge`` that admit passenger cars, rightmost first (a sidewalk, a
+    bike, bus or tram lane is left out: it bounds the road but is no lane of the route)."""
+    return tuple(ln.getIndex() for ln in edge.getLanes() if ln.allows(CAR_CLASS))  # type: ignore[attr-defined]
+
+
 @dataclass(frozen=True)
 class LaneLayout:
-    """The lanes along a route on one numbering: lane ``g`` (0 = the rightmost lane anywhere on the route)
-    is SUMO lane ``g - first[i]`` of route edge ``i``, where it exists. Lanes that go straight on across
-    a junction keep their number; a lane added on the right (an on-ramp) or dropped there shifts
+    """The lanes along a route on one numbering: lane ``g`` (0 = the rightmost car lane anywhere on the
+    route) is the car lane ``g - first[i]`` of route edge ``i`` (counted from the right among the lanes
+    that admit cars: SUMO lane ``lanes[i][g - first[i]]``), where it exists. Lanes that go straight on
+    across a junction keep their number; a lane added on the right (an on-ramp) or dropped there shifts
     ``first`` by one."""
 
-    first: tuple[int, ...]  # per route edge: the route lane of its SUMO lane 0
-    count: tuple[int, ...]  # per route edge: its number of lanes
+    first: tuple[int, ...]  # per route edge: the route lane of its rightmost car lane
+    count: tuple[int, ...]  # per route edge: its number of car lanes
     n_lanes: int  # lanes on the route's numbering
-    width: float  # [m] every lane's width
+    width: float  # [m] the lane width of the route frame (see :func:`route_width`)
+    #: per route edge, the SUMO indices of its car lanes, rightmost first; () = SUMO lanes 0..count-1
+    lanes: tuple[tuple[int, ...], ...] = ()
+    #: per route edge, its car lanes' real widths [m], rightmost first, where some differ from ``width``;
+    #: () = every lane is ``width`` wide
+    widths: tuple[tuple[float, ...], ...] = ()
 
     @property
     def varies(self) -> bool:
@@ -69,25 +85,45 @@ class LaneLayout:
     def edge_lane(self, i: int, lane: int) -> int:
         """SUMO lane index on route edge ``i`` of route lane ``lane``; -1 where that edge lacks it."""
         k = lane - self.first[i]
-        return k if 0 <= k < self.count[i] else -1
+        if not 0 <= k < self.count[i]:
+            return -1
+        return self.lanes[i][k] if self.lanes else k
+
+    def route_lane(self, i: int, sumo_lane: int) -> int:
+        """Route lane of SUMO lane ``sumo_lane`` of route edge ``i``; -1 for a lane that admits no cars."""
+        if not self.lanes:
+            return self.first[i] + sumo_lane
+        idx = self.lanes[i]
+        return self.first[i] + idx.index(sumo_lane) if sumo_lane in idx else -1
 
 
 def lane_layout(net: object, edges: tuple[str, ...], closed: bool) -> LaneLayout:
-    """The route's lane numbering (:class:`LaneLayout`) from SUMO's lane connections: across each
-    junction the most common shift between a connection's from- and to-lane index (the lanes that go
-    straight on); checks one lane width and lanes for passenger cars."""
+    """The route's lane numbering (:class:`LaneLayout`) over the lanes that admit passenger cars, from
+    SUMO's lane connections: across each junction the most common shift between a connection's from- and
+    to-lane (the lanes that go straight on). Refuses an edge without a car lane."""
     n = len(edges)
+    lanes = []
+    for eid in edges:
+        idx = car_lanes(net.getEdge(eid))  # type: ignore[attr-defined]
+        if not idx:
+            raise IrlsimError(
+                f"route: edge '{eid}' has no lane for passenger cars (only sidewalks, bike, bus or tram "
+                "lanes): choose a route of roads for cars"
+            )
+        lanes.append(idx)
+    rank = [{k: j for j, k in enumerate(idx)} for idx in lanes]
     rel = [0]
     for i in range(n - 1 if not closed else n):
-        a, b = net.getEdge(edges[i]), edges[(i + 1) % n]  # type: ignore[attr-defined]
+        j = (i + 1) % n
+        a, b = net.getEdge(edges[i]), edges[j]  # type: ignore[attr-defined]
         shifts = [
-            lane.getIndex() - c.getToLane().getIndex()
-            for lane in a.getLanes()
-            for c in lane.getOutgoing()
-            if c.getTo().getID() == b
+            rank[i][k] - rank[j][c.getToLane().getIndex()]
+            for k in lanes[i]
+            for c in a.getLane(k).getOutgoing()
+            if c.getTo().getID() == b and c.getToLane().getIndex() in rank[j]
         ]
         if not shifts:
-            raise IrlsimError(f"route: no lane of '{edges[i]}' leads into '{b}': fix [route] edges")
+            raise IrlsimError(f"route: no car lane of '{edges[i]}' leads into '{b}': fix [route] edges")
         shift = min(set(shifts), key=lambda v: (-shifts.count(v), abs(v), v))
         if i < n - 1:
             rel.append(rel[-1] + shift)
@@ -98,32 +134,55 @@ def lane_layout(net: object, edges: tuple[str, ...], closed: bool) -> LaneLayout
             )
     lo = min(rel)
     first = tuple(r - lo for r in rel)
-    count = tuple(net.getEdge(e).getLaneNumber() for e in edges)  # type: ignore[attr-defined]
-    width = float(net.getEdge(edges[0]).getLane(0).getWidth())  # type: ignore[attr-defined]
-    for eid in edges:
-        for lane in net.getEdge(eid).getLanes():  # type: ignore[attr-defined]
-            if abs(float(lane.getWidth()) - width) > 0.05:
-                raise IrlsimError(
-                    f"route: lane '{lane.getID()}' is {lane.getWidth():.2f} m wide where the route's lanes "
-                    f"are {width:.2f} m: choose a route whose lanes have one width"
-                )
-            if not lane.allows("passenger"):
-                raise IrlsimError(
-                    f"route: lane '{lane.getID()}' does not admit passenger cars: choose a route of roads "
-                    "for cars"
-                )
+    count = tuple(len(idx) for idx in lanes)
     n_lanes = max(f + c for f, c in zip(first, count, strict=True))
-    return LaneLayout(first, count, n_lanes, width)
+    contiguous = all(idx == tuple(range(len(idx))) for idx in lanes)
+    widths = tuple(
+        tuple(float(net.getEdge(eid).getLane(k).getWidth()) for k in idx)  # type: ignore[attr-defined]
+        for eid, idx in zip(edges, lanes, strict=True)
+    )
+    width = route_width(widths, [float(net.getEdge(e).getLength()) for e in edges])  # type: ignore[attr-defined]
+    uniform = all(w == width for ws in widths for w in ws)
+    return LaneLayout(
+        first, count, n_lanes, width, () if contiguous else tuple(lanes), () if uniform else widths
+    )
+
+
+def route_width(widths: tuple[tuple[float, ...], ...], lengths: list[float]) -> float:
+    """[m] The one lane width of the route frame from every route edge's car lane widths: the common one
+    where they agree (within 0.05 m), else their median weighted by edge length.
+
+    The approximation where widths differ: the reference line follows the real middle of each edge's car
+    lanes (see :func:`reference_lanes`), and lane ``g``'s centre is taken at ``(g - (n_lanes - 1) / 2) *
+    width`` from it, so a lane of another width is placed and judged (the lane of an offset, the road's
+    edges, off-road) up to half the width difference per lane from the middle away from where SUMO draws
+    it (0.3 m for 3.6 m lanes on a 3.0 m frame, two lanes)."""
+    ws = np.asarray([w for e in widths for w in e])
+    ls = np.asarray([ln for e, ln in zip(widths, lengths, strict=True) for _ in e])
+    if np.abs(ws - ws[0]).max() <= 0.05:
+        return float(ws[0])
+    order = np.argsort(ws, kind="stable")
+    cum = np.cumsum(ls[order])
+    return float(ws[order][int(np.searchsorted(cum, cum[-1] / 2))])
 
 
 def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
-    """Per route edge, (its SUMO lane nearest the middle of the route's lanes, the lateral offset [m] from
-    that lane's centre to the middle, positive to the left): the pieces of the reference line."""
+    """Per route edge, (the SUMO index of its car lane nearest the middle of the route's lanes, the lateral
+    offset [m] from that lane's centre to the middle, positive to the left): the pieces of the reference
+    line. Where lane widths differ the middle is that of the edge's real car lanes, lanes the edge lacks
+    counted at the route's width."""
     c = (layout.n_lanes - 1) / 2
     out = []
-    for first, count in zip(layout.first, layout.count, strict=True):
+    for i, (first, count) in enumerate(zip(layout.first, layout.count, strict=True)):
         k = min(range(count), key=lambda j: (abs(first + j - c), j))
-        out.append((k, (c - (first + k)) * layout.width))
+        if not layout.widths:
+            delta = (c - (first + k)) * layout.width
+        else:
+            wi, w = layout.widths[i], layout.width
+            right = -wi[k] / 2 - sum(wi[:k]) - first * w  # the route's right edge from this lane's centre
+            left = wi[k] / 2 + sum(wi[k + 1 :]) + (layout.n_lanes - first - count) * w
+            delta = (right + left) / 2
+        out.append((layout.edge_lane(i, first + k), delta))
     return out
 
 
@@ -140,7 +199,7 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
         part = [np.asarray(lane.getShape(), dtype=np.float64)]
         if i < n - 1 or closed:
             j = (i + 1) % n
-            want = layout.edge_lane(j, layout.first[i] + k)
+            want = layout.edge_lane(j, layout.route_lane(i, k))
             cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[j]]
             via = [c for c in cons if c.getToLane().getIndex() == want] or cons
             via_id = via[0].getViaLaneID() if via else ""
@@ -210,21 +269,22 @@ def offset_polyline(pts: np.ndarray, delta: float) -> np.ndarray:
     return pts + delta * vn
 
 
-def lane_shape(net: object, edges: tuple[str, ...], k: int, closed: bool) -> np.ndarray:
-    """Centreline of lane ``k`` along the route, the junction (internal) lanes from lane k to lane k of the
-    next edge included where that connection exists: [P, 2]; for a loop the first point is not repeated
-    at the end."""
+def lane_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, g: int, closed: bool) -> np.ndarray:
+    """Centreline of route lane ``g`` along a route whose every edge has it, the junction (internal) lanes
+    from it into the same route lane of the next edge included where that connection exists: [P, 2]; for
+    a loop the first point is not repeated at the end."""
     pts: list[tuple[float, float]] = []
     n = len(edges)
     for i, eid in enumerate(edges):
-        lane = net.getEdge(eid).getLane(k)  # type: ignore[attr-defined]
+        lane = net.getEdge(eid).getLane(layout.edge_lane(i, g))  # type: ignore[attr-defined]
         pts.extend(lane.getShape())
         if i == n - 1 and not closed:
             break
-        nxt = edges[(i + 1) % n]
+        j = (i + 1) % n
+        nxt, k = edges[j], layout.edge_lane(j, g)
         via = [c for c in lane.getOutgoing() if c.getTo().getID() == nxt and c.getToLane().getIndex() == k]
-        # a lane that does not go on into lane k (it turns off, or only other lanes continue) is joined to
-        # the next edge's lane k by a straight segment across the junction
+        # a lane that does not go on into route lane g (it turns off, or only other lanes continue) is joined
+        # to the next edge's lane by a straight segment across the junction
         via_id = via[0].getViaLaneID() if via else ""
         if via_id:
             pts.extend(net.getLane(via_id).getShape())  # type: ignore[attr-defined]
@@ -262,9 +322,34 @@ def junction_controls(
     return stops, signals
 
 
+#: SUMO link states at which a vehicle yields without a sign (a minor road, equal rank, a zipper merge)
+YIELD_STATES = ("m", "=", "Z")
+
+
+def yield_ends(net: object, edges: tuple[str, ...], closed: bool) -> tuple[int, ...]:
+    """Indices of the route edges whose way into the route's next edge yields (a merge, a minor road:
+    SUMO link state 'm', '=' or 'Z'); SUMO refuses a departure too close before such a junction to brake."""
+    n = len(edges)
+    out = []
+    for i, eid in enumerate(edges):
+        if i == n - 1 and not closed:
+            break
+        nxt = edges[(i + 1) % n]
+        states = {
+            c.getState()
+            for ln in net.getEdge(eid).getLanes()  # type: ignore[attr-defined]
+            for c in ln.getOutgoing()
+            if c.getTo().getID() == nxt
+        }
+        if states & set(YIELD_STATES):
+            out.append(i)
+    return tuple(out)
+
+
 def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray]]:
-    """Every edge the route's rightmost lane can turn into other than the route's next edge: (edge id, the
-    junction lane into it and its rightmost lane [P, 2]). Leaving the route there is the exit failure."""
+    """Every road for cars the route's rightmost car lane can turn into other than the route's next edge:
+    (edge id, the junction lane into it and its rightmost car lane [P, 2]). Leaving the route there is
+    the exit failure."""
     out = []
     n = len(edges)
     on_route = set(edges)
@@ -272,15 +357,17 @@ def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple
         if i == n - 1 and not closed:
             break
         nxt = edges[(i + 1) % n]
-        for c in net.getEdge(eid).getLane(0).getOutgoing():  # type: ignore[attr-defined]
+        edge = net.getEdge(eid)  # type: ignore[attr-defined]
+        for c in edge.getLane(car_lanes(edge)[0]).getOutgoing():
             to = c.getTo()
-            if to.getID() == nxt or to.getID() in on_route:
+            to_cars = car_lanes(to)
+            if to.getID() == nxt or to.getID() in on_route or not to_cars:
                 continue
             pts: list[tuple[float, float]] = []
             via = c.getViaLaneID()
             if via:
                 pts.extend(net.getLane(via).getShape())  # type: ignore[attr-defined]
-            pts.extend(to.getLane(0).getShape())
+            pts.extend(to.getLane(to_cars[0]).getShape())
             out.append((to.getID(), np.asarray(pts, dtype=np.float64)))
     return out
 
@@ -305,11 +392,12 @@ def mission_points(
         nxt = edges[(i + 1) % n]
         going = sorted(
             {
-                layout.first[i] + lane.getIndex()
+                layout.route_lane(i, lane.getIndex())
                 for lane in edge.getLanes()
                 for con in lane.getOutgoing()
-                if con.getTo().getID() == nxt
+                if con.getTo().getID() == nxt and con.getToLane().allows(CAR_CLASS)
             }
+            - {-1}
         )
         if len(going) < layout.count[i]:
             req = min(going, key=lambda g: (abs(g - c), g))

@@ -27,7 +27,7 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.start import draw_start
+from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
@@ -75,6 +75,9 @@ class Simulation:
         self.vtypes_file = Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE
         self.marks = CourseMarks.from_road(self.road)
         self._edges = LoopEdges.from_road(self.road)
+        #: the factor on the ego's start clearances this route allows (1 unless it is short); a route too
+        #: short for any start is refused here, before SUMO starts
+        self.start_scale = start_scale(self.road, self.cfg, self._edges)
         self._api: Any = None
         self.seed: int | None = None
         self.episode: Episode | None = None
@@ -287,7 +290,7 @@ class Simulation:
         """The ego's start for an episode with ``seed``: (route position s [m], lane, speed [m/s]); see
         :func:`irlsim.sim.start.draw_start`."""
         occupied = self._read_vehicles() if self.road.demand else None
-        return draw_start(self.road, self.cfg, self._edges, seed, occupied)
+        return draw_start(self.road, self.cfg, self._edges, seed, occupied, self.start_scale)
 
     def _sumo_state(self) -> EgoState:
         """SUMO's own driver model drives the ego one step (:func:`irlsim.sim.sumo_ego.sumo_step`)."""

@@ -20,13 +20,21 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road
+from irlsim.road import route as route_mod
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import VehicleStates
 
 BG_TYPE = "bg"
-#: [m] no vehicle enters a lane that does not go on along the route closer than this to the lane's end
-#: (SUMO refuses a departure that cannot leave the lane in time: 'junction too close')
+#: [m] per lane change it needs, no vehicle enters a lane that does not go on along the route closer than
+#: this to where it stops going on (SUMO refuses a departure that cannot leave the lane in time: 'junction
+#: too close', 'too many lane changes required')
 LANE_END_CLEARANCE = 150.0
+#: [m] how far along the route a lane is followed to find where it stops going on
+RUNWAY_HORIZON = 1000.0
+#: [m/s^2] the background vehicles' deceleration (vehicle type 'bg' in sumo_net/vtypes.add.xml) and [m] the
+#: room beyond their braking distance they keep from a junction where they yield when they enter
+BG_DECEL = 4.5
+YIELD_MARGIN = 10.0
 
 
 @dataclass
@@ -50,7 +58,7 @@ class LoopEdges:
         s0, s1, ln = [], [], []
         for eid in road.edges:
             edge = road.net.getEdge(eid)
-            shape = np.asarray(edge.getLane((road.n_lanes - 1) // 2).getShape())
+            shape = np.asarray(edge.getLane(road.middle_lane[eid]).getShape())
             s, _ = road.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
             s0.append(float(s[0]))
             s1.append(float(s[1]) if s[1] > s[0] else float(s[1]) + road.lap_length)
@@ -90,16 +98,11 @@ class BackgroundTraffic:
     def __post_init__(self) -> None:
         for k in ("recycled", "resampled", "stop_lines_passed", "stop_lines_compliant", "collisions"):
             self.counts.setdefault(k, 0)
-        # (edge, SUMO lane) of the route that do not go on into the route's next edge (a lane turning off
-        # or ending): none on the oval
-        route, n = self.road.edges, len(self.road.edges)
-        self._dead_ends = {
-            (eid, lane.getIndex())
-            for i, eid in enumerate(route)
-            if i < n - 1 or self.road.closed
-            for lane in self.road.net.getEdge(eid).getLanes()
-            if not any(c.getTo().getID() == route[(i + 1) % n] for c in lane.getOutgoing())
-        }
+        # (route edge, SUMO lane) -> (metres it goes on along the route beyond its edge's end, lane changes
+        # needed where it stops): the lanes that turn off or end within RUNWAY_HORIZON (none on the oval)
+        self._runway = lane_runways(self.road)
+        # the route edges whose way on yields (a merge): SUMO refuses a departure too close to brake there
+        self._yields = set(route_mod.yield_ends(self.road.net, self.road.edges, self.road.closed))
 
     # ------------------------------------------------------------------ routes and insertion
     def add_routes(self) -> None:
@@ -141,8 +144,13 @@ class BackgroundTraffic:
         k = self.road.layout.edge_lane(i, lane)  # the route lane on this edge
         if k < 0:
             return None
-        if (eid, k) in self._dead_ends and self.edges.length[i] - pos < LANE_END_CLEARANCE:
-            return None  # it could not change out of a lane that does not go on before the lane ends
+        beyond, changes = self._runway.get((i, k), (0.0, 0))
+        if changes > 1 or self.edges.length[i] - pos + beyond < LANE_END_CLEARANCE * changes:
+            # it could not change out of a lane that does not go on before the lane ends; SUMO refuses a
+            # departure that needs two lane changes or more beside other vehicles ('too many lane changes')
+            return None
+        if i in self._yields and self.edges.length[i] - pos < speed**2 / (2 * BG_DECEL) + YIELD_MARGIN:
+            return None  # 'unpriorised junction too close'
         vid = f"bg{self.counter}"
         self.counter += 1
         self.api.vehicle.add(
@@ -290,6 +298,38 @@ class BackgroundTraffic:
             "sim/bg_recycled": c["recycled"],
             "sim/bg_resampled": c["resampled"],
         }
+
+
+def lane_runways(road: Road) -> dict[tuple[int, int], tuple[float, int]]:
+    """For every car lane of every route edge that stops going on along the route within RUNWAY_HORIZON
+    (it turns off into another road, or ends): (route edge index, SUMO lane) -> (metres it is followed
+    beyond its edge's end, the lane changes needed where it stops: to the nearest lane that goes on)."""
+    edges, n, lay = road.edges, len(road.edges), road.layout
+    out: dict[tuple[int, int], tuple[float, int]] = {}
+    for i in range(n):
+        for g in range(lay.first[i], lay.first[i] + lay.count[i]):
+            j, lane, dist = i, lay.edge_lane(i, g), 0.0
+            while dist < RUNWAY_HORIZON and (road.closed or j < n - 1):
+                nxt = (j + 1) % n
+                cons = [
+                    c
+                    for c in road.net.getEdge(edges[j]).getLane(lane).getOutgoing()
+                    if c.getTo().getID() == edges[nxt] and lay.route_lane(nxt, c.getToLane().getIndex()) >= 0
+                ]
+                if not cons:
+                    here = lay.route_lane(j, lane)
+                    going = [
+                        lay.route_lane(j, ln.getIndex())
+                        for ln in road.net.getEdge(edges[j]).getLanes()
+                        if any(c.getTo().getID() == edges[nxt] for c in ln.getOutgoing())
+                    ]
+                    out[(i, lay.edge_lane(i, g))] = (dist, min(abs(here - h) for h in going if h >= 0))
+                    break
+                j, lane = nxt, cons[0].getToLane().getIndex()
+                dist += float(road.net.getEdge(edges[j]).getLength())
+                if j == i and road.closed:
+                    break  # round the loop and back: it goes on for ever
+    return out
 
 
 def wrap_route(ds: Any, lap: float) -> Any:

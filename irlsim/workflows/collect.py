@@ -52,6 +52,7 @@ from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
 from irlsim.road.network import build_net
 from irlsim.road.scenario import load_scenario
+from irlsim.sim.start import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
 
@@ -162,6 +163,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     collected with, a busy folder, a missing driver or an unusable output folder."""
     cfg = run.config
     cfg.check_roads()
+    check_starts(cfg.scenario, cfg.scenario_names)  # a route too short for the ego's start: refused here
     if cfg.dagger_round and run.driver is None:
         raise IrlsimError(
             f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"

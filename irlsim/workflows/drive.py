@@ -28,6 +28,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
+from irlsim.sim.start import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
 
@@ -267,6 +268,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     check_executor(run.executor, run.workers, run.address)
     scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
     cfg = load_config(CollectConfig, run.config_file, scenario)
+    check_starts(cfg.scenario, (cfg.scenario.name,))  # a route too short for the ego's start: refused here
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes

@@ -189,7 +189,7 @@ def test_networks_the_tool_cannot_handle_are_one_line(tmp_path):
         '<edge id="ab" from="a" to="b" numLanes="1" allow="bicycle"/>',
         'edges = ["ab"]',
     )
-    with pytest.raises(IrlsimError, match="does not admit passenger cars"):
+    with pytest.raises(IrlsimError, match="edge .ab. has no lane for passenger cars"):
         load_road(scenario=bikes)
     with pytest.raises(IrlsimError, match="scenario 'nowhere' not found: name a shipped one"):
         load_scenario("nowhere")

@@ -185,8 +185,15 @@ def test_random_start_keeps_clear_of_stop_lines_exits_and_checkpoints(road):
     assert len(np.unique(s_)) == 300 and (s_ < lap / 2).any() and (s_ > lap / 2).any()
     fixed = Simulation(road, ScenarioConfig(ego_start_random=False))
     assert {fixed.ego_start(seed) for seed in (0, 1, 99)} == {(10.0, 1, 10.0)}
-    with pytest.raises(IrlsimError, match="leave no start"):
-        Simulation(road, ScenarioConfig(ego_start_clearance=600.0)).ego_start(0)
+    # clearances the loop cannot meet are scaled down (by halves) until a start fits; where none does,
+    # the simulation is refused when it is made, before any episode
+    wide = Simulation(road, ScenarioConfig(ego_start_clearance=600.0))
+    assert wide.start_scale == 0.5
+    s0 = wide.ego_start(0)[0]
+    for m in [sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits]:
+        assert abs((s0 - m + lap / 2) % lap - lap / 2) >= 300.0
+    with pytest.raises(IrlsimError, match="leaves no start for the ego"):
+        Simulation(road, ScenarioConfig(ego_start_clearance=5000.0))
 
 
 def test_laps_counted_from_a_start_late_in_the_lap(road):
