@@ -3,20 +3,21 @@ into a short list of reasons, so a sweep over many networks can count them (``ir
 
 The reasons, in the order they are tried (the first whose pattern is in the message wins):
 
-    no-car-lane   a route lane that does not admit passenger cars (a sidewalk, a bike lane, a bus or
-                  rail lane on the way), or a network with no edge for cars at all
-    lane-width    lanes of different widths on one route (irlsim keeps one lane width per route)
-    lane-count    lanes that do not continue across a junction: no lane of an edge leads into the next
+    no-car-lane   a route edge without a lane for passenger cars (only sidewalks, bike, bus or tram
+                  lanes), or a network with no edge for cars at all
+    lane-count    lanes that do not continue across a junction: no car lane of an edge leads into the next
     loop-lanes    a loop whose lanes do not join up (a lane added or dropped for good on a loop)
     too-short     a route shorter than the planner's look-ahead (200 m)
     no-path       edges that do not connect (no path from one to the other, a route edge that does not
                   lead into the next), or no pair of car edges joined by a long enough path
-    no-checkpoint a route with nothing to check (no derived checkpoint, none in the file)
     no-start      a route that leaves the ego no place to start (the start's clearances from stop lines,
                   exits and checkpoints cover it): refused when the episode begins, not when it loads
     left-hand     a network that drives on the left
     network       a network that is missing or cannot be read
     other         any other one-line refusal (its message is kept in the sweep's table)
+
+Lanes of different widths on one route and loops without a required lane are no longer refused (a loop's
+mission is any lane); a record of an older sweep that gave them as reasons counts as 'other'.
 
 A refusal is an :class:`irlsim.errors.IrlsimError` with one line; anything else (a Python traceback from
 the road or the simulation) is a defect, counted apart as a crash, never as a refusal.
@@ -26,13 +27,11 @@ from __future__ import annotations
 
 #: reason -> substrings of the refusal message that mean it (tried in this order; 'other' last)
 REASONS: dict[str, tuple[str, ...]] = {
-    "no-car-lane": ("admit passenger cars",),
-    "lane-width": (" m wide where the route's lanes",),
-    "lane-count": ("no lane of '",),
+    "no-car-lane": ("no lane for passenger cars", "admit passenger cars"),
+    "lane-count": ("no car lane of '", "no lane of '"),
     "loop-lanes": ("the loop's lanes do not join up",),
     "too-short": ("shorter than the",),
     "no-path": ("no path from", "(no connection)", "no pair of car edges"),
-    "no-checkpoint": ("route has no checkpoint",),
     "no-start": ("leave no start on the route",),
     "left-hand": ("drives on the left",),
     "network": ("is malformed", "not found"),
