@@ -151,6 +151,9 @@ class BackgroundTraffic:
             return None
         if i in self._yields and self.edges.length[i] - pos < speed**2 / (2 * BG_DECEL) + YIELD_MARGIN:
             return None  # 'unpriorised junction too close'
+        # SUMO refuses a departure faster than the lane's limit ('departure speed too high'): a slow
+        # stretch (a 20 km/h street of a city network) takes its vehicles at its own limit
+        speed = min(speed, float(self.road.net.getEdge(eid).getLane(k).getSpeed()))
         vid = f"bg{self.counter}"
         self.counter += 1
         self.api.vehicle.add(
