@@ -18,6 +18,7 @@ import numpy as np
 import pyarrow as pa
 
 from irlsim.data.npy import flat_rows
+from irlsim.errors import IrlsimError
 from irlsim.utils import atomic_path
 
 CODEC = "lz4_raw"  # LZ4 blocks without the frame: twice the decompression speed of framed LZ4
@@ -103,6 +104,22 @@ class Lz4Rows:
         out = self._read(flat, rest)
         return out.reshape(*rows.shape, *out.shape[1:])
 
+    def _row(self, a: int, b: int) -> np.ndarray:
+        """The row stored in bytes a..b, decompressed; a row that cannot be decoded is one line naming the
+        file (the cache changed after it was verified)."""
+        try:
+            if not 0 <= a <= b <= len(self.data):
+                raise ValueError(f"bytes {a}..{b} of {len(self.data)}")
+            raw = _CODEC.decompress(self.data[a:b], decompressed_size=self.row_bytes, asbytes=False)
+            if raw.size != self.row_bytes:
+                raise ValueError(f"{raw.size} bytes decoded, {self.row_bytes} expected")
+        except (pa.ArrowException, ValueError, OSError) as exc:
+            raise IrlsimError(
+                f"cache file {self.filename} cannot be decoded ({exc}): delete it (the next command "
+                "rebuilds the cache from the Parquet files)"
+            ) from None
+        return np.frombuffer(raw, np.uint8)  # one copy: from Arrow's buffer into the rows
+
     def _read(self, rows: np.ndarray, rest: tuple[Any, ...]) -> np.ndarray:
         """Rows ``rows`` (in range) decompressed, the other axes ``rest`` applied per chunk of rows."""
         paired = [isinstance(r, (np.ndarray, list)) for r in rest]
@@ -116,8 +133,7 @@ class Lz4Rows:
             flat = block.reshape(len(chunk), self.row_bytes // self.dtype.itemsize).view(np.uint8)
             for j, i in enumerate(chunk):
                 a, b = int(self.offsets[i]), int(self.offsets[i + 1])
-                raw = _CODEC.decompress(self.data[a:b], decompressed_size=self.row_bytes, asbytes=False)
-                flat[j] = np.frombuffer(raw, np.uint8)  # one copy: from Arrow's buffer into the rows
+                flat[j] = self._row(a, b)
             sub = tuple(r[s : s + CHUNK] if a else r for r, a in zip(rest, paired, strict=True))
             pieces.append(block[(np.arange(len(chunk)), *sub)] if any(paired) else block[(slice(None), *sub)])
         return pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
