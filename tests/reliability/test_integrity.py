@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import json
 import shutil
+import struct
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -182,3 +184,32 @@ def _same_json(a: bytes, b: bytes) -> bool:
         return bool(json.loads(a) == json.loads(b))
     except ValueError:
         return False
+
+
+def _flip_weights(checkpoint: Path) -> str:
+    """Flip a bit in the middle of the largest tensor of a checkpoint (its zip record's data); its name."""
+    with zipfile.ZipFile(checkpoint) as archive:
+        info = max(archive.infolist(), key=lambda i: i.file_size)
+    raw = bytearray(checkpoint.read_bytes())
+    name_len, extra_len = struct.unpack("<HH", raw[info.header_offset + 26 : info.header_offset + 30])
+    raw[info.header_offset + 30 + name_len + extra_len + info.file_size // 2] ^= 0x04
+    checkpoint.write_bytes(bytes(raw))
+    return info.filename
+
+
+def test_a_flipped_bit_in_a_checkpoint_is_one_line_naming_it(trained, tmp_path, capsys):
+    """torch.load does not check the CRC-32 of a checkpoint's records (a flipped weight loaded silently):
+    irlsim does, and a checkpoint cannot be rebuilt, so it is one line naming the file and the record."""
+    data, _, _ = trained
+    runs = tmp_path / "runs"
+    shutil.copytree(data.parent / "runs", runs, ignore=shutil.ignore_patterns("eval"))
+    checkpoint = runs / "stage1" / "PACNN" / "checkpoint.pt"
+    record = _flip_weights(checkpoint)
+    capsys.readouterr()
+    assert main(["evaluate", "--data", str(data), "--runs", str(runs), "--no-references"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == (
+        f"irlsim: error: checkpoint {checkpoint} is corrupt (its record {record} fails its CRC-32 check): "
+        "delete it and train again"
+    )
+    assert not (runs / "eval" / "results.md").exists()
