@@ -311,6 +311,18 @@ def temporal_outputs(
     return out
 
 
+def _write_results(
+    out_dir: Path, rows: list[dict[str, Any]], split: str, H: int, record: dict[str, Any]
+) -> None:
+    """results.md (its last line the record's ``note``, if any) and results.json (the record's fields)."""
+    note = record.get("note")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(
+        out_dir / "results.md", results_markdown(rows, split, H) + (f"{note}\n" if note else "")
+    )
+    write_json(out_dir / "results.json", {"split": split, "history": H, **record, "rows": rows})
+
+
 def evaluate_models(
     dataset: Any,
     runs_dir: str | Path,
@@ -320,6 +332,7 @@ def evaluate_models(
     threads: int = 2,
     references: bool = True,
     strips: Callable[..., dict[str, str]] | None = None,
+    record: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate every trained model in ``runs_dir`` on ``split``.
 
@@ -331,7 +344,9 @@ def evaluate_models(
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
     provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
     then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)' (unless not
-    ``references``) and 'random policy'. ``strips``: see :func:`temporal_outputs`.
+    ``references``) and 'random policy'. ``strips``: see :func:`temporal_outputs`. ``record``: what the
+    evaluation was (its data, whether held out, what the models were trained on) for results.json; its
+    ``note`` is also the last line of results.md. An empty split is one line naming it.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -342,6 +357,11 @@ def evaluate_models(
             f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
     data = get_split(dataset, split)
+    if len(data.demo_index) == 0:
+        raise IrlsimError(
+            f"the {split} split of {getattr(dataset, 'path', 'the dataset')} is empty (no cycles): collect "
+            f"it with {split}_episodes > 0, or evaluate another split (--split)"
+        )
     loaded = {name: load_model(path, dataset) for name, path in found.items()}
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
@@ -374,15 +394,9 @@ def evaluate_models(
             rows += reference_rows(data, ctx, references)
             evaluated_with = provenance()
 
+        _write_results(out_dir, rows, split, H, {"provenance": evaluated_with, **(record or {})})
+        plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
         demo_index = np.asarray(data.demo_index)
         demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
-        write_json(
-            out_dir / "results.json",
-            {"split": split, "history": H, "provenance": evaluated_with, "rows": rows},
-        )
-        plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
         plot_opd(opd, demo, out_dir / "opd_distribution.png")
         return rows
