@@ -51,12 +51,24 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
     except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
-        if e.filename is not None and str(e.filename) == str(tmp):
-            e.filename = str(path)
+        if str(e.filename) == str(tmp) or (e.filename is None and e.errno is not None):
+            e.filename = str(path)  # a write's ENOSPC has no file name
         raise
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextmanager
+def naming(path: str | Path) -> Iterator[None]:
+    """An OSError raised inside without a file name (``write`` or ``flush`` of an open file: a full disk,
+    an I/O error) is given ``path``, the file being read or written, for its one line."""
+    try:
+        yield
+    except OSError as e:
+        if e.filename is None and e.errno is not None:  # an OS error, not one raised with a message only
+            e.filename = str(path)
+        raise
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:

@@ -138,6 +138,7 @@ def verify_cache(folder: Path, meta: dict[str, Any], meta_st: os.stat_result | N
         or not all(isinstance(v, list) and len(v) == 2 for v in files.values())
     ):
         return f"{folder / META_NAME} is not the record that was written (its hash differs)"
+    path = folder
     try:
         for path in cache_files(folder):  # sizes first: a truncated file costs no hashing
             size = path.stat().st_size
@@ -146,10 +147,10 @@ def verify_cache(folder: Path, meta: dict[str, Any], meta_st: os.stat_result | N
         for path in cache_files(folder):
             if file_digest(path) != files[path.name][1]:
                 return f"{path} is not the file that was written (its {HASH} differs)"
-    except FileNotFoundError as exc:
-        return f"{exc.filename} is missing"
+    except FileNotFoundError:
+        return f"{path} is missing"
     except OSError as exc:
-        return f"{exc.filename} cannot be read ({exc.strerror or type(exc).__name__})"
+        return f"{path} cannot be read ({exc.strerror or type(exc).__name__})"
     _VERIFIED.add(key)
     return None
 
