@@ -213,3 +213,36 @@ def test_a_flipped_bit_in_a_checkpoint_is_one_line_naming_it(trained, tmp_path, 
         "delete it and train again"
     )
     assert not (runs / "eval" / "results.md").exists()
+
+
+def test_a_corrupt_metrics_log_changes_no_result(trained, tmp_path, capsys):
+    """metrics.csv is a log, not an input: Table I's convergence plot reads the checkpoint's verified
+    metrics (the same bytes as from a clean log), and a resume that cannot read the log's wall times says
+    so in one line and trains on."""
+    data, _, _ = trained
+    runs = tmp_path / "runs"
+    shutil.copytree(data.parent / "runs", runs)
+    clean = (runs / "eval" / "convergence.png").read_bytes()
+    log = runs / "stage1" / "PACNN" / "metrics.csv"
+    text = log.read_text()
+    digit = next(i for i, ch in enumerate(text) if ch.isdigit() and i > text.index("\n"))
+    log.write_text(text[:digit] + str((int(text[digit]) + 5) % 10) + text[digit + 1 :])
+    assert main(["evaluate", "--data", str(data), "--runs", str(runs), "--no-references"]) == 0
+    assert (runs / "eval" / "convergence.png").read_bytes() == clean
+    log.write_bytes(b"\xff\xfe not a table")
+    capsys.readouterr()
+    args = [
+        *STAGE1,
+        "--data",
+        str(data),
+        "--out",
+        str(runs),
+        "--set",
+        'models=["PACNN"]',
+        "--set",
+        "epochs=2",
+    ]
+    assert main(args) == 0
+    err = [x for x in capsys.readouterr().err.splitlines() if "metrics.csv" in x]
+    assert len(err) == 1 and err[0].startswith(f"irlsim: {log} is not a metrics table"), err
+    assert "the checkpoint's metrics are" in err[0]
