@@ -15,6 +15,7 @@ from pathlib import Path
 from irlsim import devices
 from irlsim.data.aggregate import (
     any_selection_identities,
+    manifest_identity,
     open_datasets,
     overlapping_identities,
     remove_obsolete_caches,
@@ -70,10 +71,10 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     dataset = open_datasets(list(run.data), run.scenarios)
     trained = _trained_on(run.runs)
     own = overlapping_identities(dataset)
-    mine = [path for path, ident in trained.items() if ident in own]
+    mine = [path for path, ident in trained.items() if ident in own or _folders_trained_on(path) & own]
     if run.held_out and mine:
         raise IrlsimError(
-            f"--held-out: {mine[0]} was trained on {', '.join(map(str, run.data))}, the data evaluated, so "
+            f"--held-out: {mine[0]} was trained on data that includes {', '.join(map(str, run.data))}, so "
             f"it is not held out: evaluate without --held-out (Table I on its {run.split} split) or pass "
             "data the models were not trained on"
         )
@@ -121,6 +122,33 @@ def _trained_on(runs: Path) -> dict[str, str]:
     return out
 
 
+def _summary_data(checkpoint: str) -> str | list[str] | None:
+    """The ``data`` that the summary.json of ``checkpoint``'s stage folder records (None: unreadable)."""
+    try:
+        data = json.loads((Path(checkpoint).parent.parent / SUMMARY_NAME).read_text()).get("data")
+    except (OSError, ValueError, AttributeError):
+        return None
+    return data if isinstance(data, (str, list)) else None
+
+
+def _folders_trained_on(checkpoint: str) -> set[str]:
+    """The manifest identities of the folders an aggregate's checkpoint was trained on, from its stage's
+    summary.json (the checkpoint records the aggregate's identity alone, which names no folder): one of
+    them evaluated is not held out. Empty for one folder, or folders that cannot be read."""
+    data = _summary_data(checkpoint)
+    if not isinstance(data, list) or len(data) < 2:
+        return set()
+    out = set()
+    for folder in data:
+        try:
+            manifest = json.loads((Path(str(folder)) / "manifest.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if isinstance(manifest, dict):
+            out.add(manifest_identity(manifest))
+    return out
+
+
 def _record(run: EvaluateRun, dataset: object, trained: dict[str, str]) -> dict[str, object]:
     """What results.json records of the evaluation: the data evaluated, whether it is held out, and what
     each model was trained on (its checkpoint's dataset identity, its stage's summary.json ``data``);
@@ -129,10 +157,7 @@ def _record(run: EvaluateRun, dataset: object, trained: dict[str, str]) -> dict[
     on: dict[str, dict[str, object]] = {}
     other: set[str] = set()
     for path, ident in trained.items():
-        try:
-            paths = json.loads((Path(path).parent.parent / SUMMARY_NAME).read_text()).get("data")
-        except (OSError, ValueError, AttributeError):
-            paths = None
+        paths = _summary_data(path)
         on[str(Path(path).parent.relative_to(run.runs))] = {"dataset": ident, "data": paths}
         other.update([paths] if isinstance(paths, str) else paths if isinstance(paths, list) else [])
     if run.held_out:

@@ -39,9 +39,9 @@ def test_held_out_refuses_the_training_data_and_the_record_says_what_was_evaluat
         ["evaluate", "--data", str(second_tiny), "--runs", str(runs), "--held-out", "--split", "train"],
     )
     assert line == (
-        f"irlsim: error: --held-out: {runs}/stage1/LIRL/checkpoint.pt was trained on {second_tiny}, the data "
-        "evaluated, so it is not held out: evaluate without --held-out (Table I on its train split) or pass "
-        "data the models were not trained on"
+        f"irlsim: error: --held-out: {runs}/stage1/LIRL/checkpoint.pt was trained on data that includes "
+        f"{second_tiny}, so it is not held out: evaluate without --held-out (Table I on its train split) or "
+        "pass data the models were not trained on"
     )
     out = tmp_path / "eval"
     args = [
@@ -75,3 +75,19 @@ def test_an_empty_test_split_is_named_as_empty(runs, second_tiny, tmp_path, caps
         "test_episodes > 0, or evaluate another split (--split)"
     )
     assert not (out / "results.json").exists()
+
+
+def test_held_out_refuses_a_folder_of_the_aggregate_the_models_were_trained_on(
+    second_tiny, tiny_dataset, tmp_path, capsys
+):
+    """A checkpoint records an aggregate's identity alone; its stage's summary.json names the folders, and
+    one of them is not held out."""
+    runs = tmp_path / "runs"
+    data = ["--data", str(tiny_dataset), "--data", str(second_tiny)]
+    assert main([*STAGE1, *data, "--out", str(runs), *ONE_MODEL]) == 0
+    line = _one_line(capsys, ["evaluate", "--data", str(tiny_dataset), "--runs", str(runs), "--held-out"])
+    assert line.startswith(
+        f"irlsim: error: --held-out: {runs}/stage1/LIRL/checkpoint.pt was trained on data that includes "
+        f"{tiny_dataset}, so it is not held out"
+    )
+    assert not (runs / "eval").exists()
