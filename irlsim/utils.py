@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import socket
 import sys
@@ -52,7 +53,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         os.replace(tmp, path)
     except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
         if str(e.filename) == str(tmp) or (e.filename is None and e.errno is not None):
-            e.filename = str(path)  # a write's ENOSPC has no file name
+            name_os_error(e, path)  # a write's ENOSPC has no file name
         raise
     finally:
         if tmp.exists():
@@ -67,8 +68,16 @@ def naming(path: str | Path) -> Iterator[None]:
         yield
     except OSError as e:
         if e.filename is None and e.errno is not None:  # an OS error, not one raised with a message only
-            e.filename = str(path)
+            name_os_error(e, path)
         raise
+
+
+def name_os_error(e: OSError, path: str | Path) -> None:
+    """Give ``e`` the file ``path``; an error raised with a message only (pyarrow's: errno set, no
+    strerror) keeps that message as its strerror, so that ``str(e)`` stays readable."""
+    if e.strerror is None and e.args:
+        e.strerror = re.sub(r"^\[Errno \d+\] ", "", str(e.args[0]))
+    e.filename = str(path)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:

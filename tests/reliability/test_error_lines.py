@@ -127,3 +127,19 @@ def test_the_environment_refuses_a_reward_of_the_wrong_type_in_one_line():
         )
     finally:
         env.close()
+
+
+def test_a_full_disk_while_collecting_names_the_episode_file(tmp_path, capsys, full_disk_under):
+    """pyarrow's write error carries no file name (its message only): the failed episodes' line names
+    the Parquet file being written, and the other episodes are kept."""
+    from tests.conftest import TINY_COLLECT
+
+    out = tmp_path / "data"
+    full_disk_under(out / "train")
+    argv = ["collect", "--config", "configs/collect/tiny.toml", "--out", str(out), *TINY_COLLECT]
+    line = _the_line(capsys, [*argv, "--set", "max_cycles=10"])
+    for e in (0, 1):
+        assert f"No space left on device: '{out}/train/episode_0000{e}.policies.parquet'" in line, line
+    assert line.endswith("re-run the same command to collect the failed ones")
+    assert not list((out / "train").iterdir())  # nothing half-written
+    assert (out / "test" / "episode_00000.cycles.parquet").is_file()
