@@ -67,7 +67,7 @@ def _old_version(folder: Path) -> None:
     (folder / "meta.json").write_text(json.dumps({**meta, "cache_version": 4}))
 
 
-#: (what is done to the train split's cache folder, the file the line must name, a line on stderr)
+#: (what is done to the train split's cache folder, what the line must name, whether it is on stderr)
 CORRUPTIONS = {
     "flip compressed rows": (lambda f: _flip(f / "features.lz4"), "features.lz4", True),
     "flip offsets": (lambda f: _flip(f / "actions.offsets.npy", 0.9), "actions.offsets.npy", True),
@@ -83,7 +83,14 @@ CORRUPTIONS = {
     "flip the record": (lambda f: _flip(f / "meta.json", 0.5, 0x01), "meta.json", True),
     "garble the record": (lambda f: (f / "meta.json").write_bytes(b"\xff{"), "meta.json", True),
     "previous irlsim's cache": (_old_version, "written by another irlsim", False),
+    "swap two splits' records": (
+        lambda f: _swap(f / "meta.json", f.parent / "validation" / "meta.json"),
+        "out of date: built from other files",
+        False,
+    ),
 }
+#: lines expected when not one: each swapped split's cache is out of date, and said so
+LINES = {"swap two splits' records": 2}
 
 
 @pytest.mark.parametrize("name", list(CORRUPTIONS))
@@ -97,7 +104,7 @@ def test_a_corrupt_cache_is_named_rebuilt_and_trains_the_same_weights(trained, t
     assert main([*STAGE1, "--data", str(data), "--out", str(runs), *ONE_MODEL]) == 0
     out, err = capsys.readouterr()
     lines = [x for x in (err if on_stderr else out).splitlines() if named in x]
-    assert len(lines) == 1, (out, err)
+    assert len(lines) == LINES.get(name, 1), (out, err)
     assert "Traceback" not in err
     if on_stderr:
         assert lines[0].startswith(CHECK_LINE + "train failed its check") and "rebuilding" in lines[0]
