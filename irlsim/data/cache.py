@@ -123,7 +123,7 @@ def _stat_key(folder: Path) -> tuple[str, tuple[tuple[int, int, int], ...]]:
     return str(folder), tuple(stats)
 
 
-def verify_cache(folder: Path, meta: dict[str, Any], meta_st: os.stat_result | None = None) -> str | None:
+def verify_cache(folder: Path, meta: dict[str, Any]) -> str | None:
     """None when the files of the cache folder ``folder`` are those its ``meta`` records, sizes and content
     hashes; else what differs, naming the file. Checked once per process (again when a file changed)."""
     key = _stat_key(folder)

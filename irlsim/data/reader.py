@@ -279,7 +279,7 @@ class Dataset:
         folder = self.cache_dir(split)
         problem = record_problem(folder)  # first: a flipped record could look out of date
         found = read_cache_meta(folder) if problem is None and self.cache_valid(split, sources) else None
-        problem = problem or (None if found is None else verify_cache(folder, *found))
+        problem = problem or (None if found is None else verify_cache(folder, found[0]))
         if problem is not None:
             print(
                 f"irlsim: the cache of split {split} failed its check ({problem}): rebuilding it from "
