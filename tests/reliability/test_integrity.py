@@ -6,6 +6,7 @@ and the evaluation Table I's bytes. Real collections (the tiny preset), real cac
 
 from __future__ import annotations
 
+import errno
 import json
 import shutil
 import struct
@@ -17,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from irlsim import outputs
 from irlsim.cli import main
 from irlsim.data import cache
 from irlsim.data.reader import open_dataset
@@ -253,3 +255,28 @@ def test_a_corrupt_metrics_log_changes_no_result(trained, tmp_path, capsys):
     err = [x for x in capsys.readouterr().err.splitlines() if "metrics.csv" in x]
     assert len(err) == 1 and err[0].startswith(f"irlsim: {log} is not a metrics table"), err
     assert "the checkpoint's metrics are" in err[0]
+
+
+def test_a_corrupt_cache_that_cannot_be_rebuilt_is_one_line_naming_it(trained, tmp_path, capsys, monkeypatch):
+    """A read-only dataset (the probe's OS call fails below .cache: root ignores file modes) whose cache
+    failed its check: the check's line, then one error line naming the cache and the fix; no Table I."""
+    data = tmp_path / "data"
+    shutil.copytree(trained[0], data)
+    _flip(data / ".cache" / "validation" / "labels.lz4")
+    cache._VERIFIED.clear()
+    runs = tmp_path / "runs"
+    shutil.copytree(trained[0].parent / "runs", runs, ignore=shutil.ignore_patterns("eval"))
+    (runs / "eval").mkdir()
+
+    def read_only_cache(folder):
+        if ".cache" in str(folder):
+            raise OSError(errno.EROFS, "Read-only file system", str(folder))
+
+    monkeypatch.setattr(outputs, "_probe", read_only_cache)
+    capsys.readouterr()
+    assert main(["evaluate", "--data", str(data), "--runs", str(runs), "--split", "validation"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 2, err
+    assert err[0].startswith(CHECK_LINE + "validation failed its check (") and "labels.lz4" in err[0]
+    assert err[1].startswith(f"irlsim: error: dataset {data}: its cache {data}/.cache/validation cannot be ")
+    assert not (runs / "eval" / "results.md").exists()
