@@ -11,6 +11,7 @@ import functools
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from irlsim import devices
 from irlsim.data.aggregate import (
@@ -122,13 +123,35 @@ def _trained_on(runs: Path) -> dict[str, str]:
     return out
 
 
+def _summary(checkpoint: str) -> dict[str, Any]:
+    """The summary.json of ``checkpoint``'s stage folder ({} when it cannot be read)."""
+    try:
+        summary = json.loads((Path(checkpoint).parent.parent / SUMMARY_NAME).read_text())
+    except (OSError, ValueError):
+        return {}
+    return summary if isinstance(summary, dict) else {}
+
+
 def _summary_data(checkpoint: str) -> str | list[str] | None:
     """The ``data`` that the summary.json of ``checkpoint``'s stage folder records (None: unreadable)."""
-    try:
-        data = json.loads((Path(checkpoint).parent.parent / SUMMARY_NAME).read_text()).get("data")
-    except (OSError, ValueError, AttributeError):
-        return None
+    data = _summary(checkpoint).get("data")
     return data if isinstance(data, (str, list)) else None
+
+
+def _data_verified(checkpoint: str, identity: str) -> bool:
+    """Whether the folders (and scenarios) that the stage's summary.json names are, read again now, the
+    data whose identity the checkpoint records: summary.json carries no check of its own, the checkpoint
+    (its CRC-32 checked) does."""
+    summary, data = _summary(checkpoint), _summary_data(checkpoint)
+    scenarios = summary.get("scenarios")
+    if data is None or not (scenarios is None or isinstance(scenarios, list)):
+        return False
+    try:
+        folders: list[str | Path] = [data] if isinstance(data, str) else [str(p) for p in data]
+        read = open_datasets(folders, tuple(scenarios) if scenarios else None)
+    except (IrlsimError, OSError, TypeError):
+        return False
+    return dataset_identity(read) == identity
 
 
 def _folders_trained_on(checkpoint: str) -> set[str]:
@@ -151,18 +174,26 @@ def _folders_trained_on(checkpoint: str) -> set[str]:
 
 def _record(run: EvaluateRun, dataset: object, trained: dict[str, str]) -> dict[str, object]:
     """What results.json records of the evaluation: the data evaluated, whether it is held out, and what
-    each model was trained on (its checkpoint's dataset identity, its stage's summary.json ``data``);
-    ``note``: the same as a line of results.md."""
+    each model was trained on (its checkpoint's dataset identity, its stage's summary.json ``data`` and
+    whether those folders are that data, read again); ``note``: the same as a line of results.md."""
     data = [str(p) for p in run.data]
     on: dict[str, dict[str, object]] = {}
     other: set[str] = set()
+    unknown = 0
     for path, ident in trained.items():
-        paths = _summary_data(path)
-        on[str(Path(path).parent.relative_to(run.runs))] = {"dataset": ident, "data": paths}
-        other.update([paths] if isinstance(paths, str) else paths if isinstance(paths, list) else [])
+        paths, verified = _summary_data(path), _data_verified(path, ident)
+        on[str(Path(path).parent.relative_to(run.runs))] = {
+            "dataset": ident,
+            "data": paths,
+            "data_verified": verified,
+        }
+        if verified:  # a summary.json that does not match the checkpoint names no data
+            other.update([paths] if isinstance(paths, str) else paths if isinstance(paths, list) else [])
+        unknown += not verified
     if run.held_out:
         note = f"Held out: yes. Evaluated on {', '.join(data)}; the models were trained on "
-        note += f"{', '.join(sorted(other)) or 'other data'}."
+        note += f"{', '.join(sorted(other)) or 'other data'}"
+        note += f" ({unknown} of them on data their summary.json does not name)." if unknown else "."
     else:
         note = f"Held out: no. Evaluated on the {run.split} split of {', '.join(data)}, the data the models "
         note += "were trained on."

@@ -65,6 +65,24 @@ def test_held_out_refuses_the_training_data_and_the_record_says_what_was_evaluat
     assert md.endswith(
         f"Held out: yes. Evaluated on {tiny_dataset}; the models were trained on {second_tiny}.\n"
     )
+    assert record["trained_on"]["stage1/LIRL"]["data_verified"] is True
+    # summary.json carries no check of its own: a path changed in it no longer matches the checkpoint
+    summary = runs / "stage1" / "summary.json"
+    good = summary.read_text()
+    summary.write_text(good.replace(json.dumps(str(second_tiny)), json.dumps(str(tiny_dataset))))
+    try:
+        assert main([*args, "--held-out"]) == 0
+    finally:
+        summary.write_text(good)
+    record = json.loads((out / "results.json").read_text())
+    assert record["note"].endswith(
+        "trained on other data (1 of them on data their summary.json does not name)."
+    )
+    assert record["trained_on"]["stage1/LIRL"] == {
+        "dataset": record["trained_on"]["stage1/LIRL"]["dataset"],
+        "data": str(tiny_dataset),
+        "data_verified": False,
+    }
 
 
 def test_an_empty_test_split_is_named_as_empty(runs, second_tiny, tmp_path, capsys):
