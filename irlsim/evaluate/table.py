@@ -318,11 +318,11 @@ def temporal_outputs(
 def _write_results(
     out_dir: Path, rows: list[dict[str, Any]], split: str, H: int, record: dict[str, Any]
 ) -> None:
-    """results.md (its last line the record's ``note``, if any) and results.json (the record's fields)."""
+    """results.md (its last paragraph: the record's ``note``, if any) and results.json (the record)."""
     note = record.get("note")
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(
-        out_dir / "results.md", results_markdown(rows, split, H) + (f"{note}\n" if note else "")
+        out_dir / "results.md", results_markdown(rows, split, H) + (f"\n{note}\n" if note else "")
     )
     write_json(out_dir / "results.json", {"split": split, "history": H, **record, "rows": rows})
 
