@@ -89,7 +89,7 @@ def check_output_file(path: str | Path, option: str, example: str, need_bytes: i
 
 def os_error_message(e: OSError) -> str:
     """One line for an OSError met while working: what failed, on which path, and what to do."""
-    path = e.filename if e.filename is not None else "?"
+    path = e.filename if e.filename is not None else "(a file the OS did not name)"
     if e.filename2 is not None:
         path = f"{path} -> {e.filename2}"
     what = e.strerror or type(e).__name__

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import random
+import re
 import signal
 import socket
 import sys
@@ -51,12 +52,32 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             tmp.chmod(0o666 & ~_UMASK)
         os.replace(tmp, path)
     except OSError as e:  # an error on the temporary file (disk full, ...) names the file being written
-        if e.filename is not None and str(e.filename) == str(tmp):
-            e.filename = str(path)
+        if str(e.filename) == str(tmp) or (e.filename is None and e.errno is not None):
+            name_os_error(e, path)  # a write's ENOSPC has no file name
         raise
     finally:
         if tmp.exists():
             tmp.unlink()
+
+
+@contextmanager
+def naming(path: str | Path) -> Iterator[None]:
+    """An OSError raised inside without a file name (``write`` or ``flush`` of an open file: a full disk,
+    an I/O error) is given ``path``, the file being read or written, for its one line."""
+    try:
+        yield
+    except OSError as e:
+        if e.filename is None and e.errno is not None:  # an OS error, not one raised with a message only
+            name_os_error(e, path)
+        raise
+
+
+def name_os_error(e: OSError, path: str | Path) -> None:
+    """Give ``e`` the file ``path``; an error raised with a message only (pyarrow's: errno set, no
+    strerror) keeps that message as its strerror, so that ``str(e)`` stays readable."""
+    if e.strerror is None and e.args:
+        e.strerror = re.sub(r"^\[Errno \d+\] ", "", str(e.args[0]))
+    e.filename = str(path)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:

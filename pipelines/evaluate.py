@@ -59,7 +59,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--held-out",
         action="store_true",
         help="the models were trained on other data (a road they never saw): evaluate them on --data "
-        "anyway, each with its own feature normalisation (without it such models are refused)",
+        "anyway, each with its own feature normalisation (without it such models are refused); refused "
+        "for models trained on --data itself, which is not held out; results.json records which it was",
     )
     devices.add_arguments(p, "evaluation")
 

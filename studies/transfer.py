@@ -112,8 +112,10 @@ def table_one(out: Path, x: str, runs: Path, threads: int) -> dict[str, dict[str
     name = runs.name if runs.name != "runs" else f"dagger-{runs.parent.parent.name}-{runs.parent.name}"
     target = out / "eval" / x / name
     if not (target / "results.json").is_file():
+        # an in-domain reward was trained on X's own data: its test split, but not held-out data
+        held_out = [] if name.startswith(f"in-{x}") else ["--held-out"]
         run(
-            [irlsim(), "evaluate", "--data", str(out / "data" / x), "--runs", str(runs), "--held-out"]
+            [irlsim(), "evaluate", "--data", str(out / "data" / x), "--runs", str(runs), *held_out]
             + ["--threads", str(threads), "--out", str(target)]
         )
     rows = json.loads((target / "results.json").read_text())

@@ -222,3 +222,23 @@ def any_selection_identities(dataset: Dataset | AggregateDataset) -> tuple[str, 
     if isinstance(dataset, AggregateDataset):
         return tuple(aggregate_identity(ids) for ids in options)
     return tuple(ids[0] for ids in options)
+
+
+def overlapping_identities(dataset: Dataset | AggregateDataset) -> set[str]:
+    """The identities of every training set that shares scenarios' episodes with ``dataset`` as read (for
+    ``irlsim evaluate --held-out``, which refuses a model trained on any of them): ``dataset``'s own, each
+    folder's whole, and each folder's (and the aggregate's) selections that include a scenario read."""
+    parts = dataset.datasets if isinstance(dataset, AggregateDataset) else [dataset]
+    read = {n for d in parts for n in (d.selection or d.scenarios)}
+    chosen_ok = [c for c in selections(dataset.scenarios) if read & set(c)]
+    out = {identity for identity in (getattr(dataset, "identity", None),) if identity}
+    out.update(getattr(dataset, "legacy_identities", ()))
+    for d in parts:
+        out.add(manifest_identity(d.manifest))
+        out.update(selection_identity(d.manifest, c) for c in selections(d.scenarios) if read & set(c))
+    if isinstance(dataset, AggregateDataset):
+        out.add(aggregate_identity([manifest_identity(d.manifest) for d in parts]))
+        out.update(aggregate_identity([selection_identity(d.manifest, c) for d in parts]) for c in chosen_ok)
+    else:
+        out.add(manifest_identity(dataset.manifest))
+    return out

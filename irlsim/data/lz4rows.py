@@ -18,7 +18,8 @@ import numpy as np
 import pyarrow as pa
 
 from irlsim.data.npy import flat_rows
-from irlsim.utils import atomic_path
+from irlsim.errors import IrlsimError
+from irlsim.utils import atomic_path, naming
 
 CODEC = "lz4_raw"  # LZ4 blocks without the frame: twice the decompression speed of framed LZ4
 _CODEC = pa.Codec(CODEC)
@@ -103,6 +104,22 @@ class Lz4Rows:
         out = self._read(flat, rest)
         return out.reshape(*rows.shape, *out.shape[1:])
 
+    def _row(self, a: int, b: int) -> np.ndarray:
+        """The row stored in bytes a..b, decompressed; a row that cannot be decoded is one line naming the
+        file (the cache changed after it was verified)."""
+        try:
+            if not 0 <= a <= b <= len(self.data):
+                raise ValueError(f"bytes {a}..{b} of {len(self.data)}")
+            raw = _CODEC.decompress(self.data[a:b], decompressed_size=self.row_bytes, asbytes=False)
+            if raw.size != self.row_bytes:
+                raise ValueError(f"{raw.size} bytes decoded, {self.row_bytes} expected")
+        except (pa.ArrowException, ValueError, OSError) as exc:
+            raise IrlsimError(
+                f"cache file {self.filename} cannot be decoded ({exc}): delete it (the next command "
+                "rebuilds the cache from the Parquet files)"
+            ) from None
+        return np.frombuffer(raw, np.uint8)  # one copy: from Arrow's buffer into the rows
+
     def _read(self, rows: np.ndarray, rest: tuple[Any, ...]) -> np.ndarray:
         """Rows ``rows`` (in range) decompressed, the other axes ``rest`` applied per chunk of rows."""
         paired = [isinstance(r, (np.ndarray, list)) for r in rest]
@@ -116,8 +133,7 @@ class Lz4Rows:
             flat = block.reshape(len(chunk), self.row_bytes // self.dtype.itemsize).view(np.uint8)
             for j, i in enumerate(chunk):
                 a, b = int(self.offsets[i]), int(self.offsets[i + 1])
-                raw = _CODEC.decompress(self.data[a:b], decompressed_size=self.row_bytes, asbytes=False)
-                flat[j] = np.frombuffer(raw, np.uint8)  # one copy: from Arrow's buffer into the rows
+                flat[j] = self._row(a, b)
             sub = tuple(r[s : s + CHUNK] if a else r for r, a in zip(rest, paired, strict=True))
             pieces.append(block[(np.arange(len(chunk)), *sub)] if any(paired) else block[(slice(None), *sub)])
         return pieces[0] if len(pieces) == 1 else np.concatenate(pieces)
@@ -140,22 +156,32 @@ class Lz4RowsWriter:
                 tmp_data = self.stack.enter_context(atomic_path(path))
                 tmp_offsets = self.stack.enter_context(atomic_path(offsets))
                 fh = self.stack.enter_context(open(tmp_data, "wb"))
-                self.appenders[name] = _Appender(fh, tmp_offsets, shape, np.dtype(dtype))
+                self.appenders[name] = _Appender(fh, tmp_offsets, shape, np.dtype(dtype), path)
         except BaseException as exc:
             self.stack.__exit__(type(exc), exc, exc.__traceback__)
             raise
         return self.appenders
 
     def __exit__(self, exc_type: Any, exc: Any, tb: Any) -> None:
-        if exc_type is None:
+        try:
+            if exc_type is None:
+                for a in self.appenders.values():
+                    a.finish()
+        except BaseException as e:
+            exc_type, exc, tb = type(e), e, e.__traceback__
+        if exc_type is not None:  # closed first: a close's own error (a full disk) would hide the first
             for a in self.appenders.values():
-                a.finish()
-        self.stack.__exit__(exc_type, exc, tb)  # with an exception: delete, not rename
+                a.abandon()
+        self.stack.__exit__(exc_type, exc, tb)  # with an exception: delete, not rename; re-raised
+        if exc is not None:
+            raise exc
 
 
 class _Appender:
-    def __init__(self, fh: Any, offsets: Path, shape: tuple[int, ...], dtype: np.dtype) -> None:
+    def __init__(self, fh: Any, offsets: Path, shape: tuple[int, ...], dtype: np.dtype, path: Path) -> None:
         self.fh, self.offsets_path, self.shape, self.dtype = fh, offsets, shape, dtype
+        #: the file the rows go to once renamed (what an OSError of a write names)
+        self.path = path
         self.offsets = [0]
 
     def append(self, block: np.ndarray) -> None:
@@ -163,12 +189,21 @@ class _Appender:
         block = np.ascontiguousarray(block, dtype=self.dtype)
         if block.shape[1:] != tuple(self.shape[1:]):
             raise ValueError(f"rows of shape {block.shape[1:]}, the array's are {tuple(self.shape[1:])}")
-        for row in block:
-            packed = _CODEC.compress(row.reshape(-1).view(np.uint8), asbytes=True)
-            self.fh.write(packed)
-            self.offsets.append(self.offsets[-1] + len(packed))
+        with naming(self.path):
+            for row in block:
+                packed = _CODEC.compress(row.reshape(-1).view(np.uint8), asbytes=True)
+                self.fh.write(packed)
+                self.offsets.append(self.offsets[-1] + len(packed))
+
+    def abandon(self) -> None:
+        """Close the rows' file after an error, dropping what it could not write (it is deleted)."""
+        try:
+            self.fh.close()
+        except OSError:
+            pass
 
     def finish(self) -> None:
-        self.fh.flush()
-        with open(self.offsets_path, "wb") as fh:
+        with naming(self.path):
+            self.fh.flush()
+        with naming(files(self.path.parent, self.path.stem)[1]), open(self.offsets_path, "wb") as fh:
             np.save(fh, np.asarray(self.offsets, np.int64))

@@ -23,7 +23,14 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from irlsim.data.cache import CACHE_DIR, CACHE_VERSION, raw_cache_meta, remove_cache, remove_empty
+from irlsim.data.cache import (
+    CACHE_DIR,
+    CACHE_VERSION,
+    raw_cache_meta,
+    record_problem,
+    remove_cache,
+    remove_empty,
+)
 from irlsim.data.reader import Dataset
 from irlsim.data.scenarios import selection_key, selections
 from irlsim.data.schema import SCHEMA_VERSION
@@ -82,7 +89,7 @@ def stale_reason(dataset: Dataset, split: str, folder: Path) -> str | None:
     """Why the complete cache ``folder`` of ``split`` is out of date, or None (valid, being built, not an
     irlsim cache, or the dataset's files cannot be read to tell)."""
     found = raw_cache_meta(folder)
-    if found is None:
+    if found is None or record_problem(folder) is not None:  # the reader names a broken record
         return None
     meta = found[0]
     versions = (meta.get("cache_version"), meta.get("schema_version"))

@@ -4,14 +4,16 @@
 (episode, cycle), i.e. sequential playback order. The arrays are memory-mapped ``.npy`` files of a cache
 under ``<dataset>/.cache/<split>/``: built once, one episode and one row group at a time (bounded memory),
 each file written under a temporary name and renamed, ``meta.json`` last. The cache is reused while
-``meta.json`` records the same Parquet files (name, size, mtime) and is newer than all of them; otherwise
-it is rebuilt, the out-of-date arrays removed first (:mod:`irlsim.data.cache`). Deleting ``.cache`` is
+``meta.json`` records the same Parquet files (name, size, mtime) and is newer than all of them, and its
+files are those it records (sizes and content hashes, checked once per process); otherwise it is
+rebuilt, the out-of-date arrays removed first (:mod:`irlsim.data.cache`). Deleting ``.cache`` is
 always safe. An aggregate of folders reads each folder's own cache (:mod:`irlsim.data.aggregate`).
 """
 
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,10 +27,13 @@ from irlsim import N_FEATURES
 from irlsim.data import scenarios as by_scenario
 from irlsim.data.cache import (
     CACHE_DIR,
+    REBUILD,
     invalidate_cache,
     open_cache,
     read_cache_meta,
+    record_problem,
     remove_cache,
+    verify_cache,
     write_cache_meta,
 )
 from irlsim.data.lz4rows import Lz4RowsWriter
@@ -265,21 +270,41 @@ class Dataset:
         return found[1].st_mtime_ns >= max((s[2] for s in sources), default=0)
 
     def split_tensors(self, split: str, max_cycles: int | None = None) -> SplitTensors:
-        """A split as memory-mapped arrays (``SplitTensors``); only the first ``max_cycles`` if given."""
+        """A split as memory-mapped arrays (``SplitTensors``); only the first ``max_cycles`` if given.
+
+        The cache is verified when first opened (:func:`irlsim.data.cache.verify_cache`); one that fails
+        (a file flipped, truncated, swapped or missing, a ``meta.json`` not as written) is rebuilt from the
+        Parquet files with one line on stderr naming the file."""
         sources = self.sources(split)
-        if not self.cache_valid(split, sources):
-            self._build_cache(split, sources)
-        tensors = open_cache(self.cache_dir(split))
+        folder = self.cache_dir(split)
+        problem = record_problem(folder)  # first: a flipped record could look out of date
+        found = read_cache_meta(folder) if problem is None and self.cache_valid(split, sources) else None
+        problem = problem or (None if found is None else verify_cache(folder, found[0]))
+        if problem is not None:
+            print(
+                f"irlsim: the cache of split {split} failed its check ({problem}): rebuilding it from "
+                "the Parquet files",
+                file=sys.stderr,
+                flush=True,
+            )
+        if found is None or problem is not None:
+            self._build_cache(split, sources, quiet=problem is not None)
+            found = read_cache_meta(folder)
+            if found is None:
+                raise IrlsimError(f"the cache {folder} was rebuilt but cannot be read back: {REBUILD}")
+        tensors = open_cache(folder, found[0])
         return tensors if max_cycles is None else tensors.head(max_cycles)
 
-    def _build_cache(self, split: str, sources: list[list[Any]]) -> None:
+    def _build_cache(self, split: str, sources: list[list[Any]], quiet: bool = False) -> None:
         cycles = self.read_cycles_table(split)
         c = cycles.num_rows
         n = int(cycles.column("n_policies")[0].as_py()) if c else 0
         k = self._n_control_points(split)
         folder = self.cache_dir(split)
         # the out-of-date arrays go first: the space check then counts the disk they took as free
-        remove_cache(folder, f"the cache of split {split}, out of date (other files, or another irlsim)")
+        remove_cache(
+            folder, f"the cache of split {split}, out of date (other files, or another irlsim)", quiet
+        )
         # LZ4 takes the rows to a third to a fifth of their float32 bytes: half of those is the estimate
         self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)) // 2)
         invalidate_cache(folder)

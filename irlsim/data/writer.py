@@ -51,7 +51,7 @@ from irlsim.data.schema import (
     policies_schema,
 )
 from irlsim.planner.policy_set import PolicySet
-from irlsim.utils import atomic_path
+from irlsim.utils import atomic_path, naming
 
 
 def _policies_writer(path: Path, schema: pa.Schema) -> pq.ParquetWriter:
@@ -210,7 +210,8 @@ class EpisodeWriter:
                         "pass DemoProjector.finish() to add_demos before close()"
                     )
                 return
-            self._write_group(group)
+            with naming(self.policies_path):  # a full disk (pyarrow's error has no file name) names it
+                self._write_group(group)
             del self._pending[: len(group)]
             for rec in group:
                 del self._by_cycle[rec.cycle]
@@ -260,11 +261,12 @@ class EpisodeWriter:
             self._flush(final=True)
             if self._pol_writer is None:  # an episode without cycles still gets (empty) files
                 self._pol_tmp = self._stack.enter_context(atomic_path(self.policies_path))
-                self._pol_writer = self._stack.enter_context(
-                    _policies_writer(
-                        self._pol_tmp, self._recorded(policies_schema(self._k or N_CONTROL_POINTS))
+                with naming(self.policies_path):
+                    self._pol_writer = self._stack.enter_context(
+                        _policies_writer(
+                            self._pol_tmp, self._recorded(policies_schema(self._k or N_CONTROL_POINTS))
+                        )
                     )
-                )
             table = build_cycles_table(self.episode, self._rows, self._n or 0, self.demo_source)
             table = table.replace_schema_metadata(self._recorded(table.schema).metadata)
             self._stack.close()  # closes the Parquet writer, then renames the policies file

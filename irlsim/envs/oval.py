@@ -136,6 +136,24 @@ def check_theta(theta: np.ndarray, reward: str) -> np.ndarray:
     return theta
 
 
+def callable_theta(out: Any) -> np.ndarray:
+    """What a reward callable returned as theta [N_FEATURES] float64; anything else (another shape, or
+    not numbers: a string, None, a dict, complex or bool values, a tensor that needs grad) is one line."""
+    try:
+        arr = np.asarray(out)
+    except Exception:  # noqa: BLE001  # what numpy cannot take (a tensor needing grad, ...): named below
+        arr = np.asarray(None)
+    if arr.dtype.kind not in "iuf":
+        what = type(out).__name__ + ("" if arr.dtype == object else f" of {arr.dtype}")
+        raise IrlsimError(f"the reward callable must return theta [{N_FEATURES}] (real numbers), got {what}")
+    theta = arr.astype(np.float64).reshape(-1)
+    if theta.shape != (N_FEATURES,):
+        raise IrlsimError(
+            f"the reward callable must return theta [{N_FEATURES}] (real numbers), got shape {arr.shape}"
+        )
+    return theta
+
+
 def continuous_to_index(action: np.ndarray, actions: np.ndarray, control_points: np.ndarray) -> int:
     """The policy nearest to (target acceleration, lateral target): see the module docstring."""
     a = np.asarray(action, dtype=np.float64).reshape(-1)
@@ -178,10 +196,7 @@ class _CallableReward:
         self.fn = fn
 
     def __call__(self, ps: Any, obs: Any) -> np.ndarray:
-        theta = np.asarray(self.fn(ps, obs), dtype=np.float64).reshape(-1)
-        if theta.shape != (N_FEATURES,):
-            raise IrlsimError(f"the reward callable must return theta [{N_FEATURES}], got {theta.shape}")
-        return theta
+        return callable_theta(self.fn(ps, obs))
 
     def reset(self) -> None:
         reset = getattr(self.fn, "reset", None)

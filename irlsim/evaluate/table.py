@@ -39,9 +39,8 @@ from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
 from irlsim.planner.expert import THETA_EXPERT
 from irlsim.train.batching import as_dataset, check_split_shape, get_split, predict_split
 from irlsim.train.checkpoint import model_config_from
-from irlsim.train.layout import METRICS_NAME, STAGE_FOLDERS, find_checkpoint
+from irlsim.train.layout import STAGE_FOLDERS, find_checkpoint
 from irlsim.train.loading import LoadedModel, load_model
-from irlsim.train.metrics_log import read_metrics
 from irlsim.train.repro import num_threads, provenance
 from irlsim.train.stage2 import predict_temporal
 from irlsim.utils import atomic_path, atomic_write_text, owned_output, write_json
@@ -193,22 +192,22 @@ def _savefig(fig: Any, path: Path) -> None:
         fig.savefig(tmp, format="png", dpi=120, bbox_inches="tight")
 
 
-def plot_convergence(metrics: dict[str, Path], path: Path) -> None:
-    """Train EVD per epoch and validation ED per validation epoch, one line per model
-    (``metrics``: model -> its metrics.csv)."""
+def plot_convergence(metrics: dict[str, list[dict[str, Any]]], path: Path) -> None:
+    """Train EVD per epoch and validation ED per validation epoch, one line per model (``metrics``: model
+    -> its checkpoint's per-epoch rows, the values of its metrics.csv without the wall times, read from
+    the checkpoint whose records' CRC-32 were checked rather than from the csv, which carries none)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 4))
-    for m, csv_path in metrics.items():
-        rows = read_metrics(csv_path)
+    for m, rows in metrics.items():
         if not rows:
             continue
-        ep = np.array([r["epoch"] for r in rows])
-        evd = np.array([r.get("train/evd", np.nan) for r in rows])
-        ed = np.array([r.get("val/ed", np.nan) for r in rows])
+        ep = np.array([_number(r.get("epoch")) for r in rows])
+        evd = np.array([_number(r.get("train/evd")) for r in rows])
+        ed = np.array([_number(r.get("val/ed")) for r in rows])
         ax1.plot(ep, evd, label=m)
         ok = np.isfinite(ed)
         ax2.plot(ep[ok], ed[ok], marker="o", label=m)
@@ -219,6 +218,11 @@ def plot_convergence(metrics: dict[str, Path], path: Path) -> None:
         ax.legend(fontsize=8)
     _savefig(fig, path)
     plt.close(fig)
+
+
+def _number(v: Any) -> float:
+    """A metric value as a float (None, a missing value: NaN)."""
+    return float("nan") if v is None else float(v)
 
 
 def plot_opd(per_model: dict[str, np.ndarray], demo: np.ndarray, path: Path) -> None:
@@ -311,6 +315,18 @@ def temporal_outputs(
     return out
 
 
+def _write_results(
+    out_dir: Path, rows: list[dict[str, Any]], split: str, H: int, record: dict[str, Any]
+) -> None:
+    """results.md (its last paragraph: the record's ``note``, if any) and results.json (the record)."""
+    note = record.get("note")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(
+        out_dir / "results.md", results_markdown(rows, split, H) + (f"\n{note}\n" if note else "")
+    )
+    write_json(out_dir / "results.json", {"split": split, "history": H, **record, "rows": rows})
+
+
 def evaluate_models(
     dataset: Any,
     runs_dir: str | Path,
@@ -320,6 +336,7 @@ def evaluate_models(
     threads: int = 2,
     references: bool = True,
     strips: Callable[..., dict[str, str]] | None = None,
+    record: dict[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate every trained model in ``runs_dir`` on ``split``.
 
@@ -331,7 +348,9 @@ def evaluate_models(
     parameters, parameter_counts, evd, ed, opd, demo, cycles, opd_untrained, selected_epoch,
     provenance, and on a dataset on disk 'situations' and 'stability'), trained models in registry order,
     then the reference rows 'expert-theta', 'executed', 'oracle (optimistic bound)' (unless not
-    ``references``) and 'random policy'. ``strips``: see :func:`temporal_outputs`.
+    ``references``) and 'random policy'. ``strips``: see :func:`temporal_outputs`. ``record``: what the
+    evaluation was (its data, whether held out, what the models were trained on) for results.json; its
+    ``note`` is also the last line of results.md. An empty split is one line naming it.
     """
     dataset = as_dataset(dataset)
     runs_dir, out_dir = Path(runs_dir), Path(out_dir)
@@ -342,6 +361,11 @@ def evaluate_models(
             f"checkpoint.pt): train first with 'irlsim train --stage 1 --out {runs_dir}'"
         )
     data = get_split(dataset, split)
+    if len(data.demo_index) == 0:
+        raise IrlsimError(
+            f"the {split} split of {getattr(dataset, 'path', 'the dataset')} is empty (no cycles): collect "
+            f"it with {split}_episodes > 0, or evaluate another split (--split)"
+        )
     loaded = {name: load_model(path, dataset) for name, path in found.items()}
     for name, lm in loaded.items():
         check_split_shape(name, lm.checkpoint["base"] if lm.base is not None else lm.checkpoint, data, split)
@@ -374,15 +398,11 @@ def evaluate_models(
             rows += reference_rows(data, ctx, references)
             evaluated_with = provenance()
 
+        _write_results(out_dir, rows, split, H, {"provenance": evaluated_with, **(record or {})})
+        plot_convergence(
+            {m: lm.checkpoint.get("metrics") or [] for m, lm in loaded.items()}, out_dir / "convergence.png"
+        )
         demo_index = np.asarray(data.demo_index)
         demo = np.where(demo_index >= 0, random_policy_metrics(data)["demo"], np.nan)
-
-        out_dir.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(out_dir / "results.md", results_markdown(rows, split, H))
-        write_json(
-            out_dir / "results.json",
-            {"split": split, "history": H, "provenance": evaluated_with, "rows": rows},
-        )
-        plot_convergence({m: p.parent / METRICS_NAME for m, p in found.items()}, out_dir / "convergence.png")
         plot_opd(opd, demo, out_dir / "opd_distribution.png")
         return rows

@@ -6,6 +6,7 @@ import hashlib
 import io
 import json
 import sys
+import zipfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -95,6 +96,25 @@ def _tensors(entry: Any, prefix: str = "") -> Iterator[tuple[str, torch.Tensor]]
             yield from _tensors(v, f"{prefix}.{k}" if prefix else str(k))
 
 
+def check_crc(path: Path) -> None:
+    """Every record of the checkpoint's zip archive against the CRC-32 torch wrote for it (``torch.load``
+    does not check them: a flipped bit in the weights loaded silently) -> one-line IrlsimError naming the
+    file and the record. A checkpoint is a result, not a cache: it cannot be rebuilt, only retrained."""
+    try:
+        with zipfile.ZipFile(path) as archive:
+            bad = archive.testzip()
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError, NotImplementedError) as e:
+        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise IrlsimError(
+            f"checkpoint {path} is corrupt or unreadable ({reason}): delete it and train again"
+        ) from None
+    if bad is not None:
+        raise IrlsimError(
+            f"checkpoint {path} is corrupt (its record {bad} fails its CRC-32 check): "
+            "delete it and train again"
+        )
+
+
 def read_checkpoint(
     path: str | Path,
     *,
@@ -112,6 +132,7 @@ def read_checkpoint(
         raise IrlsimError(f"checkpoint {path} is a folder, not a file: remove it and train again")
     if not path.is_file():
         raise IrlsimError(f"checkpoint {path} not found: run 'irlsim train' first (or check --runs)")
+    check_crc(path)
     try:
         ckpt = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as e:  # torch raises many types for truncated / garbage files

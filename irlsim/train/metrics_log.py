@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import csv
 import io
+import sys
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from irlsim.errors import IrlsimError
 from irlsim.train.layout import METRICS_NAME
 from irlsim.utils import atomic_write_text
 
@@ -27,7 +29,7 @@ class MetricsLog:
         if (
             self.rows
         ):  # checkpoints keep no wall times (they would differ between identical runs): reuse the log's
-            times = {int(r["epoch"]): r for r in read_metrics(self.path) if r.get("epoch") == r.get("epoch")}
+            times = {int(r["epoch"]): r for r in _old_times(self.path) if r.get("epoch") == r.get("epoch")}
             for r in self.rows:
                 old = times.get(int(r["epoch"]), {})
                 r.update({k: v for k, v in old.items() if k.startswith("time/")})
@@ -63,12 +65,27 @@ class MetricsLog:
 
 
 def read_metrics(path: str | Path) -> list[dict[str, float]]:
-    """metrics.csv -> rows of floats (empty cells -> NaN); missing file -> []."""
+    """metrics.csv -> rows of floats (empty cells -> NaN); missing file -> []. A file that is not such a
+    table (not UTF-8, a cell that is no number: a flipped bit) is one line naming it (IrlsimError)."""
     path = Path(path)
     if not path.is_file():
         return []
-    with path.open() as f:
-        return [
-            {k: (float(v) if v not in ("", None) else float("nan")) for k, v in r.items()}
-            for r in csv.DictReader(f)
-        ]
+    try:
+        with path.open(encoding="utf-8") as f:
+            return [
+                {k: (float(v) if v not in ("", None) else float("nan")) for k, v in r.items()}
+                for r in csv.DictReader(f)
+            ]
+    except (ValueError, TypeError, csv.Error) as exc:  # UnicodeDecodeError is a ValueError
+        reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise IrlsimError(f"{path} is not a metrics table ({reason}): delete it") from None
+
+
+def _old_times(path: Path) -> list[dict[str, float]]:
+    """The rows of a resumed run's metrics.csv, for their wall times; one that cannot be read loses them
+    (one line on stderr): the metrics themselves come from the checkpoint."""
+    try:
+        return read_metrics(path)
+    except IrlsimError as exc:
+        print(f"irlsim: {exc} (its wall times are not kept; the checkpoint's metrics are)", file=sys.stderr)
+        return []

@@ -203,9 +203,9 @@ def _count_cache_builds(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     calls: list[int] = []
     real = Dataset._build_cache
 
-    def counting(self: Dataset, *args: object) -> None:
+    def counting(self: Dataset, *args: object, **kwargs: object) -> None:
         calls.append(1)
-        real(self, *args)  # type: ignore[arg-type]
+        real(self, *args, **kwargs)  # type: ignore[arg-type]
 
     monkeypatch.setattr(Dataset, "_build_cache", counting)
     return calls

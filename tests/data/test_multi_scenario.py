@@ -194,8 +194,9 @@ def test_one_road_other_than_the_oval_records_it(tmp_path):
 
 def test_table_one_of_a_reward_on_data_it_never_saw(multi, ramp_runs, tiny_dataset, tmp_path, capsys):
     """Transfer: models trained on the ramp's episodes are refused on the oval's dataset unless the
-    evaluation is asked for held-out data; then Table I has every trained model, and the evaluation of
-    the data they were trained on is unchanged by the flag."""
+    evaluation is asked for held-out data; then Table I has every trained model and results.json says it
+    was held out and on what the models were trained. The data they were trained on is not held out:
+    --held-out is refused there in one line, and accepted on the same folder's other scenario."""
     from irlsim.cli import main
 
     args = ["evaluate", "--data", str(tiny_dataset), "--runs", str(ramp_runs), "--no-references"]
@@ -203,12 +204,31 @@ def test_table_one_of_a_reward_on_data_it_never_saw(multi, ramp_runs, tiny_datas
     assert not (tmp_path / "refused" / "results.json").exists()
     assert main([*args, "--out", str(tmp_path / "held_out"), "--held-out"]) == 0
     rows = json.loads((tmp_path / "held_out" / "results.json").read_text())
+    assert rows["evaluated_on"]["held_out"] is True and rows["evaluated_on"]["data"] == [str(tiny_dataset)]
+    assert rows["trained_on"]["stage1/PACNN"]["dataset"].startswith("sha256:")
     text = json.dumps(rows)
     assert "LIRL" in text and "PACNN" in text
     _, data = multi
     own = ["evaluate", "--data", str(data), "--runs", str(ramp_runs), "--no-references"]
     own += ["--scenario-select", "ramp", "--out"]
     assert main([*own, str(tmp_path / "own")]) == 0
-    assert main([*own, str(tmp_path / "own_flag"), "--held-out"]) == 0
-    a = (tmp_path / "own" / "results.md").read_text()
-    assert a == (tmp_path / "own_flag" / "results.md").read_text()
+    line = refused(capsys, [*own, str(tmp_path / "own_flag"), "--held-out"])
+    assert "error: --held-out: " in line and "so it is not held out: evaluate without --held-out" in line
+    assert not (tmp_path / "own_flag").exists()
+    record = json.loads((tmp_path / "own" / "results.json").read_text())
+    assert record["evaluated_on"]["held_out"] is False
+    assert "Held out: no." in (tmp_path / "own" / "results.md").read_text()
+    oval = [*own[:-3], "--scenario-select", "oval", "--out", str(tmp_path / "oval"), "--held-out"]
+    assert main(oval) == 0
+    record = json.loads((tmp_path / "oval" / "results.json").read_text())
+    assert record["evaluated_on"] == {
+        "data": [str(data)],
+        "dataset": record["evaluated_on"]["dataset"],
+        "scenarios": ["oval"],
+        "held_out": True,
+    }
+    assert record["trained_on"]["stage1/LIRL"]["data"] == str(data)
+    assert (
+        f"Held out: yes. Evaluated on {data}; the models were trained on {data}."
+        in (tmp_path / "oval" / "results.md").read_text()
+    )

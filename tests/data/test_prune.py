@@ -12,11 +12,13 @@ import numpy as np
 import pytest
 
 from irlsim.cli import main
-from irlsim.data.cache import CACHE_DIR, cache_files, write_cache_meta
+from irlsim.data.cache import CACHE_DIR, cache_files
 from irlsim.data.layout import remove_episode
 from irlsim.data.npy import AtomicNpys
 from irlsim.data.reader import open_dataset
+from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.data.tensors import ARRAY_NAMES
+from irlsim.utils import write_json
 from tests.conftest import TINY_COLLECT
 
 CACHE_FILES = {*(p.name for p in cache_files(Path("."))), "meta.json"}
@@ -45,7 +47,13 @@ def _old_aggregate_copy(folders: tuple[Path, ...], key: str, split: str) -> Path
     with AtomicNpys(out, {n: (a.shape, a.dtype) for n, a in cat.items()}) as maps:
         for n, m in maps.items():
             m[:] = cat[n]
-    write_cache_meta(out, {"split": split, "cycles": len(cat["episode"]), "parts": []})
+    meta = {
+        "cache_version": 2,
+        "schema_version": SCHEMA_VERSION,
+        "split": split,
+        "cycles": len(cat["episode"]),
+    }
+    write_json(out / "meta.json", {**meta, "parts": []})
     return out
 
 
@@ -102,7 +110,8 @@ def test_a_recollected_episode_obsoletes_its_caches(tiny_dataset, tmp_path, caps
     selection = next((ds / CACHE_DIR).glob("scenarios-*"))
     # an older irlsim's cache of the test split: another cache version
     meta = json.loads((ds / CACHE_DIR / "test" / "meta.json").read_text())
-    (ds / CACHE_DIR / "test" / "meta.json").write_text(json.dumps({**meta, "cache_version": 1}))
+    old = {k: v for k, v in meta.items() if k not in ("files", "meta_sha256")}  # what it did not write
+    (ds / CACHE_DIR / "test" / "meta.json").write_text(json.dumps({**old, "cache_version": 1}))
     kept = {k: v for k, v in _files(ds / CACHE_DIR).items() if k.startswith("validation/")}
     # an episode lost and collected again: the caches built from its old file are obsolete
     remove_episode(ds, "train", whole.episodes("train")[0])
