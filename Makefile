@@ -96,7 +96,7 @@ sweep: setup
 	$(IRLSIM) scenario generate --count $(SWEEP_NETWORKS) --seed $(SEED) --out $(SWEEP)/networks
 	$(IRLSIM) scenario sweep $(SWEEP)/networks --routes 5 --drive 1 --seed $(SEED) --workers $(SWEEP_WORKERS) \
 		--out $(SWEEP)/generated
-	$(IRLSIM) scenario sweep "$(SUMO_GAME)" --routes 20 --drive 1 --seed $(SEED) --workers $(SWEEP_WORKERS) \
+	$(IRLSIM) scenario sweep "$(SUMO_GAME)" --routes 20 --drive 20 --seed $(SEED) --workers $(SWEEP_WORKERS) \
 		--out $(SWEEP)/game
 
 # ruff, mypy, the import contracts of pyproject.toml (layers point down, no cycles), and the size limits

@@ -17,10 +17,11 @@ from typing import Any
 import numpy as np
 
 from irlsim.errors import IrlsimError
+from irlsim.road.geometry import MIN_OPEN_LENGTH
 
-#: [m] a drawn route is at least this long (the planner looks 200 m ahead; a route of about that length
-#: would leave the episode no room to drive)
-MIN_ROUTE_LENGTH = 300.0
+#: [m] a drawn route is at least as long as the shortest route the road accepts (the planner's look-ahead):
+#: a longer minimum left the small city networks (SUMO's Ingolstadt extract) without routes in 100 draws
+MIN_ROUTE_LENGTH = MIN_OPEN_LENGTH
 #: pairs of edges tried per route before it is given up as 'no-path'
 DRAW_TRIES = 100
 
@@ -70,6 +71,7 @@ def draw_routes(net: Any, n: int, seed: int, min_length: float = MIN_ROUTE_LENGT
 
 def _draw_one(net: Any, edges: list[Any], k: int, seed: int, min_length: float) -> DrawnRoute:
     rng = np.random.default_rng([seed, k])
+    longest = 0.0  # [m] of the paths found, when none was long enough
     for _ in range(DRAW_TRIES):
         i, j = rng.choice(len(edges), size=2, replace=False)
         path, _cost = net.getShortestPath(edges[i], edges[j], vClass="passenger")
@@ -78,12 +80,18 @@ def _draw_one(net: Any, edges: list[Any], k: int, seed: int, min_length: float) 
         length = float(sum(e.getLength() for e in path))
         if length >= min_length:
             return DrawnRoute(k, tuple(e.getID() for e in path), round(length, 1))
-    return DrawnRoute(
-        k,
-        (),
-        0.0,
-        f"route: no pair of car edges joined by a path of at least {min_length:.0f} m in {DRAW_TRIES} draws",
-    )
+        longest = max(longest, length)
+    if longest > 0:  # pairs connect, but every route is short: a network too small to drive
+        why = (
+            f"route: every car route of {DRAW_TRIES} draws is shorter than the {min_length:.0f} m the "
+            f"planner needs (the longest {longest:.0f} m): a network too small to drive"
+        )
+    else:
+        why = (
+            f"route: no pair of car edges joined by a path of at least {min_length:.0f} m in "
+            f"{DRAW_TRIES} draws"
+        )
+    return DrawnRoute(k, (), 0.0, why)
 
 
 def _turns_round(path: list[Any]) -> bool:

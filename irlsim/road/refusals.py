@@ -7,7 +7,8 @@ The reasons, in the order they are tried (the first whose pattern is in the mess
                   lanes), or a network with no edge for cars at all
     lane-count    lanes that do not continue across a junction: no car lane of an edge leads into the next
     loop-lanes    a loop whose lanes do not join up (a lane added or dropped for good on a loop)
-    too-short     a route shorter than the planner's look-ahead (200 m)
+    too-short     a route shorter than the planner's look-ahead (200 m), or a network whose car routes all are
+                  (the sweep's draws found none long enough)
     no-path       edges that do not connect (no path from one to the other, a route edge that does not
                   lead into the next), or no pair of car edges joined by a long enough path
     no-start      a route that leaves the ego no place to start (the start's clearances from stop lines,
