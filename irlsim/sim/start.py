@@ -1,6 +1,7 @@
 """Where the ego starts an episode: a draw from the seed alone (or the config's fixed start), on the
 route's edges, clear of stop lines, exits, the junctions where the route yields and the checkpoints that
-require a lane, with room ahead on an open route and clear of a scenario's own traffic.
+require a lane, with room to stop before a traffic light, with room ahead on an open route and clear of a
+scenario's own traffic.
 
 On a route too short for the configured clearances (an urban route of a few hundred metres, a small
 circuit) the clearances and the room ahead are scaled down together, by halves, until some start
@@ -31,6 +32,11 @@ START_SCALES = (1.0, 0.5, 0.25, 0.125)
 #: [m] the grid on which start_scale looks for a start, and the least length of route it must leave
 START_GRID = 1.0
 MIN_START_SPAN = 5.0
+#: [m/s^2] the braking a start before a traffic light must leave room for, at the start's top speed, and
+#: [m] a margin: a start just before a light that shows red crossed it in the first cycle (a sweep found
+#: it on SUMO's grid6); unscaled on short routes, since a car's stopping distance does not shrink with them
+SIGNAL_START_DECEL = 3.0
+SIGNAL_START_MARGIN = 5.0
 
 
 def _start_ok(road: Road, cfg: ScenarioConfig, e: LoopEdges, s: np.ndarray, scale: float) -> np.ndarray:
@@ -47,7 +53,10 @@ def _start_ok(road: Road, cfg: ScenarioConfig, e: LoopEdges, s: np.ndarray, scal
     clear = (gap >= cfg.ego_start_clearance * scale).all(axis=1)
     before_cp = ((cps - s[:, None]) % lap < cfg.ego_start_checkpoint_clearance * scale).any(axis=1)
     room = s <= road.route_end_s - OPEN_START_RESERVE * scale  # always on a loop (inf)
-    return on_edge & clear & ~before_cp & room
+    signals = np.array([g.s for g in road.signals])
+    stop = cfg.ego_start_speed_max**2 / (2 * SIGNAL_START_DECEL) + SIGNAL_START_MARGIN
+    before_signal = ((signals - s[:, None]) % lap < stop).any(axis=1)
+    return on_edge & clear & ~before_cp & room & ~before_signal
 
 
 def start_scale(road: Road, cfg: ScenarioConfig, e: LoopEdges) -> float:

@@ -105,3 +105,30 @@ def test_a_route_too_short_for_any_start_is_refused_once(tmp_path, capsys):
     assert main([*drive, "--out", str(tmp_path / "drive")]) == 2
     err = capsys.readouterr().err
     assert "leaves no start for the ego" in err and "Traceback" not in err
+
+
+def test_a_random_start_leaves_room_to_stop_before_a_traffic_light(tmp_path):
+    """Over many seeds of a 331 m route of the wheel's grid6 through a light (its start clearances scaled
+    down) and of the corridor (three lights), no start lies within the stopping distance at the start's
+    top speed before a light: a start 2 m before one crossed it on red in the first cycle."""
+    from irlsim.sim.start import SIGNAL_START_DECEL, SIGNAL_START_MARGIN, draw_start, start_scale
+    from irlsim.sim.traffic import LoopEdges
+
+    grid6 = tmp_path / "grid6" / "scenario.toml"
+    grid6.parent.mkdir()
+    grid6.write_text(
+        'name = "grid6-route"\n[network]\nsumo_tools = "game/grid6/grid6.net.xml"\n[route]\n'
+        'edges = ["left0to0/0", "0/0to1/0", "1/0tobottom1", "gneE29"]\n'
+    )
+    for scenario in (str(grid6), "corridor"):
+        road = load_road(scenario=scenario)
+        cfg = ScenarioConfig(name=scenario)
+        edges = LoopEdges.from_road(road)
+        scale = start_scale(road, cfg, edges)
+        stop = cfg.ego_start_speed_max**2 / (2 * SIGNAL_START_DECEL) + SIGNAL_START_MARGIN
+        lights = np.array([g.s for g in road.signals])
+        assert len(lights) >= 1
+        starts = np.array([draw_start(road, cfg, edges, seed, scale=scale)[0] for seed in range(200)])
+        ahead = (lights[None, :] - starts[:, None]) % road.lap_length
+        assert (ahead >= stop).all(), (scenario, ahead.min())
+        assert len(np.unique(starts)) == 200  # still a draw per seed
