@@ -189,25 +189,52 @@ def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
 def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> np.ndarray:
     """The middle of the route's lanes along it: each edge's lane nearest the middle (and the junction
     lane from it into the same route lane of the next edge), moved sideways onto the middle where it is
-    not there: [P, 2]; for a loop the first point is not repeated at the end."""
+    not there: [P, 2]; for a loop the first point is not repeated at the end. Where that lane does not
+    go on into the next edge (a turn at a junction made from other lanes only), the junction lane of the
+    nearest lane that does, moved over by the lanes between: the reference follows the turn."""
     pieces = reference_lanes(layout)
     n = len(edges)
     pts: list[np.ndarray] = []
     for i, eid in enumerate(edges):
         k, delta = pieces[i]
         lane = net.getEdge(eid).getLane(k)  # type: ignore[attr-defined]
-        part = [np.asarray(lane.getShape(), dtype=np.float64)]
+        pts.append(_offset(np.asarray(lane.getShape(), dtype=np.float64), delta))
         if i < n - 1 or closed:
             j = (i + 1) % n
             want = layout.edge_lane(j, layout.route_lane(i, k))
             cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[j]]
             via = [c for c in cons if c.getToLane().getIndex() == want] or cons
-            via_id = via[0].getViaLaneID() if via else ""
+            via_id, shift = (via[0].getViaLaneID() if via else ""), delta
+            if not cons:
+                via_id, shift = _turn_from_other_lane(net, edges, layout, i, k, delta)
             if via_id:
-                part.append(np.asarray(net.getLane(via_id).getShape(), dtype=np.float64))  # type: ignore[attr-defined]
-        for p in part:
-            pts.append(p if delta == 0.0 else offset_polyline(p, delta))
+                via_pts = np.asarray(net.getLane(via_id).getShape(), dtype=np.float64)  # type: ignore[attr-defined]
+                pts.append(_offset(via_pts, shift))
     return _clean_polyline(np.concatenate(pts), closed)
+
+
+def _offset(pts: np.ndarray, delta: float) -> np.ndarray:
+    return pts if delta == 0.0 else offset_polyline(pts, delta)
+
+
+def _turn_from_other_lane(
+    net: object, edges: tuple[str, ...], layout: LaneLayout, i: int, k: int, delta: float
+) -> tuple[str, float]:
+    """(junction lane id, its lateral offset [m]) of the way into route edge i + 1 from the car lane of
+    edge i nearest SUMO lane ``k`` (which has none), moved by the lanes between onto the middle."""
+    j = (i + 1) % len(edges)
+    here = layout.route_lane(i, k)
+    ways = [
+        (abs(g - here), g, c.getViaLaneID())
+        for ln in net.getEdge(edges[i]).getLanes()  # type: ignore[attr-defined]
+        if (g := layout.route_lane(i, ln.getIndex())) >= 0
+        for c in ln.getOutgoing()
+        if c.getTo().getID() == edges[j] and c.getViaLaneID()
+    ]
+    if not ways:
+        return "", delta
+    _, g, via_id = min(ways)
+    return via_id, delta + (here - g) * layout.width
 
 
 def edge_table(
