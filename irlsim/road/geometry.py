@@ -199,7 +199,6 @@ class Road:
             ]
         )
         centre = route.reference_shape(self.net, self.edges, self.layout, self.closed)
-        route.check_flat(centre, self.closed)
         if self.closed:
             ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
         else:

@@ -189,7 +189,8 @@ def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
 def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> np.ndarray:
     """The middle of the route's lanes along it: each edge's lane nearest the middle (and the junction
     lane from it into the same route lane of the next edge), moved sideways onto the middle where it is
-    not there: [P, 2]; for a loop the first point is not repeated at the end. Where that lane does not
+    not there: [P, 2]; for a loop the first point is not repeated at the end (refused where it crosses
+    itself: :func:`check_flat`). Where that lane does not
     go on into the next edge (a turn at a junction made from other lanes only), the junction lane of the
     nearest lane that does, moved over by the lanes between: the reference follows the turn."""
     pieces = reference_lanes(layout)
@@ -210,7 +211,9 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
             if via_id:
                 via_pts = np.asarray(net.getLane(via_id).getShape(), dtype=np.float64)  # type: ignore[attr-defined]
                 pts.append(_offset(via_pts, shift))
-    return _clean_polyline(np.concatenate(pts), closed)
+    out = _clean_polyline(np.concatenate(pts), closed)
+    check_flat(out, closed)
+    return out
 
 
 def _offset(pts: np.ndarray, delta: float) -> np.ndarray:

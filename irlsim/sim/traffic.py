@@ -153,13 +153,16 @@ class BackgroundTraffic:
             return None  # 'unpriorised junction too close'
         vid = f"bg{self.counter}"
         self.counter += 1
+        # SUMO refuses a departure faster than the lane's limit (the type's speedFactor is 1): a street
+        # slower than the traffic's speeds (a 20 km/h zone) sees them enter at its limit
+        limit = float(self.road.net.getEdge(eid).getLane(k).getSpeed())
         self.api.vehicle.add(
             vid,
             f"loop@{eid}",
             typeID=BG_TYPE,
             departLane=str(k),
             departPos=f"{pos:.3f}",
-            departSpeed=f"{speed:.3f}",
+            departSpeed=f"{min(speed, limit):.3f}",
         )
         self.api.vehicle.setMaxSpeed(vid, speed)
         self.pending.add(vid)
