@@ -212,7 +212,7 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
                 via_pts = np.asarray(net.getLane(via_id).getShape(), dtype=np.float64)  # type: ignore[attr-defined]
                 pts.append(_offset(via_pts, shift))
     out = _clean_polyline(np.concatenate(pts), closed)
-    check_flat(out, closed)
+    check_flat(out, closed, layout.n_lanes * layout.width + 0.5)
     return out
 
 
@@ -435,52 +435,47 @@ def mission_points(
     return out
 
 
-#: [m] a route's line crossing itself counts only between points at least this far apart along it (a
-#: tight turn's offset line may loop locally); the resampling step [m] of the test
+#: [m] a route's line meets itself only between points at least this far apart along it (a tight turn's
+#: offset line may loop locally); the resampling step [m] of the test
 CROSSING_MIN_APART = 50.0
-CROSSING_STEP = 2.0
+CROSSING_STEP = 1.0
 
 
-def self_crossing(pts: np.ndarray, closed: bool) -> tuple[float, float] | None:
-    """(x, y) where the polyline ``pts`` [P, 2] crosses itself (a bridge or tunnel: the route passes
-    over or under itself), or None. Segments closer than CROSSING_MIN_APART along the line are not
-    compared. Vectorised in blocks of segments (once, when a road is built)."""
+def self_crossing(pts: np.ndarray, closed: bool, gap: float) -> tuple[float, float] | None:
+    """(x, y) where the polyline ``pts`` [P, 2] comes within ``gap`` [m] of itself (a bridge or tunnel
+    where the route passes over or under itself, or the route running back on the other carriageway),
+    or None. Points closer than CROSSING_MIN_APART along the line are not compared. Vectorised in blocks
+    of points (once, when a road is built)."""
     p = np.vstack([pts, pts[:1]]) if closed else pts
     seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
     t = np.concatenate([[0.0], np.cumsum(seg)])
     u = np.arange(0.0, t[-1], CROSSING_STEP)
     q = np.stack([np.interp(u, t, p[:, 0]), np.interp(u, t, p[:, 1])], axis=1)
-    a, d = q[:-1], np.diff(q, axis=0)  # segment k: a[k] + r d[k], r in [0, 1]
-    n = len(a)
+    n = len(q)
     apart = int(CROSSING_MIN_APART / CROSSING_STEP)
-    lap = n if closed else 10**9
+    lap = n if closed else 2 * n
     for lo in range(0, n, 256):
         i = np.arange(lo, min(lo + 256, n))[:, None]
-        j = np.arange(n)[None, :]
-        gap = np.abs(i - j)
-        far = np.minimum(gap, lap - gap) >= apart
-        cross = d[i, 0] * d[j, 1] - d[i, 1] * d[j, 0]
-        ok = far & (np.abs(cross) > 1e-12)
-        cr = np.where(ok, cross, 1.0)
-        w = a[j] - a[i]  # [B, n, 2]
-        r = (w[..., 0] * d[j, 1] - w[..., 1] * d[j, 0]) / cr
-        q2 = (w[..., 0] * d[i, 1] - w[..., 1] * d[i, 0]) / cr
-        hit = ok & (r >= 0) & (r <= 1) & (q2 >= 0) & (q2 <= 1)
+        sep = np.abs(i - np.arange(n)[None, :])
+        far = np.minimum(sep, lap - sep) >= apart  # [B, n]
+        dist = np.hypot(q[i, 0] - q[None, :, 0], q[i, 1] - q[None, :, 1])
+        hit = far & (dist < gap)
         if hit.any():
-            bi, bj = np.argwhere(hit)[0]
-            x, y = a[lo + bi] + r[bi, bj] * d[lo + bi]
-            return float(x), float(y)
+            bi, _ = np.argwhere(hit)[0]
+            return float(q[lo + bi, 0]), float(q[lo + bi, 1])
     return None
 
 
-def check_flat(centre: np.ndarray, closed: bool) -> None:
-    """A one-line IrlsimError where the route's line ``centre`` [P, 2] crosses itself: the route frame
-    is flat, so vehicles near the crossing would be projected onto either branch."""
-    hit = self_crossing(centre, closed)
+def check_flat(centre: np.ndarray, closed: bool, road_width: float) -> None:
+    """A one-line IrlsimError where the route's line ``centre`` [P, 2] crosses itself or runs back within
+    ``road_width`` [m] of itself: the route frame is flat, so vehicles there would be projected onto
+    either branch."""
+    hit = self_crossing(centre, closed, road_width)
     if hit is not None:
         raise IrlsimError(
-            f"route: it crosses itself near ({hit[0]:.0f}, {hit[1]:.0f}) (over a bridge or through a "
-            "tunnel): the route frame is flat; end the route before it crosses itself"
+            f"route: it crosses itself or runs back alongside itself near ({hit[0]:.0f}, {hit[1]:.0f}) (over "
+            "a bridge, through a tunnel or back on the other carriageway): the route frame is flat; end the "
+            "route before it does"
         )
 
 

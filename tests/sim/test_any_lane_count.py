@@ -95,6 +95,8 @@ def test_the_expert_drives_through_one_lane_links(name, network, edges, tmp_path
 def test_a_route_that_crosses_itself_is_refused_in_one_line(tmp_path):
     """The A10's link loops back under its own motorway: the flat route frame cannot hold both."""
     folder = wheel_scenario(tmp_path / "cross", "game/A10KW/osm.net.xml", [*A10_LINK, "308396219"])
-    with pytest.raises(IrlsimError, match="crosses itself near .* end the route before") as e:
+    with pytest.raises(
+        IrlsimError, match="runs back alongside itself near .* end the route before it does"
+    ) as e:
         load_road(scenario=folder)
     assert "\n" not in str(e.value)
