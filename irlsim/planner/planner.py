@@ -125,8 +125,10 @@ class Planner:
         t0 = time.perf_counter()
         cfg, road, ego = self.cfg, self.road, obs.ego
         lap = obs.lap_length
-        # the road's speed limit over the reach of the horizon, where it is below the target speed
-        v_cap = road.speed_limit_over(ego.s, ego.s + cfg.horizon * max(ego.v, cfg.v_target))
+        # the road's speed limit (and a turn's speed) over the reach of the horizon, where it is below
+        # the target speed
+        reach = ego.s + cfg.horizon * max(ego.v, cfg.v_target)
+        v_cap = min(road.speed_limit_over(ego.s, reach), road.turn_speed_over(ego.s, reach))
         cfg_c = cfg if v_cap >= cfg.v_target else dataclasses.replace(cfg, v_target=v_cap)
         lon = self.sampler.lon_bank(
             ego.v, ego.a, stop_distances(obs, cfg, road), None if cfg_c is cfg else v_cap

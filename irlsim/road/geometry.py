@@ -41,6 +41,11 @@ SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-d
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
 OPEN_EXTENSION = 300.0  # [m] an open route's reference runs on straight this far beyond both ends
 MIN_OPEN_LENGTH = 200.0  # [m] the shortest route the planner can drive (its look-ahead)
+#: a turn (at a junction, a tight bend: the reference's radius below TURN_RADIUS [m]) is driven at most as
+#: fast as gives TURN_LAT_ACC [m/s^2] of lateral acceleration on the reference's curvature, as a driver
+#: takes it; wider bends (every one of the oval's, a motorway's) only by the planner's a_lat_max
+TURN_RADIUS = 60.0
+TURN_LAT_ACC = 2.5
 #: projection index (Road._build_raster): cell size [m]; how far from the reference it answers [m] (points
 #: further away search all segments: exact, ~20 us each); search windows [segments], the narrow one for
 #: nearly every cell near the road, the wide one where normals converge (inside curves); extra segment
@@ -229,6 +234,8 @@ class Road:
         speeds = [float(self.net.getEdge(e).getSpeed()) for e in self.edges]
         self._vmax = route.edge_table(self.ref_s, self._edge_bounds, speeds, self.closed)
         self._vmax_min, self._vmax_max = float(self._vmax.min()), float(self._vmax.max())
+        self._vturn = turn_speeds(self._kappa)  # [m/s] per reference vertex, inf where no turn
+        self._turns = bool(np.isfinite(self._vturn).any())
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
@@ -675,6 +682,16 @@ class Road:
         n = int(min(np.ceil((s1 - s0) / self._h) + 2, m))
         return float(self._vmax[(a + np.arange(n)) % m].min())
 
+    def turn_speed_over(self, s0: float, s1: float) -> float:
+        """The lowest turn speed [m/s] of the route from ``s0`` to ``s1`` (unwrapped, s1 >= s0): a turn
+        at a junction taken at TURN_LAT_ACC; inf where there is none (the oval, a motorway)."""
+        if not self._turns:
+            return math.inf
+        m = len(self.ref_s)
+        a = int(self._segment_of_wrapped(np.array([s0 % self.lap_length]))[0])
+        n = int(min(np.ceil((s1 - s0) / self._h) + 2, m))
+        return float(self._vturn[(a + np.arange(n)) % m].min())
+
     def required_lane(self, checkpoint: int, d: float) -> int:
         """The lane checkpoint ``checkpoint`` requires of an ego at offset ``d``: its lane; where several
         lanes meet it, the one of them nearest ``d``; for an any-lane checkpoint (lane -1, an open route's
@@ -771,6 +788,13 @@ class Road:
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), list(c.lanes) if c.lanes else c.lane) for c in self.checkpoints],
         }
+
+
+def turn_speeds(kappa: np.ndarray) -> np.ndarray:
+    """[M] [m/s] the speed of a turn at each reference vertex from its curvature ``kappa`` [M] [1/m]:
+    TURN_LAT_ACC of lateral acceleration where the radius is below TURN_RADIUS, inf elsewhere."""
+    k = np.abs(kappa)
+    return np.where(k > 1.0 / TURN_RADIUS, np.sqrt(TURN_LAT_ACC / np.maximum(k, 1e-9)), np.inf)
 
 
 def _dilate(a: np.ndarray, r: int, op: np.ufunc, fill: int) -> np.ndarray:

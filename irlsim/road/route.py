@@ -189,25 +189,55 @@ def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
 def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> np.ndarray:
     """The middle of the route's lanes along it: each edge's lane nearest the middle (and the junction
     lane from it into the same route lane of the next edge), moved sideways onto the middle where it is
-    not there: [P, 2]; for a loop the first point is not repeated at the end."""
+    not there: [P, 2]; for a loop the first point is not repeated at the end (refused where it crosses
+    itself: :func:`check_flat`). Where that lane does not
+    go on into the next edge (a turn at a junction made from other lanes only), the junction lane of the
+    nearest lane that does, moved over by the lanes between: the reference follows the turn."""
     pieces = reference_lanes(layout)
     n = len(edges)
     pts: list[np.ndarray] = []
     for i, eid in enumerate(edges):
         k, delta = pieces[i]
         lane = net.getEdge(eid).getLane(k)  # type: ignore[attr-defined]
-        part = [np.asarray(lane.getShape(), dtype=np.float64)]
+        pts.append(_offset(np.asarray(lane.getShape(), dtype=np.float64), delta))
         if i < n - 1 or closed:
             j = (i + 1) % n
             want = layout.edge_lane(j, layout.route_lane(i, k))
             cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[j]]
             via = [c for c in cons if c.getToLane().getIndex() == want] or cons
-            via_id = via[0].getViaLaneID() if via else ""
+            via_id, shift = (via[0].getViaLaneID() if via else ""), delta
+            if not cons:
+                via_id, shift = _turn_from_other_lane(net, edges, layout, i, k, delta)
             if via_id:
-                part.append(np.asarray(net.getLane(via_id).getShape(), dtype=np.float64))  # type: ignore[attr-defined]
-        for p in part:
-            pts.append(p if delta == 0.0 else offset_polyline(p, delta))
-    return _clean_polyline(np.concatenate(pts), closed)
+                via_pts = np.asarray(net.getLane(via_id).getShape(), dtype=np.float64)  # type: ignore[attr-defined]
+                pts.append(_offset(via_pts, shift))
+    out = _clean_polyline(np.concatenate(pts), closed)
+    check_flat(out, closed, layout.n_lanes * layout.width + 0.5)
+    return out
+
+
+def _offset(pts: np.ndarray, delta: float) -> np.ndarray:
+    return pts if delta == 0.0 else offset_polyline(pts, delta)
+
+
+def _turn_from_other_lane(
+    net: object, edges: tuple[str, ...], layout: LaneLayout, i: int, k: int, delta: float
+) -> tuple[str, float]:
+    """(junction lane id, its lateral offset [m]) of the way into route edge i + 1 from the car lane of
+    edge i nearest SUMO lane ``k`` (which has none), moved by the lanes between onto the middle."""
+    j = (i + 1) % len(edges)
+    here = layout.route_lane(i, k)
+    ways = [
+        (abs(g - here), g, c.getViaLaneID())
+        for ln in net.getEdge(edges[i]).getLanes()  # type: ignore[attr-defined]
+        if (g := layout.route_lane(i, ln.getIndex())) >= 0
+        for c in ln.getOutgoing()
+        if c.getTo().getID() == edges[j] and c.getViaLaneID()
+    ]
+    if not ways:
+        return "", delta
+    _, g, via_id = min(ways)
+    return via_id, delta + (here - g) * layout.width
 
 
 def edge_table(
@@ -403,6 +433,50 @@ def mission_points(
             req = min(going, key=lambda g: (abs(g - c), g))
             out.append((float(x), float(y), int(req), tuple(int(g) for g in going)))
     return out
+
+
+#: [m] a route's line meets itself only between points at least this far apart along it (a tight turn's
+#: offset line may loop locally); the resampling step [m] of the test
+CROSSING_MIN_APART = 50.0
+CROSSING_STEP = 1.0
+
+
+def self_crossing(pts: np.ndarray, closed: bool, gap: float) -> tuple[float, float] | None:
+    """(x, y) where the polyline ``pts`` [P, 2] comes within ``gap`` [m] of itself (a bridge or tunnel
+    where the route passes over or under itself, or the route running back on the other carriageway),
+    or None. Points closer than CROSSING_MIN_APART along the line are not compared. Vectorised in blocks
+    of points (once, when a road is built)."""
+    p = np.vstack([pts, pts[:1]]) if closed else pts
+    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    t = np.concatenate([[0.0], np.cumsum(seg)])
+    u = np.arange(0.0, t[-1], CROSSING_STEP)
+    q = np.stack([np.interp(u, t, p[:, 0]), np.interp(u, t, p[:, 1])], axis=1)
+    n = len(q)
+    apart = int(CROSSING_MIN_APART / CROSSING_STEP)
+    lap = n if closed else 2 * n
+    for lo in range(0, n, 256):
+        i = np.arange(lo, min(lo + 256, n))[:, None]
+        sep = np.abs(i - np.arange(n)[None, :])
+        far = np.minimum(sep, lap - sep) >= apart  # [B, n]
+        dist = np.hypot(q[i, 0] - q[None, :, 0], q[i, 1] - q[None, :, 1])
+        hit = far & (dist < gap)
+        if hit.any():
+            bi, _ = np.argwhere(hit)[0]
+            return float(q[lo + bi, 0]), float(q[lo + bi, 1])
+    return None
+
+
+def check_flat(centre: np.ndarray, closed: bool, road_width: float) -> None:
+    """A one-line IrlsimError where the route's line ``centre`` [P, 2] crosses itself or runs back within
+    ``road_width`` [m] of itself: the route frame is flat, so vehicles there would be projected onto
+    either branch."""
+    hit = self_crossing(centre, closed, road_width)
+    if hit is not None:
+        raise IrlsimError(
+            f"route: it crosses itself or runs back alongside itself near ({hit[0]:.0f}, {hit[1]:.0f}) (over "
+            "a bridge, through a tunnel or back on the other carriageway): the route frame is flat; end the "
+            "route before it does"
+        )
 
 
 def _clean_polyline(arr: np.ndarray, closed: bool) -> np.ndarray:

@@ -28,7 +28,7 @@ from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.start import draw_start, start_scale
-from irlsim.sim.sumo_ego import sumo_step, take_over
+from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
@@ -236,14 +236,7 @@ class Simulation:
         if loc is None:
             raise IrlsimError(f"ego_start_s = {s0} m lies in a junction: choose a position on a loop edge")
         eid, pos = loc
-        api.vehicle.add(
-            EGO,
-            f"loop@{eid}",
-            typeID="ego",
-            departLane=str(road.layout.edge_lane(road.edges.index(eid), lane0)),
-            departPos=f"{pos:.3f}",
-            departSpeed=f"{v0:.3f}",
-        )
+        add_ego(api, EGO, road, eid, pos, lane0, v0)
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))
         t = float(api.simulation.getTime())

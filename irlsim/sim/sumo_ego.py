@@ -13,6 +13,25 @@ from irlsim.road import Road, wrap_angle
 from irlsim.sim.traffic import wrap_route
 from irlsim.sim.types import EgoState
 
+EGO_SPEED_FACTOR = 2.0  # the ego type's speedFactor (sumo_net/vtypes.add.xml)
+
+
+def add_ego(api: Any, ego: str, road: Road, eid: str, pos: float, lane: int, v0: float) -> None:
+    """Insert the ego at lane position ``pos`` [m] of route edge ``eid`` in route lane ``lane``, on the
+    rest of the route. Its departure speed is ``v0`` [m/s] below the lane's limit x the ego type's
+    speedFactor (SUMO refuses a faster departure, on a 10 km/h street); the ego's own state keeps ``v0``
+    (it is placed by moveToXY every step)."""
+    k = road.layout.edge_lane(road.edges.index(eid), lane)
+    depart = min(v0, EGO_SPEED_FACTOR * float(road.net.getEdge(eid).getLane(k).getSpeed()) - 0.01)
+    api.vehicle.add(
+        ego,
+        f"loop@{eid}",
+        typeID="ego",
+        departLane=str(k),
+        departPos=f"{pos:.3f}",
+        departSpeed=f"{depart:.3f}",
+    )
+
 
 def take_over(api: Any, ego: str, target_speed: float) -> None:
     """Hand the ego to SUMO: every safety check of its driver model, the road's limits, ``target_speed``."""

@@ -151,18 +151,18 @@ class BackgroundTraffic:
             return None
         if i in self._yields and self.edges.length[i] - pos < speed**2 / (2 * BG_DECEL) + YIELD_MARGIN:
             return None  # 'unpriorised junction too close'
-        # SUMO refuses a departure faster than the lane's limit ('departure speed too high'): a slow
-        # stretch (a 20 km/h street of a city network) takes its vehicles at its own limit
-        speed = min(speed, float(self.road.net.getEdge(eid).getLane(k).getSpeed()))
         vid = f"bg{self.counter}"
         self.counter += 1
+        # SUMO refuses a departure faster than the lane's limit (the type's speedFactor is 1): a street
+        # slower than the traffic's speeds (a 20 km/h zone) sees them enter at its limit
+        limit = float(self.road.net.getEdge(eid).getLane(k).getSpeed())
         self.api.vehicle.add(
             vid,
             f"loop@{eid}",
             typeID=BG_TYPE,
             departLane=str(k),
             departPos=f"{pos:.3f}",
-            departSpeed=f"{speed:.3f}",
+            departSpeed=f"{min(speed, limit):.3f}",
         )
         self.api.vehicle.setMaxSpeed(vid, speed)
         self.pending.add(vid)

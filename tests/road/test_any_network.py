@@ -102,3 +102,17 @@ def test_lanes_of_different_widths_and_a_bus_lane_on_one_route(tmp_path):
     for k, shape in enumerate(road.lane_shapes):
         _, d = road.to_frenet(shape[:, 0], shape[:, 1])
         assert (road.lane_of_d(d) == k).all()  # the junction's width step included
+
+
+def test_a_line_that_meets_itself_is_found():
+    """The flat route frame's check (route.self_crossing) on plain polylines: a crossing, a route back
+    along itself closer than the road is wide, and what is not either."""
+    from irlsim.road.route import self_crossing
+
+    cross = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [50.0, 100.0], [50.0, -50.0]])
+    assert self_crossing(cross, False, 1.0) == pytest.approx((50.0, 0.0), abs=1.0)
+    back = np.array([[0.0, 0.0], [300.0, 0.0], [300.0, 6.0], [0.0, 6.0]])  # a U-turn 6 m across
+    assert self_crossing(back, False, 6.9) is not None and self_crossing(back, False, 5.0) is None
+    circle = np.stack([np.cos(np.linspace(0, 2 * np.pi, 400, endpoint=False)) * 150.0] * 2, axis=1)
+    circle[:, 1] = np.sin(np.linspace(0, 2 * np.pi, 400, endpoint=False)) * 150.0
+    assert self_crossing(circle, True, 10.0) is None  # a loop meets itself only where it closes

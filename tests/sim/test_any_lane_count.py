@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.simulation import Simulation
@@ -89,3 +90,13 @@ def test_the_expert_drives_through_one_lane_links(name, network, edges, tmp_path
     ep = json.loads(out.read_text())["episodes"][0]
     assert ep["end_reason"] == "route_end" and ep["sim/collisions"] == 0 and ep["sim/exits"] == 0
     assert ep["sim/checkpoints_in_lane"] == ep["sim/checkpoints_passed"] >= 1
+
+
+def test_a_route_that_crosses_itself_is_refused_in_one_line(tmp_path):
+    """The A10's link loops back under its own motorway: the flat route frame cannot hold both."""
+    folder = wheel_scenario(tmp_path / "cross", "game/A10KW/osm.net.xml", [*A10_LINK, "308396219"])
+    with pytest.raises(
+        IrlsimError, match="runs back alongside itself near .* end the route before it does"
+    ) as e:
+        load_road(scenario=folder)
+    assert "\n" not in str(e.value)

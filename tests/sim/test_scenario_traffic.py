@@ -94,3 +94,21 @@ def test_a_red_light_forbids_crossing_even_after_standing():
     red = planner.plan(dataclasses.replace(obs, stop_red=True)).features[:, 11]
     assert (stop == 0).all()  # it stood (v = 0): every crossing is allowed
     assert (red > 0).any()  # on red, the policies that cross pay the stop_line event
+
+
+def test_a_street_slower_than_the_traffic_takes_its_vehicles_and_the_ego(tmp_path):
+    """A 10 km/h street (a living street of an OpenStreetMap import): SUMO refuses a departure faster
+    than the lane's limit, so the traffic (25-35 km/h) and the ego (up to 54 km/h) enter at it."""
+    edges = (
+        '<edge id="ab" from="a" to="b" numLanes="2" speed="2.78"/>'
+        '<edge id="bc" from="b" to="c" numLanes="2" speed="2.78"/>'
+    )
+    road = load_road(scenario=make_scenario(tmp_path / "slow", STRAIGHT_NODES, edges, 'edges = ["ab", "bc"]'))
+    cfg = ScenarioConfig(name="slow", n_vehicles=6, max_time=20.0, ego_start_speed_min=10.0)
+    with Simulation(road, cfg) as sim:
+        for seed in range(3):
+            obs = sim.reset(seed)
+            assert obs.ego.v >= 10.0  # the ego keeps its own start speed (it is placed by moveToXY)
+            for _ in range(10):
+                sim.step()
+            assert sim.vehicles.count >= 3
