@@ -11,6 +11,8 @@ The reasons, in the order they are tried (the first whose pattern is in the mess
                   (the sweep's draws found none long enough)
     no-path       edges that do not connect (no path from one to the other, a route edge that does not
                   lead into the next), or no pair of car edges joined by a long enough path
+    self-crossing a route that crosses itself (over a bridge, through a tunnel) or runs back alongside
+                  itself (a U-turn onto the other carriageway): the route frame is flat
     no-start      a route that leaves the ego no place to start (the start's clearances from stop lines,
                   exits and checkpoints cover it): refused when the episode begins, not when it loads
     left-hand     a network that drives on the left
@@ -33,7 +35,8 @@ REASONS: dict[str, tuple[str, ...]] = {
     "loop-lanes": ("the loop's lanes do not join up",),
     "too-short": ("shorter than the",),
     "no-path": ("no path from", "(no connection)", "no pair of car edges"),
-    "no-start": ("leave no start on the route",),
+    "self-crossing": ("crosses itself or runs back alongside itself",),
+    "no-start": ("leave no start on the route", "leaves no start for the ego"),
     "left-hand": ("drives on the left",),
     "network": ("is malformed", "not found"),
 }
