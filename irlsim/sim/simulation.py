@@ -231,11 +231,15 @@ class Simulation:
         if road.lanes_vary:  # a lane the road lacks there: the nearest one it has
             lo, hi = road.lane_bounds(np.array(s0))
             lane0 = int(np.clip(lane0, lo, hi))
-        d0 = float(road.lane_center(lane0))
         loc = self._edges.locate(s0, road.lap_length)
         if loc is None:
             raise IrlsimError(f"ego_start_s = {s0} m lies in a junction: choose a position on a loop edge")
         eid, pos = loc
+        # and a lane of the very edge it departs from (lane_bounds may hold the next edge's lanes near
+        # its end: SUMO refused a departure lane -1 there, a crash of the sweep on a random network)
+        i = road.edges.index(eid)
+        lane0 = int(np.clip(lane0, road.layout.first[i], road.layout.first[i] + road.layout.count[i] - 1))
+        d0 = float(road.lane_center(lane0))
         add_ego(api, EGO, road, eid, pos, lane0, v0)
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))

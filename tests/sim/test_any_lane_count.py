@@ -100,3 +100,21 @@ def test_a_route_that_crosses_itself_is_refused_in_one_line(tmp_path):
     ) as e:
         load_road(scenario=folder)
     assert "\n" not in str(e.value)
+
+
+def test_the_ego_departs_in_a_lane_of_its_own_edge(tmp_path):
+    """A sweep's random network (seed 0, network 224) whose route's lanes vary: the start's lane is one of
+    the edge it departs from (SUMO refused departure lane -1 there, a crash), and the episode runs."""
+    from irlsim.cli import main
+    from irlsim.road.generate import build_network, network_params
+
+    net = build_network(network_params(0, 224), tmp_path)
+    edges = ["38", "-39", "-39.316.29", "-11", "-11.270.83", "13", "13.317.09", "46", "46.161.76", "93"]
+    edges += ["93.342.35", "124"]
+    scenario = tmp_path / "scenario.toml"
+    scenario.write_text(
+        f'name = "r224"\n[network]\nfile = "{net}"\n[route]\nedges = {edges!r}\n'.replace("'", '"')
+    )
+    out = tmp_path / "sim.json"
+    argv = ["sim", "--scenario", str(scenario), "--driver", "expert", "--episodes", "1", "--seed", "0"]
+    assert main([*argv, "--max-time", "5", "--json", str(out)]) == 0
