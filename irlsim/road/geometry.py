@@ -175,7 +175,7 @@ class Road:
         self.name = name or net_file.name.split(".")[0]
         #: the scenario file that names the route and the checkpoints (None: given directly)
         self.scenario_file = Path(scenario_file) if scenario_file is not None else None
-        self._check_route_input(tuple(edges), from_edge, to_edge, checkpoints)
+        self._check_route_edges(tuple(edges), from_edge, to_edge)
         self.edges = route.resolve_route(self.net, tuple(edges), from_edge, to_edge)
         self.closed = route.is_closed(self.net, self.edges)
         self.layout = route.lane_layout(self.net, self.edges, self.closed)
@@ -226,7 +226,7 @@ class Road:
             self.ref_s, self._edge_bounds, self.layout, self.closed
         )
         if checkpoints is not None:
-            self._check_checkpoints(self.checkpoints)
+            self.check_checkpoints(checkpoints)
         # the speed limit [m/s] at each reference vertex: its edge's (inside a junction, the lower of both)
         speeds = [float(self.net.getEdge(e).getSpeed()) for e in self.edges]
         self._vmax = route.edge_table(self.ref_s, self._edge_bounds, speeds, self.closed)
@@ -240,54 +240,46 @@ class Road:
         """What names the route in a refusal: its scenario file, else its network."""
         return f"scenario {self.scenario_file}" if self.scenario_file else f"route on network {self.net_file}"
 
-    def _check_route_input(
-        self,
-        edges: tuple[str, ...],
-        from_edge: str,
-        to_edge: str,
-        checkpoints: tuple[tuple[float, float, int], ...] | None,
-    ) -> None:
-        """One line, before any geometry, for a route edge the network lacks or a checkpoint lane below -1."""
+    def _check_route_edges(self, edges: tuple[str, ...], from_edge: str, to_edge: str) -> None:
+        """One line, before any geometry, for a route edge the network lacks."""
         missing = [e for e in (*edges, from_edge, to_edge) if e and not self.net.hasEdge(e)]
         if missing:
             raise IrlsimError(
                 f"{self._where()}: route edge '{missing[0]}' is not in the network {self.net_file}: fix "
                 "[route] or give the network the route was written for"
             )
-        for i, (x, y, lane) in enumerate(checkpoints or ()):
-            if lane < -1:
-                raise IrlsimError(
-                    f"{self._where()}: checkpoint {i} (x={x:g}, y={y:g}) has lane {lane}: give a lane >= 0 "
-                    "(0 = the rightmost) or -1 (any lane)"
-                )
 
-    def _check_checkpoints(self, cps: tuple[Checkpoint, ...]) -> None:
-        """The given checkpoints lie on the road (within CHECKPOINT_MARGIN of the edges of the lanes that
-        exist there, and of an open route's ends) and their lane exists there: else one line naming the
-        first that does not."""
-        x = np.array([c.x for c in cps], dtype=np.float64)
-        y = np.array([c.y for c in cps], dtype=np.float64)
-        s, d = self.to_frenet(x, y)
+    def check_checkpoints(self, given: tuple[tuple[float, float, int], ...]) -> None:
+        """Checkpoints (x, y, lane) as a scenario file gives them: each lane is -1 (any) or >= 0, each
+        point lies on the road (within CHECKPOINT_MARGIN of the edges of the lanes that exist there, and
+        of an open route's ends) and its lane exists there; else one line naming the first that does not,
+        its scenario file and the fix. The road checks its own when it is built."""
+        if not given:
+            return
+        xyl = np.array(given, dtype=np.float64).reshape(-1, 3)
+        s, d = self.to_frenet(xyl[:, 0], xyl[:, 1])
         right, left = self.road_edges(s)
         lo, hi = self.lane_bounds(s)
         beyond = np.maximum(right - d, d - left)  # [m] > 0 outside the lanes
-        before, after = self.route_begin_s - s, s - self.route_end_s
+        outside = np.maximum(self.route_begin_s - s, s - self.route_end_s)  # [m] > 0 off an open route
         margin = f"more than {CHECKPOINT_MARGIN:g} m"
-        for i, c in enumerate(cps):
-            head = f"{self._where()}: checkpoint {i} (x={c.x:g}, y={c.y:g})"
-            if max(before[i], after[i]) > CHECKPOINT_MARGIN:
-                side = "before the route's start" if before[i] > 0 else "beyond the route's end"
-                raise IrlsimError(
-                    f"{head} lies {max(before[i], after[i]):.1f} m {side} ({margin}): move it onto the route"
-                )
+        for i, (x, y, lane) in enumerate(given):
+            head = f"{self._where()}: checkpoint {i} (x={x:g}, y={y:g})"
+            if not (math.isfinite(x) and math.isfinite(y)):
+                raise IrlsimError(f"{head} is not a point: give finite x and y [m] on the route")
+            if lane < -1:
+                raise IrlsimError(f"{head} has lane {lane}: give a lane >= 0 (0: the rightmost) or -1 (any)")
+            if outside[i] > CHECKPOINT_MARGIN:
+                side = "before the route's start" if s[i] < self.route_begin_s else "beyond the route's end"
+                raise IrlsimError(f"{head} lies {outside[i]:.1f} m {side} ({margin}): move it onto the route")
             if beyond[i] > CHECKPOINT_MARGIN:
                 raise IrlsimError(
                     f"{head} lies {beyond[i]:.1f} m beyond the road's edge ({margin}, at s={s[i]:.1f} m "
                     "of the route): move it onto the route's lanes"
                 )
-            if c.lane >= 0 and not lo[i] <= c.lane <= hi[i]:
+            if lane >= 0 and not lo[i] <= lane <= hi[i]:
                 raise IrlsimError(
-                    f"{head} requires lane {c.lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
+                    f"{head} requires lane {lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
                     "one of them or -1 (any lane)"
                 )
 
