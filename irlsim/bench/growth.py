@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.bench.planner import planner_observations
+from irlsim.road.scenario import DEFAULT_SCENARIO
 
 #: timed repeats of each point at least (more while its time budget lasts)
 MIN_REPEATS = 5
@@ -180,7 +181,7 @@ def straight_road(folder: Path, lanes: int) -> str:
 
 def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) -> list[Curve]:
     """The planner cycle against policies (15 vehicles), vehicles (2,500 policies) and lanes."""
-    road = f"the {scenario} road" if scenario == "oval" else scenario
+    road = f"the {scenario} road" if scenario == DEFAULT_SCENARIO else scenario
     by_policies = []
     for n in sizes.policies:
         by_policies.append(_planner_ms(scenario, n, 15, sizes.point_s, seed))

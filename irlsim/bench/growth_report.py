@@ -31,6 +31,7 @@ from irlsim.bench.growth import (
 from irlsim.bench.growth_train import training_curves
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
+from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.utils import atomic_write_text, write_json
 
 
@@ -41,7 +42,7 @@ class GrowthRun:
     out: Path = Path("bench")
     quick: bool = False
     seed: int = 0
-    scenario: str = "oval"
+    scenario: str = DEFAULT_SCENARIO
     """the road of the planner's policies and vehicles curves"""
 
     @property

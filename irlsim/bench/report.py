@@ -24,6 +24,7 @@ from irlsim.bench.planner import bench_planner
 from irlsim.bench.scale import bench_scale as run_scale
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
+from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.utils import atomic_write_text, write_json
 
 
@@ -41,7 +42,7 @@ class BenchRun:
     """planning cycles per timed collection episode"""
     seed: int = 0
     """seed of the synthetic traffic"""
-    scenario: str = "oval"
+    scenario: str = DEFAULT_SCENARIO
     """the road of the planner section (a shipped scenario or a scenario.toml path)"""
 
 

@@ -29,6 +29,7 @@ from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
+from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
@@ -205,7 +206,7 @@ class CollectConfig:
         """Collection only (drive and the environment take one road of such a config with ``--scenario``):
         ``[scenario] name`` and ``[[scenarios]]`` may not both name the road."""
         require(
-            not self.scenarios or self.scenario.name == "oval",
+            not self.scenarios or self.scenario.name == DEFAULT_SCENARIO,
             f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
             "scenario in [[scenarios]] (and drop --scenario)",
         )
@@ -258,7 +259,7 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
     d = cfg if isinstance(cfg, dict) else to_dict(cfg)
     scn = d.get("scenario")
-    if isinstance(scn, dict) and scn.get("name") == "oval":
+    if isinstance(scn, dict) and scn.get("name") == DEFAULT_SCENARIO:
         # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
         d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
     # dagger_round 0 and no [[scenarios]] are left out: a manifest keeps its bytes (and identity) of before

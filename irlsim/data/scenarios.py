@@ -17,9 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.errors import IrlsimError
+from irlsim.road.scenario import DEFAULT_SCENARIO  # the scenario of a manifest that names none
 
-#: the scenario of a manifest that names none
-DEFAULT_SCENARIO = "oval"
 #: evaluation accepts a model trained on any selection of a dataset's scenarios: up to this many of them
 MAX_SELECTABLE = 8
 

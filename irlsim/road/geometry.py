@@ -26,17 +26,14 @@ import numpy as np
 
 from irlsim.errors import IrlsimError
 from irlsim.road import route
-from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
 HALF_ROAD = N_LANES * LANE_WIDTH / 2  # [m] |d| of the loop's road edges
 REF_STEP = 0.5  # [m] reference line resampling
-LOOP_EDGES = ("A_S1", "S1_X1", "X1_B", "B_S2", "S2_X2", "X2_A")
-EXIT_EDGES = ("exit1", "exit2")
-ENTRY_EDGES = ("entry1", "entry2")
-#: checkpoints: (world x [m], world y [m], required lane); alternate inner (2) and outer (0)
-CHECKPOINTS_XY = ((250.0, 0.0, 2), (850.0, 150.0, 0), (450.0, 300.0, 2), (-150.0, 150.0, 0))
+#: [m] how far a scenario's checkpoint may lie beyond the edges of the lanes that exist where it is (and
+#: beyond an open route's ends) and still count as on the road
+CHECKPOINT_MARGIN = 1.0
 SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-degree shape kinks vanish
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
 OPEN_EXTENSION = 300.0  # [m] an open route's reference runs on straight this far beyond both ends
@@ -147,8 +144,9 @@ class LaneCentreline:
 
 
 class Road:
-    """Geometry and topology of a route on a SUMO network (by default the oval), from a ``.net.xml``.
-    Build with :func:`load_road` (a scenario name or path) or directly from a network and a route.
+    """Geometry and topology of a route on a SUMO network, from a ``.net.xml``. Build with
+    :func:`load_road` (a scenario name or path: its file names the route and the checkpoints) or
+    directly from a network, a route and checkpoints (None: derived from the route).
 
     The reference line (d = 0) is the centre of the road: the middle lane's centreline for an odd number
     of lanes, midway between the two middle lanes for an even one. Lane ``k`` (0 = rightmost) has its
@@ -160,12 +158,13 @@ class Road:
     def __init__(
         self,
         net_file: str | Path,
-        edges: tuple[str, ...] = LOOP_EDGES,
-        checkpoints: tuple[tuple[float, float, int], ...] | None = CHECKPOINTS_XY,
+        edges: tuple[str, ...],
+        checkpoints: tuple[tuple[float, float, int], ...] | None = None,
         *,
         from_edge: str = "",
         to_edge: str = "",
-        name: str = "oval",
+        name: str = "",
+        scenario_file: str | Path | None = None,
     ):
         net_file = Path(net_file)
         self.net = _read_net(net_file)
@@ -173,14 +172,10 @@ class Road:
         self.demand: tuple[Path, ...] = ()
         self.warmup = 0.0
         self.net_file = net_file
-        self.name = name
-        if name == "oval" and edges == LOOP_EDGES:
-            missing = [e for e in LOOP_EDGES + EXIT_EDGES if not self.net.hasEdge(e)]
-            if missing:
-                raise IrlsimError(
-                    f"network {net_file} lacks edge '{missing[0]}': it is not the oval course; rebuild it "
-                    "with 'irlsim net'"
-                )
+        self.name = name or net_file.name.split(".")[0]
+        #: the scenario file that names the route and the checkpoints (None: given directly)
+        self.scenario_file = Path(scenario_file) if scenario_file is not None else None
+        self._check_route_edges(tuple(edges), from_edge, to_edge)
         self.edges = route.resolve_route(self.net, tuple(edges), from_edge, to_edge)
         self.closed = route.is_closed(self.net, self.edges)
         self.layout = route.lane_layout(self.net, self.edges, self.closed)
@@ -230,6 +225,8 @@ class Road:
         self._lane_lo, self._lane_hi = route.lane_table(
             self.ref_s, self._edge_bounds, self.layout, self.closed
         )
+        if checkpoints is not None:
+            self.check_checkpoints(checkpoints)
         # the speed limit [m/s] at each reference vertex: its edge's (inside a junction, the lower of both)
         speeds = [float(self.net.getEdge(e).getSpeed()) for e in self.edges]
         self._vmax = route.edge_table(self.ref_s, self._edge_bounds, speeds, self.closed)
@@ -239,6 +236,53 @@ class Road:
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
+    def _where(self) -> str:
+        """What names the route in a refusal: its scenario file, else its network."""
+        return f"scenario {self.scenario_file}" if self.scenario_file else f"route on network {self.net_file}"
+
+    def _check_route_edges(self, edges: tuple[str, ...], from_edge: str, to_edge: str) -> None:
+        """One line, before any geometry, for a route edge the network lacks."""
+        missing = [e for e in (*edges, from_edge, to_edge) if e and not self.net.hasEdge(e)]
+        if missing:
+            raise IrlsimError(
+                f"{self._where()}: route edge '{missing[0]}' is not in the network {self.net_file}: fix "
+                "[route] or give the network the route was written for"
+            )
+
+    def check_checkpoints(self, given: tuple[tuple[float, float, int], ...]) -> None:
+        """Checkpoints (x, y, lane) as a scenario file gives them: each lane is -1 (any) or >= 0, each
+        point lies on the road (within CHECKPOINT_MARGIN of the edges of the lanes that exist there, and
+        of an open route's ends) and its lane exists there; else one line naming the first that does not,
+        its scenario file and the fix. The road checks its own when it is built."""
+        if not given:
+            return
+        xyl = np.array(given, dtype=np.float64).reshape(-1, 3)
+        s, d = self.to_frenet(xyl[:, 0], xyl[:, 1])
+        right, left = self.road_edges(s)
+        lo, hi = self.lane_bounds(s)
+        beyond = np.maximum(right - d, d - left)  # [m] > 0 outside the lanes
+        outside = np.maximum(self.route_begin_s - s, s - self.route_end_s)  # [m] > 0 off an open route
+        margin = f"more than {CHECKPOINT_MARGIN:g} m"
+        for i, (x, y, lane) in enumerate(given):
+            head = f"{self._where()}: checkpoint {i} (x={x:g}, y={y:g})"
+            if not (math.isfinite(x) and math.isfinite(y)):
+                raise IrlsimError(f"{head} is not a point: give finite x and y [m] on the route")
+            if lane < -1:
+                raise IrlsimError(f"{head} has lane {lane}: give a lane >= 0 (0: the rightmost) or -1 (any)")
+            if outside[i] > CHECKPOINT_MARGIN:
+                side = "before the route's start" if s[i] < self.route_begin_s else "beyond the route's end"
+                raise IrlsimError(f"{head} lies {outside[i]:.1f} m {side} ({margin}): move it onto the route")
+            if beyond[i] > CHECKPOINT_MARGIN:
+                raise IrlsimError(
+                    f"{head} lies {beyond[i]:.1f} m beyond the road's edge ({margin}, at s={s[i]:.1f} m "
+                    "of the route): move it onto the route's lanes"
+                )
+            if lane >= 0 and not lo[i] <= lane <= hi[i]:
+                raise IrlsimError(
+                    f"{head} requires lane {lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
+                    "one of them or -1 (any lane)"
+                )
+
     def _checkpoints(self, given: tuple[tuple[float, float, int], ...] | None) -> tuple[Checkpoint, ...]:
         """The given checkpoints (x, y, lane), or those derived from the route (the mission points)."""
         points = route.mission_points(self.net, self.edges, self.closed, self.layout) if given is None else []
@@ -895,13 +939,19 @@ def _lefthand(net_file: Path) -> bool:
 
 @functools.lru_cache(maxsize=8)
 def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: float) -> Road:
-    if not scenario:
-        return Road(path)
     from irlsim.road.scenario import load_scenario  # the scenario file, read again only when changed
 
     scn = load_scenario(scenario, build=False)
     checkpoints = scn.checkpoints or None
-    road = Road(path, scn.edges, checkpoints, from_edge=scn.from_edge, to_edge=scn.to_edge, name=scn.name)
+    road = Road(
+        path,
+        scn.edges,
+        checkpoints,
+        from_edge=scn.from_edge,
+        to_edge=scn.to_edge,
+        name=scn.name,
+        scenario_file=scn.path,
+    )
     road.demand, road.warmup = scn.demand, scn.warmup
     return road
 
@@ -909,18 +959,20 @@ def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: fl
 def load_road(
     net_file: str | Path | None = None, build: bool = True, scenario: str | Path | None = None
 ) -> Road:
-    """The :class:`Road` of a scenario (a shipped name or a path; default the oval), or of the oval on
-    ``net_file``; builds the network first when it is missing or stale (if ``build``)."""
-    if scenario is not None and str(scenario) != "oval":
-        from irlsim.road.scenario import load_scenario, scenario_path
+    """The :class:`Road` of a scenario (a shipped name or a path; default the default scenario, the
+    oval): the route and checkpoints its file names, on its network or on ``net_file``; builds the
+    scenario's network first when it is missing or stale (if ``build`` and no ``net_file``)."""
+    from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
 
-        scn = load_scenario(scenario, build=build)
-        p = scn.net_file
-        spath = scenario_path(scenario).resolve()
-        return _load_road_cached(str(p.resolve()), p.stat().st_mtime, str(spath), spath.stat().st_mtime)
-    if net_file is None:
-        net_file = build_net() if build else net_path()
-    p = Path(net_file)
+    spec = DEFAULT_SCENARIO if scenario is None else scenario
+    scn = load_scenario(spec, build=build and net_file is None)
+    p = scn.net_file if net_file is None else Path(net_file)
     if not p.is_file():
-        raise IrlsimError(f"network {p} not found: run 'irlsim net' (or 'make net') to build it")
-    return _load_road_cached(str(p.resolve()), p.stat().st_mtime, "", 0.0)
+        how = (
+            "'irlsim net' (or 'make net')"
+            if str(spec) == DEFAULT_SCENARIO
+            else f"'irlsim scenario show {spec}'"
+        )
+        raise IrlsimError(f"network {p} not found: run {how} to build it")
+    spath = scn.path.resolve()
+    return _load_road_cached(str(p.resolve()), p.stat().st_mtime, str(spath), spath.stat().st_mtime)

@@ -43,6 +43,7 @@ import os
 import shutil
 import subprocess
 import tomllib
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -282,10 +283,18 @@ def cache_dir(scenario: Path) -> Path:
 
 
 def _gunzip_cached(net: Path, scenario: Path) -> Path:
+    """The compressed network unpacked into the cache (again when it is newer); one line naming it when it
+    is truncated or not gzip (nothing is left in the cache)."""
     target = cache_dir(scenario) / net.name.removesuffix(".gz")
     if not target.is_file() or target.stat().st_mtime < net.stat().st_mtime:
-        with atomic_path(target) as tmp, gzip.open(net, "rb") as src, open(tmp, "wb") as dst:
-            shutil.copyfileobj(src, dst)
+        try:
+            with atomic_path(target) as tmp, gzip.open(net, "rb") as src, open(tmp, "wb") as dst:
+                shutil.copyfileobj(src, dst)
+        except (EOFError, gzip.BadGzipFile, zlib.error) as e:
+            raise IrlsimError(
+                f"scenario {scenario}: network {net} is malformed: not a whole gzip file ({e}); restore it, "
+                "or give it uncompressed (.net.xml)"
+            ) from None
     return target
 
 

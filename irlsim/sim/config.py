@@ -7,7 +7,7 @@ from typing import Any
 
 from irlsim.config import from_dict, require
 from irlsim.errors import IrlsimError
-from irlsim.road.scenario import load_scenario
+from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
 
 MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/DESIGN.md section 3)
 
@@ -19,7 +19,7 @@ class ScenarioConfig:
     Load from TOML with ``irlsim.config.load_config(ScenarioConfig, path)`` (unknown keys are errors).
     """
 
-    name: str = "oval"
+    name: str = DEFAULT_SCENARIO
     """the scenario: a shipped name (``irlsim scenario list``) or the path of a scenario.toml"""
     n_vehicles: int = 15
     """number of background vehicles kept around the ego, 0..15"""
@@ -163,7 +163,7 @@ def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
     """A ``[scenario]`` table with the named scenario file's ``[defaults]`` beneath it (the table's own
     keys win); the oval, and a table without a name, as they are."""
     name = table.get("name")
-    if not isinstance(name, str) or name == "oval":
+    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
         return table
     defaults = load_scenario(name, build=False).defaults
     unknown = sorted(set(defaults) - {f for f in ScenarioConfig.__dataclass_fields__} - {"name"})

@@ -29,7 +29,7 @@ from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
-from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
+from irlsim.sim.traffic import BG_TYPE, BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 EGO = "ego"
@@ -165,17 +165,22 @@ class Simulation:
         well-formed XML: a broken one is named as the file at fault (one line), not blamed on the net."""
         from xml.etree import ElementTree  # lazy: only at SUMO's start
 
+        restore = "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
         for path in (self.vtypes_file, *self.road.demand):
             try:
-                ElementTree.parse(path)
+                tree = ElementTree.parse(path)
             except (ElementTree.ParseError, OSError) as e:
                 what = "vehicle types" if path == self.vtypes_file else "route file"
-                fix = (
-                    "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
-                    if path == self.vtypes_file
-                    else "fix it or the scenario's [traffic] routes"
-                )
+                fix = restore if path == self.vtypes_file else "fix it or the scenario's [traffic] routes"
                 raise IrlsimError(f"{what} {path} is not valid XML ({e}): {fix}") from None
+            if path == self.vtypes_file:
+                ids = {el.get("id") for el in tree.iter("vType")}  # the types the ego and the traffic use
+                lacking = [t for t in ("ego", BG_TYPE) if t not in ids]
+                if lacking:
+                    raise IrlsimError(
+                        f"vehicle types {path} lacks vType '{lacking[0]}', which irlsim inserts (it needs "
+                        f"ego, {BG_TYPE}): add it or {restore}"
+                    )
 
     def close(self) -> None:
         """Stop SUMO; safe to call more than once."""

@@ -51,7 +51,7 @@ from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
 from irlsim.road.network import build_net
-from irlsim.road.scenario import load_scenario
+from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
 from irlsim.sim.start import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
@@ -189,7 +189,7 @@ def scenario_records(cfg: CollectConfig) -> dict[str, Any]:
     does not load): ``scenarios`` {name: sha256 of its scenario file and network} for a dataset over
     several scenarios or one other than the oval, and ``episode_scenarios`` {split: {episode: name}} for
     several; nothing for the oval alone (its manifest keeps the bytes of before)."""
-    if not cfg.scenarios and cfg.scenario.name == "oval":
+    if not cfg.scenarios and cfg.scenario.name == DEFAULT_SCENARIO:
         return {}
     out: dict[str, Any] = {"scenarios": {n: load_scenario(n).digest() for n in cfg.scenario_names}}
     if cfg.scenarios:

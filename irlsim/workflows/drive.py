@@ -28,6 +28,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
+from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.sim.start import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
@@ -231,7 +232,7 @@ def _write_outputs(
                 "precision": run.precision,
             }
             # the road, where it is not the oval (the oval's tables keep their bytes)
-            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != "oval" else {}),
+            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != DEFAULT_SCENARIO else {}),
             "summary": summaries,
             "episodes": episodes,
         },

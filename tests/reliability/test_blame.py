@@ -22,3 +22,22 @@ def test_a_broken_vtypes_file_is_named_not_blamed_on_the_net(road, tmp_path):
     assert "\n" not in msg and str(broken) in msg and "vehicle types" in msg
     assert "net --force" not in msg and str(road.net_file) not in msg
     sim.close()
+
+
+@pytest.mark.parametrize("vtype", ["ego", "bg"])
+def test_a_vtypes_file_that_lacks_a_type_irlsim_inserts_is_one_line(road, tmp_path, vtype):
+    """A vehicle-types file without the ego's or the background's type is named, with the type, before
+    SUMO starts (SUMO would refuse the insertion mid-episode)."""
+    text = VTYPES_PATH.read_text()
+    start = text.index(f'<vType id="{vtype}"')
+    lacking = tmp_path / "vtypes.add.xml"
+    lacking.write_text(text[:start] + text[text.index("/>", start) + 2 :])
+    sim = Simulation(road, ScenarioConfig(n_vehicles=0), vtypes_file=lacking)
+    with pytest.raises(IrlsimError) as e:
+        sim.reset(1)
+    assert str(e.value) == (
+        f"vehicle types {lacking} lacks vType '{vtype}', which irlsim inserts (it needs ego, bg): add it or "
+        "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
+    )
+    assert sim._api is None  # SUMO never started
+    sim.close()

@@ -8,7 +8,11 @@ import numpy as np
 import pytest
 
 from irlsim.road import LANE_WIDTH, LaneCentreline
-from irlsim.road.geometry import LOOP_EDGES, RASTER_REACH
+from irlsim.road.geometry import RASTER_REACH
+from irlsim.road.scenario import load_scenario
+
+#: the oval's route, as its scenario file (sumo_net/oval/scenario.toml) writes it
+LOOP_EDGES = load_scenario("oval", build=False).edges
 
 
 def _brute_force_frenet(road, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
