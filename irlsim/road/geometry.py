@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import route
+from irlsim.road import crossing, route
 from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
@@ -212,23 +212,7 @@ class Road:
                 for k in range(self.n_lanes)
             ]
         )
-        shape = route.reference_shape(self.net, self.edges, self.layout, self.closed)
-        centre = shape.points
-        #: False where the route crosses itself or runs back near itself (alongside on the other
-        #: carriageway, round a block and back): then a point is projected by progress (``to_frenet``'s
-        #: ``near``). True on the oval and every shipped scenario: their projection is global, as always.
-        gap = self.layout.n_lanes * self.layout.width + 0.5  # [m] the whole lane frame's width
-        self.flat = route.self_crossing(centre, self.closed, gap) is None
-        if not self.flat:
-            route.check_same_level(shape, self.closed)
-        if self.closed:
-            ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
-        else:
-            ref = _open_reference(centre)
-        self._set_reference(ref)
-        #: [E, 2] route position [m] where each route edge's piece of the reference starts and ends: the
-        #: hints of the projections of points that belong to an edge
-        self.edge_s = self._arc_to_s(shape.edge_arcs, centre)
+        centre = self._build_reference()
         if self.closed:
             self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
             self.route_begin_s, self.route_end_s = 0.0, math.inf
@@ -265,6 +249,28 @@ class Road:
         self._centrelines: dict[int, LaneCentreline] = {}
 
     # ------------------------------------------------------------------ construction
+    def _build_reference(self) -> np.ndarray:
+        """The reference line, whether the route comes back near itself, and where each edge lies on it;
+        returns the unsmoothed line it was built from."""
+        shape = route.reference_shape(self.net, self.edges, self.layout, self.closed)
+        centre = shape.points
+        #: False where the route crosses itself or runs back near itself (alongside on the other
+        #: carriageway, round a block and back): then a point is projected by progress (``to_frenet``'s
+        #: ``near``). True on the oval and every shipped scenario: their projection is global, as always.
+        gap = self.layout.n_lanes * self.layout.width + 0.5  # [m] the whole lane frame's width
+        self.flat = crossing.self_crossing(centre, self.closed, gap) is None
+        if not self.flat:
+            crossing.check_same_level(shape, self.closed)
+        if self.closed:
+            ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
+        else:
+            ref = _open_reference(centre)
+        self._set_reference(ref)
+        #: [E, 2] route position [m] where each route edge's piece of the reference starts and ends: the
+        #: hints of the projections of points that belong to an edge
+        self.edge_s = self._arc_to_s(shape.edge_arcs, centre)
+        return centre
+
     def _checkpoints(self, given: tuple[tuple[float, float, int], ...] | None) -> tuple[Checkpoint, ...]:
         """The given checkpoints (x, y, lane), or those derived from the route (the mission points)."""
         points = route.mission_points(self.net, self.edges, self.closed, self.layout) if given is None else []

@@ -346,9 +346,8 @@ class Simulation:
         self.signal_binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
 
     def _read_vehicles(self, ego_s: float = math.nan) -> VehicleStates:
-        """Every vehicle but the ego, in the world and the route frame. On a route that comes back near
-        itself each is projected by progress: near where it was a step before (or where it was inserted),
-        a vehicle first seen near the ego's ``ego_s`` [m] (NaN: the whole route)."""
+        """Every vehicle but the ego; on a route that comes back near itself projected by progress (near
+        its last or inserted position, else the ego's ``ego_s`` [m]: BackgroundTraffic.hints)."""
         v_api = self._api.vehicle
         ids = tuple(v for v in v_api.getIDList() if v != EGO)
         m = len(ids)

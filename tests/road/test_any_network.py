@@ -107,7 +107,7 @@ def test_lanes_of_different_widths_and_a_bus_lane_on_one_route(tmp_path):
 def test_a_line_that_meets_itself_is_found():
     """What makes a route frame project by progress (route.self_crossing) on plain polylines: a crossing,
     a route back along itself closer than the road is wide, and what is not either."""
-    from irlsim.road.route import self_crossing
+    from irlsim.road.crossing import self_crossing
 
     cross = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [50.0, 100.0], [50.0, -50.0]])
     assert self_crossing(cross, False, 1.0) == pytest.approx((50.0, 0.0), abs=1.0)
@@ -122,7 +122,8 @@ def test_a_crossing_without_a_junction_is_refused_in_one_line():
     """route.check_same_level: the line crossing itself where both pieces touch one junction passes (at
     grade); where they share none (a bridge in a network without heights) it is refused in one line."""
     from irlsim.errors import IrlsimError
-    from irlsim.road.route import ReferenceShape, check_same_level
+    from irlsim.road.crossing import check_same_level
+    from irlsim.road.route import ReferenceShape
 
     cross = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [50.0, 100.0], [50.0, -50.0]])
     arcs = np.array([0.0, 100.0, 200.0, 250.0])  # one piece per segment

@@ -138,7 +138,10 @@ def test_a_short_route_loads_and_drives(grid, tmp_path):
 
 def test_a_route_with_no_start_is_refused_in_one_line(tmp_path):
     """Two 35 m edges through a traffic light: every spot leaves too little room ahead or to stop."""
-    nodes = '<node id="a" x="0" y="0"/><node id="b" x="35" y="0" type="traffic_light"/><node id="c" x="70" y="0"/>'
+    nodes = (
+        '<node id="a" x="0" y="0"/><node id="b" x="35" y="0" type="traffic_light"/>'
+        '<node id="c" x="70" y="0"/>'
+    )
     edges = '<edge id="ab" from="a" to="b" numLanes="1"/><edge id="bc" from="b" to="c" numLanes="1"/>'
     road = load_road(scenario=make_scenario(tmp_path / "tiny", nodes, edges, 'edges = ["ab", "bc"]'))
     with pytest.raises(IrlsimError, match="leaves no start for the ego") as e:

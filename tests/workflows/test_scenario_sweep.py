@@ -21,7 +21,16 @@ from pipelines.commands import main
 
 NODES = "".join(
     f'<node id="{n}" x="{x}" y="0" type="priority"/>'
-    for n, x in (("a", 0), ("b", 300), ("c", 600), ("d", 900), ("e", 1200), ("f", 1300), ("g", 1250), ("h", 1340))
+    for n, x in (
+        ("a", 0),
+        ("b", 300),
+        ("c", 600),
+        ("d", 900),
+        ("e", 1200),
+        ("f", 1300),
+        ("g", 1250),
+        ("h", 1340),
+    )
 )
 EDGES = (
     '<edge id="ab" from="a" to="b" numLanes="2" speed="13.9" width="3.2"/>'
