@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import route
+from irlsim.road import crossing, route
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
@@ -37,7 +37,10 @@ CHECKPOINT_MARGIN = 1.0
 SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-degree shape kinks vanish
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
 OPEN_EXTENSION = 300.0  # [m] an open route's reference runs on straight this far beyond both ends
-MIN_OPEN_LENGTH = 200.0  # [m] the shortest route the planner can drive (its look-ahead)
+#: [m] the shortest open route: its reference runs on OPEN_EXTENSION beyond both ends, so the planner's
+#: look-ahead (200 m) needs no route of its own; what an episode needs is a start (irlsim.sim.start: at
+#: least 37.5 m of route ahead of it at its smallest scale, 5 m to draw it from, off the junctions)
+MIN_OPEN_LENGTH = 50.0
 #: a turn (at a junction, a tight bend: the reference's radius below TURN_RADIUS [m]) is driven at most as
 #: fast as gives TURN_LAT_ACC [m/s^2] of lateral acceleration on the reference's curvature, as a driver
 #: takes it; wider bends (every one of the oval's, a motorway's) only by the planner's a_lat_max
@@ -51,6 +54,17 @@ RASTER_CELL = 1.0
 RASTER_REACH = 50.0
 RASTER_TIERS = (8, 16, 48)
 RASTER_PAD = 1
+#: projection by progress on a route that comes back near itself (``Road.flat`` False): a point given the
+#: route position ``near`` it is known to be close to is projected onto the reference within NEAR_WINDOW
+#: [m] of ``near`` either way. The hints are a vehicle's own position one step before (it moves < 4 m in a
+#: 0.1 s step at 140 km/h) and, when the road is built, the position of the route edge a point belongs to
+#: (off by the smoothing of the line, a few metres); the window is under half of CROSSING_MIN_APART (the
+#: least distance along the route between two passes that self_crossing compares), so it never holds
+#: the other pass. A point further than the road's half width + NEAR_SLACK [m] from the reference in its
+#: window (a vehicle that left the route, a teleport, no fitting hint) is projected onto the nearest
+#: segment of the whole route instead, as on a flat route.
+NEAR_WINDOW = 25.0
+NEAR_SLACK = 5.0
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray:
@@ -193,12 +207,7 @@ class Road:
                 for k in range(self.n_lanes)
             ]
         )
-        centre = route.reference_shape(self.net, self.edges, self.layout, self.closed)
-        if self.closed:
-            ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
-        else:
-            ref = _open_reference(centre)
-        self._set_reference(ref)
+        centre = self._build_reference()
         if self.closed:
             self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
             self.route_begin_s, self.route_end_s = 0.0, math.inf
@@ -206,12 +215,13 @@ class Road:
             self.lane_lengths = tuple(
                 float(np.linalg.norm(np.diff(sh, axis=0), axis=1).sum()) for sh in self.lane_shapes
             )
-            s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1])
+            ends = self._arc_to_s(np.array([0.0, _open_length(centre)]), centre)
+            s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
             self.route_begin_s, self.route_end_s = float(s_ends[0]), float(s_ends[1])
         if self.route_end_s - self.route_begin_s < MIN_OPEN_LENGTH:
             raise IrlsimError(
                 f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
-                f"{MIN_OPEN_LENGTH:.0f} m the planner needs to look ahead: choose a longer route"
+                f"{MIN_OPEN_LENGTH:.0f} m an episode needs to start and drive: choose a longer route"
             )
         self.stop_lines, self.signals = self._stop_lines()
         self.exits = self._exits()
@@ -282,18 +292,41 @@ class Road:
                     f"{head} requires lane {lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
                     "one of them or -1 (any lane)"
                 )
+    def _build_reference(self) -> np.ndarray:
+        """The reference line, whether the route comes back near itself, and where each edge lies on it;
+        returns the unsmoothed line it was built from."""
+        shape = route.reference_shape(self.net, self.edges, self.layout, self.closed)
+        centre = shape.points
+        #: False where the route crosses itself or runs back near itself (alongside on the other
+        #: carriageway, round a block and back): then a point is projected by progress (``to_frenet``'s
+        #: ``near``). True on the oval and every shipped scenario: their projection is global, as always.
+        gap = self.layout.n_lanes * self.layout.width + 0.5  # [m] the whole lane frame's width
+        self.flat = crossing.self_crossing(centre, self.closed, gap) is None
+        if not self.flat:
+            crossing.check_same_level(shape, self.closed)
+        if self.closed:
+            ref = _smooth_closed(_resample_closed(centre, REF_STEP), SMOOTH_HALF_WINDOW)
+        else:
+            ref = _open_reference(centre)
+        self._set_reference(ref)
+        #: [E, 2] route position [m] where each route edge's piece of the reference starts and ends: the
+        #: hints of the projections of points that belong to an edge
+        self.edge_s = self._arc_to_s(shape.edge_arcs, centre)
+        return centre
 
     def _checkpoints(self, given: tuple[tuple[float, float, int], ...] | None) -> tuple[Checkpoint, ...]:
         """The given checkpoints (x, y, lane), or those derived from the route (the mission points)."""
         points = route.mission_points(self.net, self.edges, self.closed, self.layout) if given is None else []
         if given is None and not points:  # a loop without a mission: one checkpoint where any lane will do
             x, y = self.net.getEdge(self.edges[0]).getLane(self.middle_lane[self.edges[0]]).getShape()[-1]
-            points = [(float(x), float(y), -1, ())]
-        xyl = tuple((x, y, lane) for x, y, lane, _ in points) if given is None else given
+            points = [(float(x), float(y), -1, (), 0)]
+        xyl = tuple((x, y, lane) for x, y, lane, _, _ in points) if given is None else given
+        # a derived point lies at the end of its route edge; a given one may lie anywhere (no hint)
+        hints = [float(self.edge_s[p[4], 1]) for p in points] if given is None else [math.nan] * len(xyl)
         out = []
         for i, (x, y, lane) in enumerate(xyl):
-            s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
-            out.append(Checkpoint(i, s, x, y, lane, points[i][3] if given is None else ()))
+            s = float(self.to_frenet(np.array([x]), np.array([y]), near=hints[i])[0][0])
+            out.append(Checkpoint(i, s, x, y, lane, points[i][3] if given is None else ()))  # type: ignore[index]
         return tuple(out)
 
     def _set_reference(self, ref: np.ndarray) -> None:
@@ -424,20 +457,22 @@ class Road:
     def _stop_lines(self) -> tuple[tuple[StopLine, ...], tuple[Signal, ...]]:
         stops, signals = route.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
         lines = []
-        for node, x, y in stops:
-            s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
+        for node, x, y, i in stops:  # at the end of route edge i
+            s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
             lines.append(StopLine(node, s, x, y))
         sig = []
-        for node, x, y, tls, link in signals:
-            s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
+        for node, x, y, tls, link, i in signals:
+            s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
             sig.append(Signal(node, s, x, y, tls, link))
         return tuple(sorted(lines, key=lambda sl: sl.s)), tuple(sorted(sig, key=lambda g: g.s))
 
     def _exits(self) -> tuple[Exit, ...]:
         out = []
-        for eid, pts in route.exit_shapes(self.net, self.edges, self.closed):
+        for eid, pts, i in route.exit_shapes(self.net, self.edges, self.closed):
             xy = _resample_open(pts, 1.0)
-            s, d = self.to_frenet(xy[:, 0], xy[:, 1])
+            # the ramp leaves at the end of route edge i and runs on alongside the route at first
+            along = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(xy, axis=0), axis=1))])
+            s, d = self.to_frenet(xy[:, 0], xy[:, 1], near=self.edge_s[i, 1] + along)
             s0 = s[0]
             s_rel = (s - s0) % self.lap_length
             keep = s_rel <= RAMP_RANGE
@@ -453,28 +488,84 @@ class Road:
     def _loop_edge_bounds(self) -> list[tuple[str, float, float]]:
         """(edge id, s at its start, s at its end) of each loop edge on the middle lane."""
         out = []
-        for eid in self.edges:
+        for i, eid in enumerate(self.edges):
             shape = np.asarray(self.net.getEdge(eid).getLane(self.middle_lane[eid]).getShape())
-            s, _ = self.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
+            s, _ = self.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1], near=self.edge_s[i])
             out.append((eid, float(s[0]), float(s[1])))
         return out
 
+    @property
+    def edge_bounds(self) -> list[tuple[str, float, float]]:
+        """(edge id, s at its start, s at its end) of each route edge on its middle lane."""
+        return list(self._edge_bounds)
+
+    def _arc_to_s(self, arc: np.ndarray, centre: np.ndarray) -> np.ndarray:
+        """Route position [m] of arc length(s) ``arc`` along the unsmoothed line ``centre`` the reference
+        was built from: the reference vertex resampled from that arc (its resampling is by arc length,
+        the smoothing keeps vertex indices), so off only by the smoothing's local shift."""
+        m = len(self.ref_s)
+        if self.closed:
+            length = _closed_length(centre)
+            idx = np.asarray(arc) / (length / round(length / REF_STEP))
+            return np.interp(idx, np.arange(m + 1), np.concatenate([self.ref_s, [self.lap_length]]))
+        length = _open_length(centre)
+        h = length / (max(2, int(math.ceil(length / REF_STEP)) + 1) - 1)  # as _resample_open spaces it
+        idx = np.asarray(arc) / h + math.ceil(OPEN_EXTENSION / h)  # the run-on before it (_open_reference)
+        return np.interp(idx, np.arange(m), self.ref_s)
+
     # ------------------------------------------------------------------ frame conversions
-    def to_frenet(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def to_frenet(
+        self, x: np.ndarray, y: np.ndarray, near: np.ndarray | float | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """World xy [m] -> route frame (s in [0, lap_length), d) [m]; any shape, vectorised.
 
         Projects onto the reference segment nearest to the point (found in a small window of segments
         from a raster lookup, see :meth:`_build_raster`; points further than RASTER_REACH from the
         reference search all segments), then solves exactly for the foot whose interpolated normal
         passes through the point (:meth:`_project_smooth`), so ``to_xy`` inverts it.
+
+        ``near`` (a route position [m], scalar or one per point, NaN = none) is where each point is known
+        to lie along the route. On a route that comes back near itself (``flat`` False) where one xy lies
+        on two passes, a point is projected onto the nearest segment within NEAR_WINDOW of ``near``
+        (:meth:`_nearest_near`): the same xy gets each pass's own s. On a flat route it changes nothing.
         """
         x = np.asarray(x, dtype=np.float64)
         y = np.asarray(y, dtype=np.float64)
         shape = x.shape
         qx, qy = x.ravel(), y.ravel()
-        seg, t = self._nearest_segment(qx, qy)
+        if near is None or self.flat:
+            seg, t = self._nearest_segment(qx, qy)
+        else:
+            seg, t = self._nearest_near(qx, qy, np.broadcast_to(np.asarray(near, np.float64), shape).ravel())
         s, d = self._project_smooth(qx, qy, seg, t)
         return s.reshape(shape), d.reshape(shape)
+
+    def _nearest_near(
+        self, qx: np.ndarray, qy: np.ndarray, near: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest reference segment to each point [Q] among those within NEAR_WINDOW of ``near`` [Q]
+        (a [Q, W] search), and its clipped foot t [m]; the global nearest (:meth:`_nearest_segment`) for a
+        point without a hint (NaN) or further than half_road + NEAR_SLACK from the window's segments."""
+        m = len(self.ref_xy)
+        half = int(math.ceil(NEAR_WINDOW / self._h))
+        w = 2 * half + 1
+        hinted = np.isfinite(near)
+        sw = np.where(hinted, near, 0.0) % self.lap_length
+        centre = self._segment_of_wrapped(np.where(sw >= self.lap_length, 0.0, sw))
+        if self.closed:
+            first = (centre - half) % m
+        else:  # segments 0 .. M - 2 (the closing chord M - 1 is no road)
+            first = np.clip(centre - half, 0, max(m - 1 - w, 0))
+            w = min(w, m - 1)
+        cols = (first[:, None] + np.arange(w)) % m  # [Q, W]
+        seg, t, dist2 = self._nearest_of(
+            qx, qy, self._rx[cols], self._ry[cols], self._ux[cols], self._uy[cols], self._seg_len[cols], first
+        )
+        reach = self.half_road + NEAR_SLACK
+        rest = np.flatnonzero(~hinted | (dist2 > reach * reach))
+        if len(rest):
+            seg[rest], t[rest] = self._nearest_segment(qx[rest], qy[rest])
+        return seg, t
 
     def _nearest_segment(self, qx: np.ndarray, qy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The reference segment nearest to each point [Q] and the clipped foot parameter t [m] on it:
@@ -862,6 +953,10 @@ def _smooth_closed(pts: np.ndarray, half_window: float) -> np.ndarray:
     kern = np.ones(2 * w + 1) / (2 * w + 1)
     padded = np.concatenate([pts[-w:], pts, pts[:w]])
     return np.stack([np.convolve(padded[:, k], kern, mode="valid") for k in range(2)], axis=1)
+
+
+def _open_length(pts: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
 
 
 def _closed_length(pts: np.ndarray) -> float:

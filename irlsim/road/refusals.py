@@ -7,12 +7,14 @@ The reasons, in the order they are tried (the first whose pattern is in the mess
                   lanes), or a network with no edge for cars at all
     lane-count    lanes that do not continue across a junction: no car lane of an edge leads into the next
     loop-lanes    a loop whose lanes do not join up (a lane added or dropped for good on a loop)
-    too-short     a route shorter than the planner's look-ahead (200 m), or a network whose car routes all are
+    too-short     a route shorter than an episode needs to start (50 m), or a network whose car routes all are
                   (the sweep's draws found none long enough)
     no-path       edges that do not connect (no path from one to the other, a route edge that does not
                   lead into the next), or no pair of car edges joined by a long enough path
-    self-crossing a route that crosses itself (over a bridge, through a tunnel) or runs back alongside
-                  itself (a U-turn onto the other carriageway): the route frame is flat
+    self-crossing a route that crosses itself without a junction (over a bridge, through a tunnel): the
+                  networks carry no heights, so vehicles of the other level would overlap the ego. A
+                  route through the same junction twice or back alongside itself loads (the route frame
+                  projects by progress); older sweeps' records of those keep this reason
     no-start      a route that leaves the ego no place to start (the start's clearances from stop lines,
                   exits and checkpoints cover it): refused when the episode begins, not when it loads
     left-hand     a network that drives on the left
@@ -35,7 +37,7 @@ REASONS: dict[str, tuple[str, ...]] = {
     "loop-lanes": ("the loop's lanes do not join up",),
     "too-short": ("shorter than the",),
     "no-path": ("no path from", "(no connection)", "no pair of car edges"),
-    "self-crossing": ("crosses itself or runs back alongside itself",),
+    "self-crossing": ("crosses itself without a junction", "crosses itself or runs back alongside itself"),
     "no-start": ("leave no start on the route", "leaves no start for the ego"),
     "left-hand": ("drives on the left",),
     "network": ("is malformed", "not found"),

@@ -186,20 +186,36 @@ def reference_lanes(layout: LaneLayout) -> list[tuple[int, float]]:
     return out
 
 
-def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> np.ndarray:
+@dataclass(frozen=True)
+class ReferenceShape:
+    """A route's reference line before resampling: its points and where each route edge lies along it."""
+
+    points: np.ndarray  # [P, 2]; a loop's first point is not repeated at the end
+    #: [E, 2] arc length [m] along ``points`` where each route edge's piece starts and ends (a point of
+    #: an edge is near that stretch of the line: the hint of its projection, see ``Road.to_frenet``)
+    edge_arcs: np.ndarray
+    #: [K] arc length [m] where each piece of the line starts (an edge's lane, a junction lane), in order
+    piece_arcs: np.ndarray
+    #: per piece, the junctions it touches (an edge: its two end nodes; a junction lane: its node)
+    piece_nodes: tuple[frozenset[str], ...]
+
+
+def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, closed: bool) -> ReferenceShape:
     """The middle of the route's lanes along it: each edge's lane nearest the middle (and the junction
     lane from it into the same route lane of the next edge), moved sideways onto the middle where it is
-    not there: [P, 2]; for a loop the first point is not repeated at the end (refused where it crosses
-    itself: :func:`check_flat`). Where that lane does not
-    go on into the next edge (a turn at a junction made from other lanes only), the junction lane of the
-    nearest lane that does, moved over by the lanes between: the reference follows the turn."""
+    not there. Where that lane does not go on into the next edge (a turn at a junction made from other
+    lanes only), the junction lane of the nearest lane that does, moved over by the lanes between: the
+    reference follows the turn. The line may come back near itself (:func:`self_crossing`)."""
     pieces = reference_lanes(layout)
     n = len(edges)
     pts: list[np.ndarray] = []
+    kinds: list[tuple[int, frozenset[str]]] = []  # per piece: (route edge index or -1, its junctions)
     for i, eid in enumerate(edges):
         k, delta = pieces[i]
         lane = net.getEdge(eid).getLane(k)  # type: ignore[attr-defined]
         pts.append(_offset(np.asarray(lane.getShape(), dtype=np.float64), delta))
+        edge = net.getEdge(eid)  # type: ignore[attr-defined]
+        kinds.append((i, frozenset((edge.getFromNode().getID(), edge.getToNode().getID()))))
         if i < n - 1 or closed:
             j = (i + 1) % n
             want = layout.edge_lane(j, layout.route_lane(i, k))
@@ -209,11 +225,16 @@ def reference_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, clo
             if not cons:
                 via_id, shift = _turn_from_other_lane(net, edges, layout, i, k, delta)
             if via_id:
-                via_pts = np.asarray(net.getLane(via_id).getShape(), dtype=np.float64)  # type: ignore[attr-defined]
-                pts.append(_offset(via_pts, shift))
-    out = _clean_polyline(np.concatenate(pts), closed)
-    check_flat(out, closed, layout.n_lanes * layout.width + 0.5)
-    return out
+                via_lane = net.getLane(via_id)  # type: ignore[attr-defined]
+                pts.append(_offset(np.asarray(via_lane.getShape(), dtype=np.float64), shift))
+                kinds.append((-1, frozenset((edge.getToNode().getID(),))))
+    allpts = np.concatenate(pts)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(allpts, axis=0), axis=1))])
+    first = np.cumsum([0] + [len(p) for p in pts])  # index of each piece's first and (next) last point
+    span = [(float(arc[first[j]]), float(arc[first[j + 1] - 1])) for j in range(len(pts))]
+    edge_arcs = np.array([span[j] for j, (i, _) in enumerate(kinds) if i >= 0])
+    starts = np.array([a for a, _ in span])
+    return ReferenceShape(_clean_polyline(allpts, closed), edge_arcs, starts, tuple(n for _, n in kinds))
 
 
 def _offset(pts: np.ndarray, delta: float) -> np.ndarray:
@@ -323,11 +344,11 @@ def lane_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, g: int, 
 
 def junction_controls(
     net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
-) -> tuple[list[tuple[str, float, float]], list[tuple[str, float, float, str, int]]]:
+) -> tuple[list[tuple[str, float, float, int]], list[tuple[str, float, float, str, int, int]]]:
     """The junctions the route crosses that make it stop: (stops, signals). A stop is a stop sign or an
-    all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y) at the end of
-    the incoming edge's middle lane. A signal is a traffic light on it: (node id, x, y, traffic light id,
-    link index of the route's connection)."""
+    all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y, i) at the end
+    of the middle lane of route edge i, the incoming one. A signal is a traffic light on it: (node id, x,
+    y, traffic light id, link index of the route's connection, i)."""
     stops, signals = [], []
     n = len(edges)
     for i, eid in enumerate(edges):
@@ -346,9 +367,9 @@ def junction_controls(
         x, y = lane.getShape()[-1]
         node = edge.getToNode().getID()
         if cons and cons[0].getTLSID():
-            signals.append((node, float(x), float(y), cons[0].getTLSID(), int(cons[0].getTLLinkIndex())))
+            signals.append((node, float(x), float(y), cons[0].getTLSID(), int(cons[0].getTLLinkIndex()), i))
         elif cons and cons[0].getState() in STOP_STATES:
-            stops.append((node, float(x), float(y)))
+            stops.append((node, float(x), float(y), i))
     return stops, signals
 
 
@@ -376,10 +397,10 @@ def yield_ends(net: object, edges: tuple[str, ...], closed: bool) -> tuple[int, 
     return tuple(out)
 
 
-def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray]]:
+def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray, int]]:
     """Every road for cars the route's rightmost car lane can turn into other than the route's next edge:
-    (edge id, the junction lane into it and its rightmost car lane [P, 2]). Leaving the route there is
-    the exit failure."""
+    (edge id, the junction lane into it and its rightmost car lane [P, 2], the index of the route edge
+    it leaves from). Leaving the route there is the exit failure."""
     out = []
     n = len(edges)
     on_route = set(edges)
@@ -398,18 +419,18 @@ def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple
             if via:
                 pts.extend(net.getLane(via).getShape())  # type: ignore[attr-defined]
             pts.extend(to.getLane(to_cars[0]).getShape())
-            out.append((to.getID(), np.asarray(pts, dtype=np.float64)))
+            out.append((to.getID(), np.asarray(pts, dtype=np.float64), i))
     return out
 
 
 def mission_points(
     net: object, edges: tuple[str, ...], closed: bool, layout: LaneLayout
-) -> list[tuple[float, float, int, tuple[int, ...]]]:
+) -> list[tuple[float, float, int, tuple[int, ...], int]]:
     """Where the route goes on from some of its lanes only: (x, y) of the end of that edge's lane nearest
-    the middle, the continuing lane nearest the middle, and every continuing lane (the mission lanes:
-    passing in any of them keeps the mission), one per such edge. For an open route also its end, where
-    any lane will do (lane -1, no lanes listed)."""
-    out: list[tuple[float, float, int, tuple[int, ...]]] = []
+    the middle, the continuing lane nearest the middle, every continuing lane (the mission lanes:
+    passing in any of them keeps the mission) and the edge's index, one per such edge. For an open route
+    also its end, where any lane will do (lane -1, no lanes listed)."""
+    out: list[tuple[float, float, int, tuple[int, ...], int]] = []
     n = len(edges)
     c = (layout.n_lanes - 1) / 2
     pieces = reference_lanes(layout)
@@ -417,7 +438,7 @@ def mission_points(
         edge = net.getEdge(eid)  # type: ignore[attr-defined]
         x, y = edge.getLane(pieces[i][0]).getShape()[-1]
         if i == n - 1 and not closed:
-            out.append((float(x), float(y), -1, ()))
+            out.append((float(x), float(y), -1, (), i))
             break
         nxt = edges[(i + 1) % n]
         going = sorted(
@@ -431,52 +452,8 @@ def mission_points(
         )
         if len(going) < layout.count[i]:
             req = min(going, key=lambda g: (abs(g - c), g))
-            out.append((float(x), float(y), int(req), tuple(int(g) for g in going)))
+            out.append((float(x), float(y), int(req), tuple(int(g) for g in going), i))
     return out
-
-
-#: [m] a route's line meets itself only between points at least this far apart along it (a tight turn's
-#: offset line may loop locally); the resampling step [m] of the test
-CROSSING_MIN_APART = 50.0
-CROSSING_STEP = 1.0
-
-
-def self_crossing(pts: np.ndarray, closed: bool, gap: float) -> tuple[float, float] | None:
-    """(x, y) where the polyline ``pts`` [P, 2] comes within ``gap`` [m] of itself (a bridge or tunnel
-    where the route passes over or under itself, or the route running back on the other carriageway),
-    or None. Points closer than CROSSING_MIN_APART along the line are not compared. Vectorised in blocks
-    of points (once, when a road is built)."""
-    p = np.vstack([pts, pts[:1]]) if closed else pts
-    seg = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    t = np.concatenate([[0.0], np.cumsum(seg)])
-    u = np.arange(0.0, t[-1], CROSSING_STEP)
-    q = np.stack([np.interp(u, t, p[:, 0]), np.interp(u, t, p[:, 1])], axis=1)
-    n = len(q)
-    apart = int(CROSSING_MIN_APART / CROSSING_STEP)
-    lap = n if closed else 2 * n
-    for lo in range(0, n, 256):
-        i = np.arange(lo, min(lo + 256, n))[:, None]
-        sep = np.abs(i - np.arange(n)[None, :])
-        far = np.minimum(sep, lap - sep) >= apart  # [B, n]
-        dist = np.hypot(q[i, 0] - q[None, :, 0], q[i, 1] - q[None, :, 1])
-        hit = far & (dist < gap)
-        if hit.any():
-            bi, _ = np.argwhere(hit)[0]
-            return float(q[lo + bi, 0]), float(q[lo + bi, 1])
-    return None
-
-
-def check_flat(centre: np.ndarray, closed: bool, road_width: float) -> None:
-    """A one-line IrlsimError where the route's line ``centre`` [P, 2] crosses itself or runs back within
-    ``road_width`` [m] of itself: the route frame is flat, so vehicles there would be projected onto
-    either branch."""
-    hit = self_crossing(centre, closed, road_width)
-    if hit is not None:
-        raise IrlsimError(
-            f"route: it crosses itself or runs back alongside itself near ({hit[0]:.0f}, {hit[1]:.0f}) (over "
-            "a bridge, through a tunnel or back on the other carriageway): the route frame is flat; end the "
-            "route before it does"
-        )
 
 
 def _clean_polyline(arr: np.ndarray, closed: bool) -> np.ndarray:

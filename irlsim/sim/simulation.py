@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import math
 import os
 import time
 from pathlib import Path
@@ -316,7 +317,7 @@ class Simulation:
             api.simulationStep()
             self._sumo_wall += time.perf_counter() - t1
         self.ego = state = dataclasses.replace(state, t=float(api.simulation.getTime()))
-        self.vehicles = self._read_vehicles()
+        self.vehicles = self._read_vehicles(state.s)
         assert self.traffic is not None and self.episode is not None
         self.traffic.after_step(state.t, state.s % self.road.lap_length, self.vehicles)
         new_obb = self._ego_collisions(state)
@@ -349,7 +350,9 @@ class Simulation:
         self.signal_red = np.array([c in RED_STATES for c in states], dtype=bool)
         self.signal_binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
 
-    def _read_vehicles(self) -> VehicleStates:
+    def _read_vehicles(self, ego_s: float = math.nan) -> VehicleStates:
+        """Every vehicle but the ego; on a route that comes back near itself projected by progress (near
+        its last or inserted position, else the ego's ``ego_s`` [m]: BackgroundTraffic.hints)."""
         v_api = self._api.vehicle
         ids = tuple(v for v in v_api.getIDList() if v != EGO)
         m = len(ids)
@@ -362,7 +365,10 @@ class Simulation:
                 size = sizes[vid] = (v_api.getLength(vid), v_api.getWidth(vid))
             arr[:, i] = (x, y, v_api.getAngle(vid), v_api.getSpeed(vid), size[0], size[1])
         yaw = wrap_angle(np.radians(90.0 - arr[2]))  # SUMO angle (deg, north, clockwise) -> ENU yaw
-        s, d = self.road.to_frenet(arr[0], arr[1])
+        near = None
+        if not self.road.flat and self.traffic is not None:
+            near = self.traffic.hints(ids, ego_s)
+        s, d = self.road.to_frenet(arr[0], arr[1], near=near)
         return VehicleStates(ids, arr[0], arr[1], yaw, arr[3], s, d, arr[4], arr[5])
 
     def _ego_collisions(self, ego: EgoState) -> int:

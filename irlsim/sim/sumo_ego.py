@@ -48,7 +48,8 @@ def sumo_step(api: Any, ego: str, road: Road, prev: EgoState) -> EgoState:
         return dataclasses.replace(prev, t=float(api.simulation.getTime()), s=max(prev.s, road.route_end_s))
     x, y = api.vehicle.getPosition(ego)
     yaw = float(wrap_angle(np.radians(90.0 - api.vehicle.getAngle(ego))))
-    s, d = road.to_frenet(np.array([x]), np.array([y]))
+    # by progress from the step before, where the route comes back near itself
+    s, d = road.to_frenet(np.array([x]), np.array([y]), near=prev.s)
     return EgoState(
         t=float(api.simulation.getTime()),
         x=float(x),

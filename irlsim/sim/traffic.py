@@ -56,13 +56,10 @@ class LoopEdges:
     @staticmethod
     def from_road(road: Road) -> LoopEdges:
         s0, s1, ln = [], [], []
-        for eid in road.edges:
-            edge = road.net.getEdge(eid)
-            shape = np.asarray(edge.getLane(road.middle_lane[eid]).getShape())
-            s, _ = road.to_frenet(shape[[0, -1], 0], shape[[0, -1], 1])
-            s0.append(float(s[0]))
-            s1.append(float(s[1]) if s[1] > s[0] else float(s[1]) + road.lap_length)
-            ln.append(float(edge.getLength()))
+        for eid, a, b in road.edge_bounds:  # each edge's ends projected near its own stretch of the route
+            s0.append(a)
+            s1.append(b if b > a else b + road.lap_length)
+            ln.append(float(road.net.getEdge(eid).getLength()))
         return LoopEdges(road.edges, np.array(s0), np.array(s1), np.array(ln))
 
     def locate(self, s: float, lap: float, margin: float = 1.0) -> tuple[str, float] | None:
@@ -94,6 +91,8 @@ class BackgroundTraffic:
     off_loop: set[str] = field(default_factory=set)
     stuck: set[str] = field(default_factory=set)
     failures: list[dict[str, Any]] = field(default_factory=list)
+    #: route position [m] where each vehicle irlsim inserted entered, until it is tracked
+    placed: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         for k in ("recycled", "resampled", "stop_lines_passed", "stop_lines_compliant", "collisions"):
@@ -166,7 +165,15 @@ class BackgroundTraffic:
         )
         self.api.vehicle.setMaxSpeed(vid, speed)
         self.pending.add(vid)
+        self.placed[vid] = s
         return vid
+
+    def hints(self, ids: tuple[str, ...], ego_s: float) -> np.ndarray:
+        """[N] route position [m] each vehicle ``ids`` is known to be near (``Road.to_frenet``'s ``near``):
+        where it was tracked a step before, else where it was inserted, else the ego's ``ego_s``."""
+        lap = self.road.lap_length
+        out = [self.tracked[v].s % lap if v in self.tracked else self.placed.get(v, ego_s) for v in ids]
+        return np.array(out, dtype=np.float64)
 
     def spawn(self, ego_s: float, vehicles: VehicleStates, initial: bool) -> None:
         """Insert vehicles until ``n_vehicles`` are running or pending.
@@ -251,6 +258,7 @@ class BackgroundTraffic:
         lap = self.road.lap_length
         old = self.tracked
         self.tracked = {}
+        self.placed = {v: s for v, s in self.placed.items() if v in self.pending}  # not seen yet
         if veh.count == 0:
             return
         n_lines = len(self.road.stop_lines)

@@ -105,9 +105,9 @@ def test_lanes_of_different_widths_and_a_bus_lane_on_one_route(tmp_path):
 
 
 def test_a_line_that_meets_itself_is_found():
-    """The flat route frame's check (route.self_crossing) on plain polylines: a crossing, a route back
-    along itself closer than the road is wide, and what is not either."""
-    from irlsim.road.route import self_crossing
+    """What makes a route frame project by progress (route.self_crossing) on plain polylines: a crossing,
+    a route back along itself closer than the road is wide, and what is not either."""
+    from irlsim.road.crossing import self_crossing
 
     cross = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [50.0, 100.0], [50.0, -50.0]])
     assert self_crossing(cross, False, 1.0) == pytest.approx((50.0, 0.0), abs=1.0)
@@ -116,3 +116,20 @@ def test_a_line_that_meets_itself_is_found():
     circle = np.stack([np.cos(np.linspace(0, 2 * np.pi, 400, endpoint=False)) * 150.0] * 2, axis=1)
     circle[:, 1] = np.sin(np.linspace(0, 2 * np.pi, 400, endpoint=False)) * 150.0
     assert self_crossing(circle, True, 10.0) is None  # a loop meets itself only where it closes
+
+
+def test_a_crossing_without_a_junction_is_refused_in_one_line():
+    """route.check_same_level: the line crossing itself where both pieces touch one junction passes (at
+    grade); where they share none (a bridge in a network without heights) it is refused in one line."""
+    from irlsim.errors import IrlsimError
+    from irlsim.road.crossing import check_same_level
+    from irlsim.road.route import ReferenceShape
+
+    cross = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [50.0, 100.0], [50.0, -50.0]])
+    arcs = np.array([0.0, 100.0, 200.0, 250.0])  # one piece per segment
+    at_grade = (frozenset("ab"), frozenset("bc"), frozenset("cd"), frozenset("da"))
+    check_same_level(ReferenceShape(cross, np.zeros((4, 2)), arcs, at_grade), False)
+    bridge = (frozenset("ab"), frozenset("bc"), frozenset("cd"), frozenset("de"))
+    with pytest.raises(IrlsimError, match="crosses itself without a junction near \\(50, 0\\)") as e:
+        check_same_level(ReferenceShape(cross, np.zeros((4, 2)), arcs, bridge), False)
+    assert "\n" not in str(e.value)

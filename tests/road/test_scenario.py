@@ -168,7 +168,7 @@ def test_routes_the_network_cannot_drive_are_one_line(tmp_path, route, match):
 def test_networks_the_tool_cannot_handle_are_one_line(tmp_path):
     short = make_scenario(
         tmp_path / "short",
-        '<node id="a" x="0" y="0"/><node id="b" x="120" y="0"/>',
+        '<node id="a" x="0" y="0"/><node id="b" x="40" y="0"/>',
         '<edge id="ab" from="a" to="b" numLanes="2"/>',
         'edges = ["ab"]',
     )

@@ -93,10 +93,11 @@ def test_the_expert_drives_through_one_lane_links(name, network, edges, tmp_path
 
 
 def test_a_route_that_crosses_itself_is_refused_in_one_line(tmp_path):
-    """The A10's link loops back under its own motorway: the flat route frame cannot hold both."""
+    """The A10's link loops back under its own motorway, with no junction where they cross: a bridge in a
+    network without heights, where the vehicles of the other level would overlap the ego."""
     folder = wheel_scenario(tmp_path / "cross", "game/A10KW/osm.net.xml", [*A10_LINK, "308396219"])
     with pytest.raises(
-        IrlsimError, match="runs back alongside itself near .* end the route before it does"
+        IrlsimError, match="crosses itself without a junction near .* end the route before it does"
     ) as e:
         load_road(scenario=folder)
     assert "\n" not in str(e.value)

@@ -21,7 +21,16 @@ from pipelines.commands import main
 
 NODES = "".join(
     f'<node id="{n}" x="{x}" y="0" type="priority"/>'
-    for n, x in (("a", 0), ("b", 300), ("c", 600), ("d", 900), ("e", 1200), ("f", 1300), ("g", 1250))
+    for n, x in (
+        ("a", 0),
+        ("b", 300),
+        ("c", 600),
+        ("d", 900),
+        ("e", 1200),
+        ("f", 1300),
+        ("g", 1250),
+        ("h", 1340),
+    )
 )
 EDGES = (
     '<edge id="ab" from="a" to="b" numLanes="2" speed="13.9" width="3.2"/>'
@@ -29,6 +38,7 @@ EDGES = (
     '<edge id="cd" from="c" to="d" numLanes="2" speed="13.9" width="3.5"/>'
     '<edge id="de" from="d" to="e" numLanes="2" speed="13.9" width="3.2" sidewalkWidth="2.0"/>'
     '<edge id="ef" from="e" to="f" numLanes="2" speed="13.9" width="3.2"/>'
+    '<edge id="fh" from="f" to="h" numLanes="2" speed="13.9" width="3.2"/>'
     '<edge id="dg" from="d" to="g" numLanes="1" speed="5.0" width="3.0" allow="bicycle pedestrian"/>'
 )
 
@@ -71,9 +81,10 @@ def test_reasons_of_real_refusals(tmp_path):
     assert _refusal(tmp_path, net, 'edges = ["ab", "bc"]') == ""  # the control: a route that loads
     assert _refusal(tmp_path, net, 'edges = ["bc", "cd"]') == ""  # lanes of two widths load
     assert _refusal(tmp_path, net, 'edges = ["cd", "de"]') == ""  # and so do a sidewalk beside car lanes
+    assert _refusal(tmp_path, net, 'edges = ["ef"]') == ""  # and a route of 100 m
     cases = {
         'edges = ["cd", "dg"]': "no-car-lane",
-        'edges = ["ef"]': "too-short",
+        'edges = ["fh"]': "too-short",
         'edges = ["bc", "ab"]': "no-path",
         'from = "bc"\nto = "ab"': "no-path",
     }
