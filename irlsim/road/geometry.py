@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import route
+from irlsim.road import junctions, route
 from irlsim.road.network import build_net, net_path
 
 LANE_WIDTH = 3.2  # [m]
@@ -101,6 +101,17 @@ class Signal:
     y: float
     tls: str  # SUMO traffic light id
     link: int  # index of the route's connection in the traffic light's state string
+
+
+@dataclass(frozen=True)
+class YieldPoint:
+    """A minor link on the route (a yield or priority junction): its line binds while a foe with
+    priority would reach the conflict area too soon (see :mod:`irlsim.sim.yielding`)."""
+
+    node: str  # the junction
+    s: float  # [m] route frame position of the line (end of the incoming lanes)
+    x: float  # [m] world position of the line on the middle lane
+    y: float
 
 
 @dataclass(frozen=True)
@@ -218,7 +229,7 @@ class Road:
                 f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
                 f"{MIN_OPEN_LENGTH:.0f} m the planner needs to look ahead: choose a longer route"
             )
-        self.stop_lines, self.signals = self._stop_lines()
+        (self.stop_lines, self.signals), self.yield_points = self._stop_lines(), self._yield_points()
         self.exits = self._exits()
         self.checkpoints = self._checkpoints(checkpoints)
         if not self.checkpoints:
@@ -378,7 +389,7 @@ class Road:
         self._g_width = np.where(empty, 0, width).astype(np.int64)
 
     def _stop_lines(self) -> tuple[tuple[StopLine, ...], tuple[Signal, ...]]:
-        stops, signals = route.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
+        stops, signals = junctions.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
         lines = []
         for node, x, y in stops:
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
@@ -388,6 +399,15 @@ class Road:
             s = float(self.to_frenet(np.array([x]), np.array([y]))[0][0])
             sig.append(Signal(node, s, x, y, tls, link))
         return tuple(sorted(lines, key=lambda sl: sl.s)), tuple(sorted(sig, key=lambda g: g.s))
+
+    def _yield_points(self) -> tuple[YieldPoint, ...]:
+        """The minor links on the route's way through (yield and priority junctions), by s."""
+        points = junctions.yield_points(self.net, self.edges, self.closed, self.middle_lane)
+        out = [
+            YieldPoint(n, float(self.to_frenet(np.array([x]), np.array([y]))[0][0]), x, y)
+            for n, x, y in points
+        ]
+        return tuple(sorted(out, key=lambda p: p.s))
 
     def _exits(self) -> tuple[Exit, ...]:
         out = []
@@ -785,6 +805,7 @@ class Road:
             "lane_lengths_m": [round(v, 2) for v in self.lane_lengths],
             "stop_lines_s_m": [round(sl.s, 2) for sl in self.stop_lines],
             "signals_s_m": [round(g.s, 2) for g in self.signals],
+            **({"yield_points_s_m": [round(p.s, 2) for p in self.yield_points]} if self.yield_points else {}),
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), list(c.lanes) if c.lanes else c.lane) for c in self.checkpoints],
         }

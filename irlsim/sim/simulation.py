@@ -31,6 +31,7 @@ from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
+from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
 MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
@@ -89,6 +90,7 @@ class Simulation:
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
+        self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
@@ -318,6 +320,7 @@ class Simulation:
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
         self._read_signals()
+        violations = self.yields.read(api, EGO, state.v)
         if bookkeeping:
             self.episode.update(
                 state,
@@ -325,6 +328,7 @@ class Simulation:
                 sumo_collisions=new_sumo,
                 teleports=teleports,
                 red=tuple(self.signal_red.tolist()),
+                yield_violations=violations,
             )
             self.odometry.append(state)
             self._steps += 1
@@ -430,9 +434,11 @@ class Simulation:
         assert self.ego is not None and self.episode is not None
         idx, target_s = self.episode.target(self.ego.s)
         stop_s, red = self.episode.stop_s(self.ego.s), False
-        for g, binding in zip(self.road.signals, self.signal_binding, strict=True):
-            line = self.ego.s + self.marks.ahead(self.ego.s, g.s)
-            if binding and line < stop_s:
+        lines = [g.s for g, on in zip(self.road.signals, self.signal_binding, strict=True) if on]
+        lines += [p.s for p, on in zip(self.road.yield_points, self.yields.binding, strict=True) if on]
+        for m in lines:
+            line = self.ego.s + self.marks.ahead(self.ego.s, m)
+            if line < stop_s:
                 stop_s, red = line, True
         return Observation(
             ego=self.ego,
