@@ -205,6 +205,11 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
             {"drive/red_crossings": tot("sim/red_crossings")}
             if all("sim/red_crossings" in e for e in episodes)
             else {}
+        )
+        | (
+            {"drive/yield_violations": tot("sim/yield_violations")}
+            if all("sim/yield_violations" in e for e in episodes)
+            else {}
         ),
     }
 
@@ -224,6 +229,8 @@ def markdown_table(summaries: Sequence[dict[str, Any]]) -> str:
         reasons = ", ".join(f"{k} {v}" for k, v in sorted(s["drive/end_reasons"].items()))
         if "drive/red_crossings" in s:
             reasons += f"; red lights crossed {s['drive/red_crossings']}"
+        if "drive/yield_violations" in s:
+            reasons += f"; right of way not given {s['drive/yield_violations']}"
         rows.append(
             f"| {s['drive/model']} | {s['drive/episodes']} | {s['drive/laps']} | {s['drive/collisions']} "
             f"| {s['drive/exits']} | {_frac(s['drive/stop_lines_compliant'], s['drive/stop_lines_passed'])} "

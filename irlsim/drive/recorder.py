@@ -94,6 +94,9 @@ class ScorecardObserver:
             expert=None if expert is None else (np.asarray(expert[0]), np.asarray(expert[1])),
             speed_limit=self.sim.road.max_speed_limit,
             red_crossings=int(stats["sim/red_crossings"]) if "sim/red_crossings" in stats else None,
+            yield_violations=(
+                int(stats["sim/yield_violations"]) if "sim/yield_violations" in stats else None
+            ),
         )
 
     def cycle_facts(self, steps: int) -> dict[str, float]:

@@ -242,13 +242,15 @@ def episode_scorecard(
     expert: tuple[np.ndarray, np.ndarray] | None = None,
     speed_limit: float = SPEED_LIMIT,
     red_crossings: int | None = None,
+    yield_violations: int | None = None,
 ) -> dict[str, Any]:
     """The ``score/`` record of one episode from its per-step arrays [S] (and ``vehicles`` [S, M, 6]);
     ``expert``: the expert's (t, s) on the same seed, for progress. Keys: ``score/<multiplier>``,
     ``score/<term>``, ``score/comfort_<quantity>`` (share of steps within that bound), ``score/ttc_min``
     [s], ``score/drivable_intrusion_m``, ``score/progress`` and ``score/score``. On a road with traffic
     lights (``red_crossings`` given) crossing one on red is a failure like a collision:
-    ``score/no_red_crossing``."""
+    ``score/no_red_crossing``. On a route with yield points (``yield_violations`` given) entering a
+    minor link's conflict area ahead of a foe with priority is one too: ``score/no_yield_violation``."""
     ttc = time_to_collision(np.stack([x, y, yaw, v], axis=1), ego_size, vehicles)
     series = comfort_series(t, v, yaw)
     within = comfort_within(series)
@@ -263,6 +265,8 @@ def episode_scorecard(
     }
     if red_crossings is not None:
         mult["no_red_crossing"] = float(red_crossings == 0)
+    if yield_violations is not None:
+        mult["no_yield_violation"] = float(yield_violations == 0)
     n = max(len(t), 1)
     terms: dict[str, float | None] = {
         "ttc": float(np.mean(ttc >= TTC_BOUND)) if len(ttc) else 1.0,

@@ -1,5 +1,5 @@
 """Road geometry and topology of a route on a SUMO network (route frame, lanes, checkpoints, stop lines,
-signals, exits), and the scenario files that name them."""
+signals, yield points, exits), and the scenario files that name them."""
 
 from irlsim.road.geometry import (
     HALF_ROAD,
@@ -11,6 +11,7 @@ from irlsim.road.geometry import (
     Road,
     Signal,
     StopLine,
+    YieldPoint,
     load_road,
     wrap_angle,
     yaw_to_sumo_angle,
@@ -26,6 +27,7 @@ __all__ = [
     "Road",
     "Signal",
     "StopLine",
+    "YieldPoint",
     "load_road",
     "wrap_angle",
     "yaw_to_sumo_angle",

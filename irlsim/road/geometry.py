@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import crossing, route
+from irlsim.road import crossing, junctions, route
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
@@ -112,6 +112,17 @@ class Signal:
     y: float
     tls: str  # SUMO traffic light id
     link: int  # index of the route's connection in the traffic light's state string
+
+
+@dataclass(frozen=True)
+class YieldPoint:
+    """A minor link on the route (a yield or priority junction): its line binds while a foe with
+    priority would reach the conflict area too soon (see :mod:`irlsim.sim.yielding`)."""
+
+    node: str  # the junction
+    s: float  # [m] route frame position of the line (end of the incoming lanes)
+    x: float  # [m] world position of the line on the middle lane
+    y: float
 
 
 @dataclass(frozen=True)
@@ -223,7 +234,7 @@ class Road:
                 f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
                 f"{MIN_OPEN_LENGTH:.0f} m an episode needs to start and drive: choose a longer route"
             )
-        self.stop_lines, self.signals = self._stop_lines()
+        (self.stop_lines, self.signals), self.yield_points = self._stop_lines(), self._yield_points()
         self.exits = self._exits()
         self.checkpoints = self._checkpoints(checkpoints)
         if not self.checkpoints:
@@ -292,6 +303,7 @@ class Road:
                     f"{head} requires lane {lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
                     "one of them or -1 (any lane)"
                 )
+
     def _build_reference(self) -> np.ndarray:
         """The reference line, whether the route comes back near itself, and where each edge lies on it;
         returns the unsmoothed line it was built from."""
@@ -455,7 +467,7 @@ class Road:
         self._g_width = np.where(empty, 0, width).astype(np.int64)
 
     def _stop_lines(self) -> tuple[tuple[StopLine, ...], tuple[Signal, ...]]:
-        stops, signals = route.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
+        stops, signals = junctions.junction_controls(self.net, self.edges, self.closed, self.middle_lane)
         lines = []
         for node, x, y, i in stops:  # at the end of route edge i
             s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
@@ -465,6 +477,15 @@ class Road:
             s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
             sig.append(Signal(node, s, x, y, tls, link))
         return tuple(sorted(lines, key=lambda sl: sl.s)), tuple(sorted(sig, key=lambda g: g.s))
+
+    def _yield_points(self) -> tuple[YieldPoint, ...]:
+        """The minor links on the route's way through (yield and priority junctions), by s."""
+        points = junctions.yield_points(self.net, self.edges, self.closed, self.middle_lane)
+        out = []
+        for n, x, y, i in points:  # at the end of route edge i
+            s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
+            out.append(YieldPoint(n, s, x, y))
+        return tuple(sorted(out, key=lambda p: p.s))
 
     def _exits(self) -> tuple[Exit, ...]:
         out = []
@@ -920,6 +941,7 @@ class Road:
             "lane_lengths_m": [round(v, 2) for v in self.lane_lengths],
             "stop_lines_s_m": [round(sl.s, 2) for sl in self.stop_lines],
             "signals_s_m": [round(g.s, 2) for g in self.signals],
+            **({"yield_points_s_m": [round(p.s, 2) for p in self.yield_points]} if self.yield_points else {}),
             "exits_s_m": [round(e.s_start, 2) for e in self.exits],
             "checkpoints": [(round(c.s, 2), list(c.lanes) if c.lanes else c.lane) for c in self.checkpoints],
         }

@@ -13,9 +13,6 @@ import numpy as np
 
 from irlsim.errors import IrlsimError
 
-#: SUMO link states at which a vehicle comes to a full stop: a stop sign, an all-way stop
-STOP_STATES = ("s", "w")
-
 
 def resolve_route(net: object, edges: tuple[str, ...], from_edge: str, to_edge: str) -> tuple[str, ...]:
     """The route's edges: ``edges`` checked against the network, or the shortest path from/to."""
@@ -340,61 +337,6 @@ def lane_shape(net: object, edges: tuple[str, ...], layout: LaneLayout, g: int, 
         if via_id:
             pts.extend(net.getLane(via_id).getShape())  # type: ignore[attr-defined]
     return _clean_polyline(np.asarray(pts, dtype=np.float64), closed)
-
-
-def junction_controls(
-    net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
-) -> tuple[list[tuple[str, float, float, int]], list[tuple[str, float, float, str, int, int]]]:
-    """The junctions the route crosses that make it stop: (stops, signals). A stop is a stop sign or an
-    all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y, i) at the end
-    of the middle lane of route edge i, the incoming one. A signal is a traffic light on it: (node id, x,
-    y, traffic light id, link index of the route's connection, i)."""
-    stops, signals = [], []
-    n = len(edges)
-    for i, eid in enumerate(edges):
-        if i == n - 1 and not closed:
-            break
-        edge = net.getEdge(eid)  # type: ignore[attr-defined]
-        lane = edge.getLane(lanes[eid])
-        cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[(i + 1) % n]]
-        if not cons:  # the middle lane turns elsewhere: any lane's connection into the route
-            cons = [
-                c
-                for ln in edge.getLanes()
-                for c in ln.getOutgoing()
-                if c.getTo().getID() == edges[(i + 1) % n]
-            ]
-        x, y = lane.getShape()[-1]
-        node = edge.getToNode().getID()
-        if cons and cons[0].getTLSID():
-            signals.append((node, float(x), float(y), cons[0].getTLSID(), int(cons[0].getTLLinkIndex()), i))
-        elif cons and cons[0].getState() in STOP_STATES:
-            stops.append((node, float(x), float(y), i))
-    return stops, signals
-
-
-#: SUMO link states at which a vehicle yields without a sign (a minor road, equal rank, a zipper merge)
-YIELD_STATES = ("m", "=", "Z")
-
-
-def yield_ends(net: object, edges: tuple[str, ...], closed: bool) -> tuple[int, ...]:
-    """Indices of the route edges whose way into the route's next edge yields (a merge, a minor road:
-    SUMO link state 'm', '=' or 'Z'); SUMO refuses a departure too close before such a junction to brake."""
-    n = len(edges)
-    out = []
-    for i, eid in enumerate(edges):
-        if i == n - 1 and not closed:
-            break
-        nxt = edges[(i + 1) % n]
-        states = {
-            c.getState()
-            for ln in net.getEdge(eid).getLanes()  # type: ignore[attr-defined]
-            for c in ln.getOutgoing()
-            if c.getTo().getID() == nxt
-        }
-        if states & set(YIELD_STATES):
-            out.append(i)
-    return tuple(out)
 
 
 def exit_shapes(net: object, edges: tuple[str, ...], closed: bool) -> list[tuple[str, np.ndarray, int]]:

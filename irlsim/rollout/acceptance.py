@@ -38,7 +38,7 @@ class Acceptance:
     def failures(self) -> list[str]:
         """What of the bar the expert misses (empty: it meets every bound)."""
         e = self.expert
-        out = [f"{k} {int(e[k])}" for k in ("collisions", "exits", "red_crossings") if e[k] > 0]
+        out = [f"{k} {int(e[k])}" for k in FAILURE_COUNTS if e[k] > 0]
         if e["stops_compliant"] < e["stops_passed"]:
             out.append(f"stops {int(e['stops_compliant'])}/{int(e['stops_passed'])}")
         if e["checkpoints_passed"] and e["checkpoints_in_lane"] < MISSION_MIN * e["checkpoints_passed"]:
@@ -52,13 +52,16 @@ class Acceptance:
         verdict = "meets the bar" if not self.failures else "MISSES: " + ", ".join(self.failures)
         return (
             f"{self.scenario:10s} {len(self.seeds):3d} {int(e['collisions']):4d} {int(e['exits']):4d} "
-            f"{int(e['red_crossings']):4d} {int(e['stops_compliant']):3d}/{int(e['stops_passed']):<3d} "
+            f"{int(e['red_crossings']):4d} {int(e['yield_violations']):5d} "
+            f"{int(e['stops_compliant']):3d}/{int(e['stops_passed']):<3d} "
             f"{int(e['checkpoints_in_lane']):3d}/{int(e['checkpoints_passed']):<3d} "
             f"{e['mean_speed_kmh']:6.1f} {s['mean_speed_kmh']:6.1f} {self.speed_ratio:5.2f}  {verdict}"
         )
 
 
-HEADER = "scenario  eps coll exit  red stops  mission  km/h  sumo  ratio"
+#: the expert's counts of which any is a failure
+FAILURE_COUNTS = ("collisions", "exits", "red_crossings", "yield_violations")
+HEADER = "scenario  eps coll exit  red yield stops  mission  km/h  sumo  ratio"
 
 
 def drive_seeds(
@@ -76,6 +79,7 @@ def drive_seeds(
             "collisions",
             "exits",
             "red_crossings",
+            "yield_violations",
             "stops_passed",
             "stops_compliant",
             "checkpoints_passed",
@@ -93,6 +97,7 @@ def drive_seeds(
                 ("collisions", "sim/collisions"),
                 ("exits", "sim/exits"),
                 ("red_crossings", "sim/red_crossings"),
+                ("yield_violations", "sim/yield_violations"),
                 ("stops_passed", "sim/stop_lines_passed"),
                 ("stops_compliant", "sim/stop_lines_compliant"),
                 ("checkpoints_passed", "sim/checkpoints_passed"),

@@ -38,6 +38,7 @@ class CourseMarks:
     signal_s: tuple[float, ...] = ()  # [m] wrapped: the traffic lights' stop lines
     #: per checkpoint, the lanes that meet it where several do (the lanes the route goes on from)
     checkpoint_lanes: tuple[tuple[int, ...], ...] = ()
+    yield_s: tuple[float, ...] = ()  # [m] wrapped: the yield points' lines (minor links)
 
     @staticmethod
     def from_road(road: Road) -> CourseMarks:
@@ -51,6 +52,7 @@ class CourseMarks:
             route_end_s=float(road.route_end_s),
             signal_s=tuple(float(g.s) for g in road.signals),
             checkpoint_lanes=tuple(c.lanes for c in road.checkpoints),
+            yield_s=tuple(float(p.s) for p in road.yield_points),
         )
 
     def passes(self, s: float, m: float) -> int:
@@ -129,9 +131,12 @@ class Episode:
         sumo_collisions: int = 0,
         teleports: int = 0,
         red: tuple[bool, ...] = (),
+        yield_violations: int = 0,
     ) -> None:
         """Account for one step ending in state ``ego``; ``collisions`` = new ego collisions this step;
-        ``red``: per traffic light, whether the route's link shows red (a crossing then is a failure)."""
+        ``red``: per traffic light, whether the route's link shows red (a crossing then is a failure);
+        ``yield_violations``: conflict areas of minor links entered this step ahead of a foe with
+        priority (:mod:`irlsim.sim.yielding`)."""
         if self.start is None:
             self.start = self.last = ego
             self._note_stop(ego)
@@ -166,6 +171,13 @@ class Episode:
                 on_red = bool(red[i]) if i < len(red) else False
                 c["red_crossings"] = c.get("red_crossings", 0) + int(on_red)
                 self.events.append({"t": ego.t, "kind": "signal", "index": i, "red": on_red})
+        for m in self.marks.yield_s:
+            c["yields_passed"] = (
+                c.get("yields_passed", 0) + self.marks.passes(ego.s, m) - self.marks.passes(prev.s, m)
+            )
+        if yield_violations:
+            c["yield_violations"] = c.get("yield_violations", 0) + yield_violations
+            self.events.append({"t": ego.t, "kind": "yield_violation", "count": yield_violations})
         self._note_stop(ego)
         in_zone = self.marks.in_exit_zone(ego.s)
         took_exit = in_zone and ego.d < -(self.marks.half_road + self.exit_margin)
@@ -213,27 +225,41 @@ class Episode:
         c = self.counts
         dist = 0.0 if self.start is None or self.last is None else self.last.s - self.start.s
         dur = 0.0 if self.start is None or self.last is None else self.last.t - self.start.t
-        return {
-            "sim/laps": self.laps_completed,
-            "sim/distance_m": round(dist, 3),
-            "sim/time_s": round(dur, 3),
-            "sim/steps": self._steps,
-            "sim/collisions": c["collisions"],
-            "sim/sumo_collisions": c["sumo_collisions"],
-            "sim/exits": c["exits"],
-            "sim/stop_lines_passed": c["stop_lines_passed"],
-            "sim/stop_lines_compliant": c["stop_lines_compliant"],
-            "sim/checkpoints_passed": c["checkpoints_passed"],
-            "sim/checkpoints_in_lane": c["checkpoints_in_lane"],
-            "sim/offroad_steps": c["offroad_steps"],
-            "sim/mean_speed_kmh": round(3.6 * self._speed_sum / self._steps, 3) if self._steps else 0.0,
-            # 0 by construction: SUMO runs with --time-to-teleport -1 (mandatory, or a standing ego is
-            # teleported), so this only catches that option going missing; blocked background traffic
-            # shows in sim/bg_stuck instead
-            "sim/teleports": c["teleports"],
-            "end_reason": self.end_reason,
-        } | (  # only on roads with traffic lights: the oval's figures keep their bytes
-            {"sim/signals_passed": c.get("signals_passed", 0), "sim/red_crossings": c.get("red_crossings", 0)}
-            if self.marks.signal_s
-            else {}
+        return (
+            {
+                "sim/laps": self.laps_completed,
+                "sim/distance_m": round(dist, 3),
+                "sim/time_s": round(dur, 3),
+                "sim/steps": self._steps,
+                "sim/collisions": c["collisions"],
+                "sim/sumo_collisions": c["sumo_collisions"],
+                "sim/exits": c["exits"],
+                "sim/stop_lines_passed": c["stop_lines_passed"],
+                "sim/stop_lines_compliant": c["stop_lines_compliant"],
+                "sim/checkpoints_passed": c["checkpoints_passed"],
+                "sim/checkpoints_in_lane": c["checkpoints_in_lane"],
+                "sim/offroad_steps": c["offroad_steps"],
+                "sim/mean_speed_kmh": round(3.6 * self._speed_sum / self._steps, 3) if self._steps else 0.0,
+                # 0 by construction: SUMO runs with --time-to-teleport -1 (mandatory, or a standing ego is
+                # teleported), so this only catches that option going missing; blocked background traffic
+                # shows in sim/bg_stuck instead
+                "sim/teleports": c["teleports"],
+                "end_reason": self.end_reason,
+            }
+            | (  # only on roads with traffic lights: the oval's figures keep their bytes
+                {
+                    "sim/signals_passed": c.get("signals_passed", 0),
+                    "sim/red_crossings": c.get("red_crossings", 0),
+                }
+                if self.marks.signal_s
+                else {}
+            )
+            | (  # only on routes with yield points (minor links)
+                {
+                    "sim/yields_passed": c.get("yields_passed", 0),
+                    "sim/yield_violations": c.get("yield_violations", 0),
+                }
+                if self.marks.yield_s
+                else {}
+            )
         )

@@ -28,10 +28,12 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
+from irlsim.sim.inputs import check_inputs
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
-from irlsim.sim.traffic import BG_TYPE, BackgroundTraffic, LoopEdges
+from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
+from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
 MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
@@ -90,6 +92,7 @@ class Simulation:
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
+        self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
@@ -162,26 +165,8 @@ class Simulation:
             _ACTIVE = self
 
     def _check_inputs(self) -> None:
-        """The files SUMO reads besides the network (the vehicle types, a scenario's demand) are
-        well-formed XML: a broken one is named as the file at fault (one line), not blamed on the net."""
-        from xml.etree import ElementTree  # lazy: only at SUMO's start
-
-        restore = "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
-        for path in (self.vtypes_file, *self.road.demand):
-            try:
-                tree = ElementTree.parse(path)
-            except (ElementTree.ParseError, OSError) as e:
-                what = "vehicle types" if path == self.vtypes_file else "route file"
-                fix = restore if path == self.vtypes_file else "fix it or the scenario's [traffic] routes"
-                raise IrlsimError(f"{what} {path} is not valid XML ({e}): {fix}") from None
-            if path == self.vtypes_file:
-                ids = {el.get("id") for el in tree.iter("vType")}  # the types the ego and the traffic use
-                lacking = [t for t in ("ego", BG_TYPE) if t not in ids]
-                if lacking:
-                    raise IrlsimError(
-                        f"vehicle types {path} lacks vType '{lacking[0]}', which irlsim inserts (it needs "
-                        f"ego, {BG_TYPE}): add it or {restore}"
-                    )
+        """The files SUMO reads besides the network, one line naming a broken one (:mod:`.inputs`)."""
+        check_inputs(self.vtypes_file, self.road.demand)
 
     def close(self) -> None:
         """Stop SUMO; safe to call more than once."""
@@ -324,6 +309,7 @@ class Simulation:
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
         self._read_signals()
+        violations = self.yields.read(api, EGO, state.v)
         if bookkeeping:
             self.episode.update(
                 state,
@@ -331,6 +317,7 @@ class Simulation:
                 sumo_collisions=new_sumo,
                 teleports=teleports,
                 red=tuple(self.signal_red.tolist()),
+                yield_violations=violations,
             )
             self.odometry.append(state)
             self._steps += 1
@@ -441,9 +428,11 @@ class Simulation:
         assert self.ego is not None and self.episode is not None
         idx, target_s = self.episode.target(self.ego.s)
         stop_s, red = self.episode.stop_s(self.ego.s), False
-        for g, binding in zip(self.road.signals, self.signal_binding, strict=True):
-            line = self.ego.s + self.marks.ahead(self.ego.s, g.s)
-            if binding and line < stop_s:
+        lines = [g.s for g, on in zip(self.road.signals, self.signal_binding, strict=True) if on]
+        lines += [p.s for p, on in zip(self.road.yield_points, self.yields.binding, strict=True) if on]
+        for m in lines:
+            line = self.ego.s + self.marks.ahead(self.ego.s, m)
+            if line < stop_s:
                 stop_s, red = line, True
         return Observation(
             ego=self.ego,

@@ -15,7 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import Road, load_road, route
+from irlsim.road import Road, junctions, load_road
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import VehicleStates
@@ -43,7 +43,7 @@ def _start_ok(road: Road, cfg: ScenarioConfig, e: LoopEdges, s: np.ndarray, scal
     """[C] bool: route positions ``s`` [C] where a random start may lie, at clearances x ``scale``."""
     lap = road.lap_length
     # stop lines, exits and the junctions where the route yields (SUMO refuses a start too close to one)
-    yields = [float(e.s1[i]) % lap for i in route.yield_ends(road.net, road.edges, road.closed)]
+    yields = [float(e.s1[i]) % lap for i in junctions.yield_ends(road.net, road.edges, road.closed)]
     marks = np.array([sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits] + yields)
     # an any-lane checkpoint (an open route's end, a loop without a mission) needs no room before it
     cps = np.array([c.s for c in road.checkpoints if c.lane >= 0 or c.lanes])

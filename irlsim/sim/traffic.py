@@ -19,8 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.road import Road
-from irlsim.road import route as route_mod
+from irlsim.road import Road, junctions
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.types import VehicleStates
 
@@ -101,7 +100,7 @@ class BackgroundTraffic:
         # needed where it stops): the lanes that turn off or end within RUNWAY_HORIZON (none on the oval)
         self._runway = lane_runways(self.road)
         # the route edges whose way on yields (a merge): SUMO refuses a departure too close to brake there
-        self._yields = set(route_mod.yield_ends(self.road.net, self.road.edges, self.road.closed))
+        self._yields = set(junctions.yield_ends(self.road.net, self.road.edges, self.road.closed))
 
     # ------------------------------------------------------------------ routes and insertion
     def add_routes(self) -> None:

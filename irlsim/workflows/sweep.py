@@ -53,6 +53,7 @@ SAFETY_COUNTS = {
     "collisions": "collision",
     "exits": "exit",
     "red_crossings": "red light",
+    "yield_violations": "right of way",
     "stop_lines_passed": "",
     "stop_lines_compliant": "",
 }
@@ -359,7 +360,8 @@ def _drive_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for
         return {"outcome": "crash", "failure": crash_line(e)}
     st = result.stats
     count = {k: int(st.get(f"sim/{k}") or 0) for k in SAFETY_COUNTS}
-    broken = [SAFETY_COUNTS[k] for k in ("collisions", "exits", "red_crossings") if count[k] > 0]
+    failing = ("collisions", "exits", "red_crossings", "yield_violations")
+    broken = [SAFETY_COUNTS[k] for k in failing if count[k] > 0]
     if count["stop_lines_compliant"] < count["stop_lines_passed"]:
         broken.append(f"stops {count['stop_lines_compliant']}/{count['stop_lines_passed']}")
     return {

@@ -167,6 +167,11 @@ def test_episode_scorecard_perfect_and_failures():
     assert set(sc.SCORE_KEYS) <= set(rec)
     assert _episode(collisions=1)["score/score"] == 0.0
     assert _episode(exits=1)["score/score"] == 0.0
+    # a route with yield points: failing to yield is a failure like a red crossing; without, no key
+    assert _episode(yield_violations=1)["score/no_yield_violation"] == 0.0
+    assert _episode(yield_violations=1)["score/score"] == 0.0
+    assert _episode(yield_violations=0)["score/score"] == 100.0
+    assert "score/no_yield_violation" not in rec
     assert _episode(stop_lines_compliant=1)["score/score"] == pytest.approx(50.0)
     # mission 2 of 4 in lane: 1 - 0.5 * 4 / 20
     assert _episode(checkpoints_in_lane=2)["score/score"] == pytest.approx(90.0)

@@ -1,0 +1,93 @@
+"""The junctions a route crosses and what their SUMO link states ask of it: stop signs and all-way stops,
+traffic lights, and minor links (yield and priority junctions).
+
+Pure functions over a ``sumolib`` network, for :class:`irlsim.road.Road`, the traffic and the ego's
+start.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+#: SUMO link states at which a vehicle comes to a full stop: a stop sign, an all-way stop
+STOP_STATES = ("s", "w")
+
+
+def junction_controls(
+    net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
+) -> tuple[list[tuple[str, float, float, int]], list[tuple[str, float, float, str, int, int]]]:
+    """The junctions the route crosses that make it stop: (stops, signals). A stop is a stop sign or an
+    all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y, i) at the end
+    of the middle lane of route edge i, the incoming one. A signal is a traffic light on it: (node id, x,
+    y, traffic light id, link index of the route's connection, i)."""
+    stops, signals = [], []
+    for node, x, y, cons, i in _ways_through(net, edges, closed, lanes):
+        if cons and cons[0].getTLSID():
+            signals.append((node, x, y, cons[0].getTLSID(), int(cons[0].getTLLinkIndex()), i))
+        elif cons and cons[0].getState() in STOP_STATES:
+            stops.append((node, x, y, i))
+    return stops, signals
+
+
+def _ways_through(
+    net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
+) -> list[tuple[str, float, float, list[Any], int]]:
+    """Per junction the route crosses: (node id, x, y of the end of the incoming edge's middle lane, the
+    connections of the route's way through: the middle lane's into the next route edge, else any lane's,
+    the index i of the incoming route edge)."""
+    out = []
+    n = len(edges)
+    for i, eid in enumerate(edges):
+        if i == n - 1 and not closed:
+            break
+        edge = net.getEdge(eid)  # type: ignore[attr-defined]
+        lane = edge.getLane(lanes[eid])
+        cons = [c for c in lane.getOutgoing() if c.getTo().getID() == edges[(i + 1) % n]]
+        if not cons:  # the middle lane turns elsewhere: any lane's connection into the route
+            cons = [
+                c
+                for ln in edge.getLanes()
+                for c in ln.getOutgoing()
+                if c.getTo().getID() == edges[(i + 1) % n]
+            ]
+        x, y = lane.getShape()[-1]
+        out.append((edge.getToNode().getID(), float(x), float(y), cons, i))
+    return out
+
+
+def yield_points(
+    net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
+) -> list[tuple[str, float, float, int]]:
+    """The junctions where the route's way through is a minor link without a traffic light (SUMO link
+    state 'm', '=' or 'Z': a minor road, equal rank, a zipper merge): (node id, x, y, i) at the end of
+    the middle lane of route edge i, the incoming one, where the ego waits for the foes with priority
+    (like a stop line)."""
+    return [
+        (node, x, y, i)
+        for node, x, y, cons, i in _ways_through(net, edges, closed, lanes)
+        if cons and not cons[0].getTLSID() and cons[0].getState() in YIELD_STATES
+    ]
+
+
+#: SUMO link states at which a vehicle yields without a sign (a minor road, equal rank, a zipper merge)
+YIELD_STATES = ("m", "=", "Z")
+
+
+def yield_ends(net: object, edges: tuple[str, ...], closed: bool) -> tuple[int, ...]:
+    """Indices of the route edges whose way into the route's next edge yields (a merge, a minor road:
+    SUMO link state 'm', '=' or 'Z'); SUMO refuses a departure too close before such a junction to brake."""
+    n = len(edges)
+    out = []
+    for i, eid in enumerate(edges):
+        if i == n - 1 and not closed:
+            break
+        nxt = edges[(i + 1) % n]
+        states = {
+            c.getState()
+            for ln in net.getEdge(eid).getLanes()  # type: ignore[attr-defined]
+            for c in ln.getOutgoing()
+            if c.getTo().getID() == nxt
+        }
+        if states & set(YIELD_STATES):
+            out.append(i)
+    return tuple(out)

@@ -1,0 +1,134 @@
+"""Right of way at minor links (real SUMO): the yield points of a route against SUMO's link states, the
+ego waiting for a platoon on the major road, and the violation counted when it does not."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from irlsim.road import load_road
+from irlsim.rollout.drivers import make_driver
+from irlsim.rollout.runner import EpisodeRunner
+from irlsim.sim import yielding
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.episode import CourseMarks, Episode
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import EgoState
+from tests.road.test_scenario import make_scenario
+
+#: a T junction: the minor road sj (from the south) meets the major road wj -> je at j
+T_NODES = (
+    '<node id="w" x="-500" y="0"/><node id="j" x="0" y="0" type="{kind}"/><node id="e" x="500" y="0"/>'
+    '<node id="s" x="0" y="-300"/>'
+)
+T_EDGES = (
+    '<edge id="wj" from="w" to="j" numLanes="1" speed="13.9" priority="3"/>'
+    '<edge id="je" from="j" to="e" numLanes="1" speed="13.9" priority="3"/>'
+    '<edge id="sj" from="s" to="j" numLanes="1" speed="13.9" priority="1"/>'
+)
+#: a platoon on the major road every 2 s (too short a gap to turn into) for 90 s, then none for 40 s
+PLATOON = """<routes>
+    <vType id="car" length="4.5" minGap="2.5" sigma="0" speedDev="0"/>
+    <flow id="p" type="car" begin="0" end="90" period="2" departSpeed="max"><route edges="wj je"/></flow>
+    <flow id="q" type="car" begin="130" end="3600" period="30" departSpeed="max"><route edges="wj je"/></flow>
+</routes>
+"""
+
+
+def t_junction(tmp_path, route: str, kind: str = "priority", demand: bool = False):
+    more = '\n[traffic]\nroutes = ["demand.rou.xml"]\nwarmup = 60.0\n' if demand else ""
+    folder = make_scenario(
+        tmp_path / f"t_{kind}_{route[2:4]}", T_NODES.format(kind=kind), T_EDGES, f"edges = {route}", more=more
+    )
+    (folder / "demand.rou.xml").write_text(PLATOON)
+    return load_road(scenario=folder)
+
+
+def test_yield_points_are_the_minor_links_of_the_route(tmp_path):
+    minor = t_junction(tmp_path, '["sj", "je"]')
+    con = minor.net.getEdge("sj").getLane(0).getOutgoing()[0]
+    assert con.getState() == "m"  # SUMO's link state: the minor road yields
+    (p,) = minor.yield_points
+    end = minor.net.getEdge("sj").getLane(0).getShape()[-1]
+    assert p.node == "j" and (p.x, p.y) == pytest.approx(end)
+    assert p.s == pytest.approx(minor.to_frenet(np.array([end[0]]), np.array([end[1]]))[0][0])
+    assert not minor.stop_lines and not minor.signals
+    assert "yield_points_s_m" in minor.describe()
+    # the major road through the same junction has priority: no yield point
+    major = t_junction(tmp_path, '["wj", "je"]')
+    assert major.net.getEdge("wj").getLane(0).getOutgoing()[0].getState() == "M"
+    assert major.yield_points == () and "yield_points_s_m" not in major.describe()
+    # the same junction with a stop sign on the minor road: a stop line, not a yield point
+    stop = t_junction(tmp_path, '["sj", "je"]', kind="priority_stop")
+    assert stop.net.getEdge("sj").getLane(0).getOutgoing()[0].getState() == "s"
+    assert stop.yield_points == () and len(stop.stop_lines) == 1
+
+
+def test_shipped_routes_take_no_minor_link():
+    """Their episodes keep their bytes: no yield point, so no foe is asked for and no key is added."""
+    for name in ("oval", "corridor", "grid", "motorway", "ramp"):
+        assert load_road(scenario=name).yield_points == (), name
+
+
+def test_clear_time_and_foe_arrival_closed_form():
+    t = yielding.clear_time(np.array([0.0, 8.0, 50.0]), 0.0, 2.0, 10.0)
+    # 8 m from standing at 2 m/s^2: sqrt(2 * 8 / 2) = 2.83 s; 50 m: 5 s to reach 10 m/s (25 m), 2.5 s more
+    assert t == pytest.approx([0.0, np.sqrt(8.0), 7.5])
+    arr = yielding.foe_arrival(
+        np.array([-1.0, 20.0, 20.0, -9.0]),
+        np.array([2.0, 23.0, 23.0, -6.0]),
+        np.array([5.0, 10.0, 0.0, 10.0]),
+    )
+    assert arr.tolist() == [0.0, 2.0, np.inf, np.inf]  # inside, moving, standing, past
+    assert yielding.junction_of(":j_0_0") == "j" and yielding.junction_of(":a_b_12_3") == "a_b"
+
+
+def _drive(road, seed: int = 0):
+    cfg = ScenarioConfig(
+        name="t",
+        max_time=90.0,
+        ego_start_random=False,
+        ego_start_s=road.yield_points[0].s - 120.0,
+        ego_start_speed=10.0,
+    )
+    with Simulation(road, cfg) as sim:
+        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), seed)
+        return res.stats, sim.odometry_arrays()
+
+
+def test_the_ego_waits_for_the_platoon_then_turns(tmp_path):
+    road = t_junction(tmp_path, '["sj", "je"]', demand=True)
+    st, od = _drive(road)
+    line = road.yield_points[0].s
+    waited = (od["v"] < 0.1) & (od["s"] <= line) & (od["s"] > line - 15.0)
+    assert waited.sum() * 0.1 >= 10.0  # it stood at the line while the platoon passed
+    assert st["sim/yields_passed"] == 1  # and turned in the gap after it
+    assert st["sim/yield_violations"] == 0 and st["sim/collisions"] == 0 and st["sim/sumo_collisions"] == 0
+
+
+def test_ignoring_the_yield_is_counted(tmp_path, monkeypatch):
+    """The same episode with the yield point never binding: the ego turns into the platoon."""
+    road = t_junction(tmp_path, '["sj", "je"]', demand=True)
+    read = yielding.YieldWatch.read
+
+    def never_binding(self, *args):
+        new = read(self, *args)
+        self.binding[:] = False
+        return new
+
+    monkeypatch.setattr(yielding.YieldWatch, "read", never_binding)
+    st, _ = _drive(road)
+    assert st["sim/yields_passed"] == 1 and st["sim/yield_violations"] == 1
+
+
+def test_a_violation_is_counted_like_a_red_crossing():
+    marks = CourseMarks(1000.0, (900.0,), (-1,), (), (), 4.8, route_end_s=950.0, yield_s=(100.0,))
+    ep = Episode(marks, laps=1, max_time=100.0)
+    ego = EgoState(t=0.0, x=0, y=0, yaw=0, v=10.0, a=0, s=90.0, d=0.0, d_dot=0, d_ddot=0, lane=0)
+    ep.update(ego)
+    ep.update(dataclasses.replace(ego, t=1.0, s=105.0), yield_violations=1)
+    st = ep.stats()
+    assert st["sim/yields_passed"] == 1 and st["sim/yield_violations"] == 1
+    assert "sim/yield_violations" not in Episode(dataclasses.replace(marks, yield_s=()), 1, 100.0).stats()
