@@ -9,8 +9,13 @@ Boxes that only touch (zero penetration) do not collide; any positive overlap do
 
 from __future__ import annotations
 
+import math
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
+
+from irlsim.sim.types import EgoState, VehicleStates
 
 
 def box_centers(
@@ -88,3 +93,68 @@ def obb_collide(
 ) -> np.ndarray:
     """True where box a and box b overlap by more than ``tol`` [m] (broadcast shape, bool)."""
     return obb_penetration(ax, ay, ayaw, alen, awid, bx, by, byaw, blen, bwid) > tol
+
+
+#: [deg] heading difference above which the other vehicle is crossing the ego's path, not going its way
+CROSSING_ANGLE = 30.0
+
+
+def describe_collision(
+    ds: float,
+    dd: float,
+    v_ego: float,
+    v_other: float,
+    dyaw: float,
+    ego_lane: str,
+    other_lane: str,
+    lane_width: float,
+) -> dict[str, float | str]:
+    """What a collision was, from the two vehicles at its first step: the other vehicle's route distance
+    ``ds`` [m] ahead of the ego (negative: behind), lateral offset ``dd`` [m] from it (left positive), both
+    speeds [m/s], the heading difference ``dyaw`` [rad] and both SUMO lane ids (a junction's start
+    with ':'). ``kind`` is one of: crossing (headings differ by more than CROSSING_ANGLE: a junction's
+    foe or a vehicle turning across), rear-ended (the other came from behind, in the ego's lane, faster),
+    ran-into (the other ahead, in the ego's lane), side (beside, in the next lane: one of them changing
+    lanes). ``where`` is 'junction' when either is on a junction's internal lane, else 'lane'."""
+    angle = abs(math.degrees(math.atan2(math.sin(dyaw), math.cos(dyaw))))
+    same_lane = abs(dd) < 0.5 * lane_width
+    if angle > CROSSING_ANGLE:
+        kind = "crossing"
+    elif same_lane and ds < 0.0:
+        kind = "rear-ended" if v_other > v_ego else "side"
+    elif same_lane:
+        kind = "ran-into"
+    else:
+        kind = "side"
+    where = "junction" if ego_lane.startswith(":") or other_lane.startswith(":") else "lane"
+    return {
+        "kind": kind,
+        "where": where,
+        "ds_m": round(float(ds), 2),
+        "dd_m": round(float(dd), 2),
+        "v_ego_ms": round(float(v_ego), 2),
+        "v_other_ms": round(float(v_other), 2),
+        "angle_deg": round(angle, 1),
+        "ego_lane": ego_lane,
+        "other_lane": other_lane,
+    }
+
+
+def first_collision(
+    ego: EgoState, veh: VehicleStates, i: int, lanes: tuple[str, str], lap: float, lane_width: float
+) -> dict[str, Any]:
+    """The collision of the ego with vehicle ``i`` of ``veh`` (``lanes``: both SUMO lane ids) as
+    :func:`describe_collision` records it, with the time and the other vehicle's id."""
+    ds = (float(veh.s[i]) - ego.s + lap / 2) % lap - lap / 2  # [m] route distance, wrapped on a loop
+    dd, dyaw = float(veh.d[i]) - ego.d, float(veh.yaw[i]) - ego.yaw
+    c = describe_collision(ds, dd, ego.v, float(veh.v[i]), dyaw, *lanes, lane_width)
+    return {"t": ego.t, "other": veh.ids[i], **c}
+
+
+def collision_line(c: dict[str, Any]) -> str:
+    """:func:`describe_collision`'s record as one line for a table: what, where, the two speeds."""
+    return (
+        f"{c['kind']} at a {c['where']} ({c['other']}, {c['ds_m']:+.1f} m along, {c['dd_m']:+.1f} m across, "
+        f"{c['angle_deg']:.0f} deg; ego {c['v_ego_ms']:.1f} m/s on {c['ego_lane']}, other "
+        f"{c['v_other_ms']:.1f} m/s on {c['other_lane']})"
+    )

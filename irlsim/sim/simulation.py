@@ -25,7 +25,7 @@ import numpy as np
 from irlsim.errors import IrlsimError
 from irlsim.road import Road, load_road, wrap_angle, yaw_to_sumo_angle
 from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
-from irlsim.sim.collision import obb_collide
+from irlsim.sim.collision import first_collision, obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.inputs import check_inputs
@@ -261,6 +261,8 @@ class Simulation:
         self.odometry = []
         self._ego_by_sumo = False
         self._colliding, self._sumo_pairs = set(), set()
+        #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
+        self.first_collision: dict[str, Any] | None = None
         self._wall = self._sumo_wall = 0.0
         self._steps = 0
         self.ego = start
@@ -380,6 +382,10 @@ class Simulation:
                 veh.width[near],
             )
             now = {veh.ids[i] for i in near[hit]}
+        if now - self._colliding and self.first_collision is None:
+            i, get, road = veh.ids.index(min(now - self._colliding)), self._api.vehicle.getLaneID, self.road
+            lanes = (get(EGO), get(veh.ids[i]))
+            self.first_collision = first_collision(ego, veh, i, lanes, road.lap_length, road.lane_width)
         new = len(now - self._colliding)
         self._colliding = now
         return new

@@ -39,6 +39,7 @@ from irlsim.road.refusals import refusal_reason
 from irlsim.road.scenario import read_scenario_file
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
+from irlsim.sim.collision import collision_line
 from irlsim.sim.config import scenario_config
 from irlsim.sim.simulation import Simulation
 from irlsim.utils import atomic_write_text, owned_output, progress, seed_everything, write_json
@@ -354,6 +355,7 @@ def _drive_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for
         seed_everything(task.seed)
         with Simulation(road, cfg) as sim:
             result = EpisodeRunner(sim).run(make_driver("expert", road, cfg), task.seed)
+            first = sim.first_collision
     except IrlsimError as e:
         return {"outcome": "refused", "failure": str(e)}
     except Exception as e:  # a defect of the road or the simulation
@@ -372,6 +374,8 @@ def _drive_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for
         "distance_m": st.get("sim/distance_m"),
         "mean_speed_kmh": st.get("sim/mean_speed_kmh"),
         "checkpoints": f"{st.get('sim/checkpoints_in_lane', 0)}/{st.get('sim/checkpoints_passed', 0)}",
+        # what the first collision was (kind, where, the other vehicle, speeds): the reason looked for
+        "collision": collision_line(first) if first else "",
     }
 
 

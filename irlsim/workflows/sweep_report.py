@@ -19,8 +19,18 @@ from typing import Any
 from irlsim.road.refusals import REASON_NAMES, refusal_reason
 from irlsim.utils import atomic_write_text, write_json
 
-#: what the failures table shows of a driven route
-FAILURE_COLUMNS = ("network", "route", "seed", "failure_reason", "failure", "end_reason", "scenario")
+#: what the failures table shows of a driven route (collision: what the first collision was,
+#: irlsim.sim.collision.collision_line)
+FAILURE_COLUMNS = (
+    "network",
+    "route",
+    "seed",
+    "failure_reason",
+    "failure",
+    "end_reason",
+    "collision",
+    "scenario",
+)
 CSV_COLUMNS = (
     "network",
     "route",
@@ -34,6 +44,7 @@ CSV_COLUMNS = (
     "failure_reason",
     "failure",
     "end_reason",
+    "collision",
     "edges",
 )
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from irlsim.sim.collision import box_corners, obb_collide, obb_penetration
+from irlsim.sim.collision import box_corners, collision_line, describe_collision, obb_collide, obb_penetration
 
 
 def _pen(a, b):
@@ -66,3 +66,22 @@ def test_broadcasting_and_symmetry():
 def test_corners_from_front_bumper():
     c = box_corners(10.0, 0.0, math.pi / 2, 4.0, 2.0)  # heading north: left is west
     np.testing.assert_allclose(c, [[9.0, 0.0], [11.0, 0.0], [11.0, -4.0], [9.0, -4.0]], atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("ds", "dd", "v_ego", "v_other", "dyaw", "lanes", "kind", "where"),
+    [
+        (-4.0, 0.2, 5.0, 12.0, 0.0, ("e_0", "e_0"), "rear-ended", "lane"),  # came from behind, faster
+        (4.5, -0.3, 12.0, 3.0, 0.05, ("e_0", "e_0"), "ran-into", "lane"),  # the leader, in the ego's lane
+        (1.0, 3.1, 10.0, 10.0, 0.1, ("e_0", "e_1"), "side", "lane"),  # the next lane: a lane change
+        (2.0, 1.0, 8.0, 9.0, math.pi / 2, (":j_0_0", "f_0"), "crossing", "junction"),  # a foe at a junction
+        (0.5, 0.0, 8.0, 9.0, 2 * math.pi - 0.1, ("e_0", ":j_1_0"), "ran-into", "junction"),  # wraps 2 pi
+    ],
+)
+def test_a_collision_is_described_by_where_the_other_was(ds, dd, v_ego, v_other, dyaw, lanes, kind, where):
+    c = describe_collision(ds, dd, v_ego, v_other, dyaw, *lanes, 3.2)
+    assert (c["kind"], c["where"]) == (kind, where)
+    deg = abs(math.degrees(dyaw))
+    assert c["angle_deg"] == pytest.approx(min(deg, 360 - deg), abs=0.1)
+    line = collision_line({"other": "bg7", **c})
+    assert line.startswith(f"{kind} at a {where} (bg7,") and lanes[0] in line and lanes[1] in line

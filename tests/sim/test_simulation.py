@@ -94,6 +94,11 @@ def test_ego_placed_through_a_vehicle_is_a_collision(sim, road):
     st = sim.stats
     assert st["sim/collisions"] == 1 and st["end_reason"] == "collision"
     assert st["sim/sumo_collisions"] >= 1
+    # what it was: the ego put onto the vehicle in its own lane, on the loop's lanes, not at a junction
+    c = sim.first_collision
+    assert c is not None and c["other"] in obs.vehicles.ids and c["where"] == "lane"
+    assert abs(c["dd_m"]) < road.lane_width / 2 and c["kind"] in ("ran-into", "rear-ended", "side")
+    assert not c["ego_lane"].startswith(":") and c["angle_deg"] < 30
 
 
 def test_ego_two_lanes_away_is_no_collision(sim, road):
@@ -106,6 +111,7 @@ def test_ego_two_lanes_away_is_no_collision(sim, road):
     sim.execute(_jump(road, obs, s1, d1 + 6.4), n_steps=1)
     st = sim.stats
     assert st["sim/collisions"] == 0 and st["end_reason"] is None
+    assert sim.first_collision is None
 
 
 def test_same_seed_same_figures(sim, road):
