@@ -111,9 +111,11 @@ $(BIN)/.docs-installed: pyproject.toml $(BIN)/.installed
 	$(BIN)/pip install -q -e '.[docs]'
 	touch $@
 
-# HTML documentation (README, docs/**/*.md, the API reference from the docstrings) into build/docs; warnings
-# are errors (-W), and -E rebuilds every page so that none is skipped
+# HTML documentation (README, docs/**/*.md, the API reference from the docstrings) into build/docs; first
+# tools/check_docs.py (no paragraph in two pages, no dead link or path), then Sphinx: warnings are errors
+# (-W), and -E rebuilds every page so that none is skipped
 docs: setup $(BIN)/.docs-installed
+	$(BIN)/python tools/check_docs.py
 	$(BIN)/sphinx-build -E -W --keep-going -q -b html docs build/docs
 	@echo "docs: build/docs/index.html"
 
