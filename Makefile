@@ -64,27 +64,27 @@ bench: setup
 	$(IRLSIM) bench --out bench
 
 # how each cost grows with its size (planner, collection, disk, training, inference): bench/growth.{json,md,png}
-# with the log-log slope of every curve (about 10 min on 2 cores; docs/RESULTS.md "How each cost grows")
+# with the log-log slope of every curve (about 10 min on 2 cores; docs/results/growth.md "How each cost grows")
 bench-growth: setup
 	$(IRLSIM) bench --growth --out bench
 
-# the transfer table (docs/RESULTS.md, "One reward, many roads"): five datasets, the zero-shot,
+# the transfer table (docs/results/transfer.md, "One reward, many roads"): five datasets, the zero-shot,
 # leave-one-out (3 training seeds) and in-domain trainings, DAgger on the grid, Table I and the drives
 transfer: setup
 	nice -n 5 $(BIN)/python studies/transfer.py --out runs/transfer --seeds 0 1 2 --episodes 20 \
 		--episodes-single 10 --dagger grid --threads 2 --workers 2
 
-# the paper-scale recipe, old and new side by side (docs/RESULTS.md, "Time to a driving reward"): one dataset,
+# the paper-scale recipe, old and new side by side (docs/results/recipe.md, "Time to a driving reward"): one dataset,
 # each recipe's stage 1 and DAgger rounds for 2 training seeds, timed, then their acceptance drives and Table I
 recipe: setup
 	nice -n 5 $(BIN)/python studies/recipe.py --out runs/recipe --recipes old new --seeds 0 1
 
-# DAgger round sizes chosen by measurement (docs/RESULTS.md, "DAgger round sizes"): after `make recipe`, the
+# DAgger round sizes chosen by measurement (docs/results/recipe.md, "DAgger round sizes"): after `make recipe`, the
 # new recipe's stage 1 with each schedule of rounds, driven on development seeds; the rule picks the cheapest
 rounds: setup
 	nice -n 5 $(BIN)/python studies/rounds.py --out runs/recipe --seeds 0 1 --schedules 6 6,10 6,20 --episodes 20
 
-# "any SUMO network" at scale (docs/SCENARIOS.md, "Sweeps over many networks"): SWEEP_NETWORKS generated
+# "any SUMO network" at scale (docs/guide/sweeps.md, "Sweeps over many networks"): SWEEP_NETWORKS generated
 # networks, 5 random car routes each (the first that loads driven by the expert), then every network of the
 # eclipse-sumo wheel's tools/game/ with 20 routes each; resumable (rerun it after an interruption); estimated
 # at 30-60 min at the default size on 2 cores. Small: make sweep SWEEP_NETWORKS=12
@@ -111,9 +111,11 @@ $(BIN)/.docs-installed: pyproject.toml $(BIN)/.installed
 	$(BIN)/pip install -q -e '.[docs]'
 	touch $@
 
-# HTML documentation (README, docs/*.md, the API reference from the docstrings) into build/docs; warnings
-# are errors (-W), and -E rebuilds every page so that none is skipped
+# HTML documentation (README, docs/**/*.md, the API reference from the docstrings) into build/docs; first
+# tools/check_docs.py (no paragraph in two pages, no dead link or path), then Sphinx: warnings are errors
+# (-W), and -E rebuilds every page so that none is skipped
 docs: setup $(BIN)/.docs-installed
+	$(BIN)/python tools/check_docs.py
 	$(BIN)/sphinx-build -E -W --keep-going -q -b html docs build/docs
 	@echo "docs: build/docs/index.html"
 

@@ -44,7 +44,7 @@ suppress_warnings = ["myst.header"]
 autodoc_default_options = {"member-order": "bysource", "show-inheritance": True}
 autodoc_typehints = "signature"
 autodoc_preserve_defaults = True
-# SUMO, Ray and Gymnasium are imported inside functions (docs/DESIGN.md section 2), so importing the modules
+# SUMO, Ray and Gymnasium are imported inside functions (docs/design/layers.md), so importing the modules
 # for autodoc starts none of them; torch is a runtime dependency and is imported for real.
 
 #: the public API, one page each; packages list every submodule

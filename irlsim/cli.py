@@ -1,5 +1,5 @@
-"""The ``irlsim`` console script: the top of the layering, above ``pipelines`` (see docs/DESIGN.md
-section 2). The command table and argument handling are :mod:`pipelines.commands`."""
+"""The ``irlsim`` console script: the top of the layering, above ``pipelines`` (see
+docs/design/layers.md). The command table and argument handling are :mod:`pipelines.commands`."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``irlsim bench``: the performance figures of docs/DESIGN.md section 9, as JSON and Markdown.
+"""``irlsim bench``: the performance figures of docs/design/performance.md, as JSON and Markdown.
 
 Each section is selected by its flag (``--planner``, ``--collect``, ``--infer``, ``--env``, ``--scale``);
 without a section flag every section runs (:func:`irlsim.bench.report.run_benchmarks`). Everything runs
@@ -26,7 +26,7 @@ from irlsim.bench.report import SECTIONS, BenchRun, run_benchmarks  # noqa: E402
 from irlsim.config import MAX_SEED, int_in  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
 
-HELP = "time the planner cycle, collection and inference (docs/DESIGN.md section 9); write JSON and Markdown"
+HELP = "time the planner cycle, collection and inference (docs/design/performance.md); write JSON, Markdown"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

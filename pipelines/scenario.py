@@ -36,7 +36,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         sub,
         "generate",
         "generate SUMO networks to sweep (grid, spider, random; 1-4 lanes, 30-130 km/h, signals or priority, "
-        "left-turn lanes, sidewalks and bike lanes), the same bytes per seed (docs/SCENARIOS.md)",
+        "left-turn lanes, sidewalks and bike lanes), the same bytes per seed (docs/guide/sweeps.md)",
     )
     p.add_argument("--count", type=int_in(1), required=True, help="networks to generate")
     p.add_argument(
@@ -74,7 +74,7 @@ def _add_sweep(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-ar
         "sweep",
         "draw random car routes on a network or a folder of them, load each as a scenario and let the expert "
         "drive the first that load: routes loaded, refused by reason, driven within the safety bounds, "
-        "crashes (sweep.md, sweep.json, routes.csv); resumable (docs/SCENARIOS.md)",
+        "crashes (sweep.md, sweep.json, routes.csv); resumable (docs/guide/sweeps.md)",
     )
     p.add_argument("source", type=Path, help="a SUMO network (.net.xml, .net.xml.gz) or a folder of them")
     p.add_argument("--routes", type=int_in(1), required=True, help="routes drawn per network")

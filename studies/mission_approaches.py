@@ -9,7 +9,7 @@ the planning cycles in the band, how many of them the ego is off the required la
 it is off the lane at more than 10 m/s (an approach at speed in the wrong lane, what a learned driver that
 keeps its lane too long reaches). The checkpoints (route position, required lane) come from the road
 network; the remaining distance from the cycles table (``ego_s``, ``target_checkpoint``). See
-docs/RESULTS.md "DAgger: the paper-scale mission": a cycle the demonstrator never drives is a state no
+docs/results/dagger.md "DAgger: the paper-scale mission": a cycle the demonstrator never drives is a state no
 demonstration covers, which is what DAgger (``irlsim dagger``) adds.
 
 With ``--model`` (a stage-1 checkpoint) the table also has the model's theta on those cycles (one

@@ -1,9 +1,9 @@
-"""The temporal-attention study (docs/RESULTS.md, "The temporal network study").
+"""The temporal-attention study (docs/results/temporal-attention.md, "The temporal network study").
 
 Trains PTACNN+S in stage 2 with every configuration below on ONE frozen stage-1 PACNN+S (stage 2 is
 cheap), evaluates each on the VALIDATION split (with that stage-1 model's H-mean row beside it), and
 writes the table of validation figures. The default is then chosen by validation OPD and reported on
-test separately (docs/RESULTS.md gives the commands). Run from the repository root:
+test separately (docs/results/temporal-attention.md gives the commands). Run from the repository root:
 
     nice -n 5 .venv/bin/python studies/temporal_attention.py --data data/default \\
         --base runs/default/stage1 --out runs/study [--only NAME ...]

@@ -5,8 +5,8 @@ with timers around the cache's hashing at its build (``write_cache_meta``) and i
     python tools/cache_check_cost.py DATA CONFIG RUNS [--set KEY=VALUE ...]
 
 The first run starts without a cache (built and hashed), the second verifies it as a new process would.
-DATA's ``.cache`` and RUNS are deleted first. Prints one line per run (docs/RESULTS.md, "What verifying
-the caches costs").
+DATA's ``.cache`` and RUNS are deleted first. Prints one line per run
+(docs/results/speed-memory.md, "What verifying the caches costs").
 """
 
 from __future__ import annotations

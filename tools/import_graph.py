@@ -1,6 +1,6 @@
 """Draw irlsim's import graph as built: the layers of the import-linter layers contract in
 ``pyproject.toml``, top to bottom, and an arc for every package that imports another
-(docs/img/import_graph.svg, shown in docs/DESIGN.md section 2).
+(docs/img/import_graph.svg, shown in docs/design/layers.md).
 
 The graph comes from grimp (installed with import-linter), which reads every import statement, those
 inside functions included. An arc from A to B means that some module under A imports some module under B;

@@ -1,4 +1,4 @@
-"""The benchmarks of ``irlsim bench`` (docs/DESIGN.md section 9): measured, never asserted.
+"""The benchmarks of ``irlsim bench`` (docs/design/performance.md): measured, never asserted.
 
 - :mod:`irlsim.bench.report`: :func:`~irlsim.bench.report.run_benchmarks` with
   :class:`~irlsim.bench.report.BenchRun`, the sections, bench.md;

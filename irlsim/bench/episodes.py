@@ -1,4 +1,4 @@
-"""Benchmarks of collection, inference and the Gymnasium env (docs/DESIGN.md section 9).
+"""Benchmarks of collection, inference and the Gymnasium env (docs/design/performance.md).
 
 Measured, never asserted: ``irlsim bench --collect`` / ``--infer`` write the figures to ``bench/``.
 """

@@ -1,4 +1,4 @@
-"""Benchmark of the planner cycle (docs/DESIGN.md section 9; ``irlsim bench --planner``): synthetic cycles
+"""Benchmark of the planner cycle (docs/design/performance.md; ``irlsim bench --planner``): synthetic cycles
 on the real road. Measured, never asserted."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """``irlsim bench`` as a library: :func:`run_benchmarks` with :class:`BenchRun`, the figures of
-docs/DESIGN.md section 9 as JSON and Markdown.
+docs/design/performance.md as JSON and Markdown.
 
 Each section is a function ``(BenchRun) -> dict`` registered in :data:`SECTIONS`: ``planner``
 (:mod:`irlsim.bench.planner`), ``collect``, ``infer``, ``env`` (:mod:`irlsim.bench.episodes`) and
@@ -46,7 +46,7 @@ class BenchRun:
     """the road of the planner section (a shipped scenario or a scenario.toml path)"""
 
 
-#: docs/DESIGN.md section 9 targets, per section: (metric key, comparison, value, unit)
+#: docs/design/performance.md targets, per section: (metric key, comparison, value, unit)
 TARGETS: dict[str, tuple[str, str, float, str]] = {
     "planner": ("median_ms", "<=", 5.0, "ms"),
     "collect": ("cycles_per_s_per_worker_with_2", ">=", 25.0, "cycles/s"),

@@ -1,4 +1,5 @@
-"""Datasets on disk (Parquet): demonstrations, schema, writer, reader, summary (docs/DESIGN.md sections 5-6).
+"""Datasets on disk (Parquet): demonstrations, schema, writer, reader, summary
+(docs/design/demonstrations.md and docs/design/data.md).
 
 Public API: ``policy_distance``, ``DemoProjector`` (demos); ``EpisodeWriter``, ``episode_done``,
 ``write_manifest`` (writer); ``open_dataset``, ``Dataset``, ``SplitTensors`` (reader);

@@ -52,7 +52,7 @@ MAX_DAGGER_ROUND = (SEED_STRIDE - DAGGER_OFFSET) // DAGGER_ROUND_STRIDE
 
 @dataclass(frozen=True)
 class DemoConfig:
-    """Projection of the odometry onto the policy set (docs/DESIGN.md section 5)."""
+    """Projection of the odometry onto the policy set (docs/design/demonstrations.md)."""
 
     alpha: float = ALPHA
     """discount per 0.1 s step of the distance's time weights alpha^t"""

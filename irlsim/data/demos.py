@@ -1,4 +1,4 @@
-"""Demonstrations: project the driven odometry onto each cycle's policy set (docs/DESIGN.md section 5).
+"""Demonstrations: project the driven odometry onto each cycle's policy set (docs/design/demonstrations.md).
 
 At planning cycle k (time t_k) the demonstration window zeta_k is the odometry over [t_k, t_k + horizon],
 sampled on the planner's time grid (T = round(horizon / dt) + 1 states, t = 0 is now). The distance of a
@@ -44,7 +44,7 @@ def safe_demo_index(
     without having stood (``stop_line`` [C, N], the stop_line feature; > 0 breaks it; None = not
     checked).
 
-    Why (docs/RESULTS.md, "Closed loop"): the demonstrator never collided and stood at every stop line, but
+    Why (docs/results/closed-loop-fixes.md): the demonstrator never collided and stood at every stop line, but
     the odometry's closest sampled policy need not: near a standing vehicle it can carry the collision
     label of the planner's prediction, and in the last metres before a stop line, where the expert
     brakes to a standstill, it can be a policy that creeps over the line at 0.3-3 m/s. Such a

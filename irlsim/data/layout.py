@@ -1,5 +1,5 @@
 """The dataset's layout on disk: split folders, each episode's pair of Parquet files and figures, whether
-an episode is complete, removing partial ones, and the manifest (docs/DESIGN.md section 6).
+an episode is complete, removing partial ones, and the manifest (docs/design/data.md).
 :class:`~irlsim.data.writer.EpisodeWriter` writes the episodes themselves."""
 
 from __future__ import annotations

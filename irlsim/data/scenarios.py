@@ -4,7 +4,7 @@ selections of scenarios (``--scenario-select``) with what identifies the selecte
 A dataset over several scenarios (collect config ``[[scenarios]]``) records ``scenarios`` {name: sha256
 of its scenario file and network} and ``episode_scenarios`` {split: {episode: name}}; a dataset of one
 scenario other than the oval records ``scenarios`` alone, and an oval dataset neither (its scenario is
-its config's ``scenario.name``, absent for the oval). See docs/SCENARIOS.md.
+its config's ``scenario.name``, absent for the oval). See docs/guide/scenarios.md.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Parquet schemas of a dataset (docs/DESIGN.md section 6).
+"""Parquet schemas of a dataset (docs/design/data.md).
 
 A dataset folder holds ``manifest.json`` and, per split and episode, two Parquet files:
 
@@ -37,7 +37,7 @@ from irlsim.errors import IrlsimError
 
 #: bump when a column is added, removed or changes meaning; readers refuse other versions
 SCHEMA_VERSION = 2
-#: control points per policy (docs/DESIGN.md section 4)
+#: control points per policy (docs/design/planner.md)
 N_CONTROL_POINTS = 10
 #: whole planning cycles per Parquet row group (policies: this x N rows; ~40 MB uncompressed at N=2,500)
 CYCLES_PER_ROW_GROUP = 64

@@ -1,4 +1,4 @@
-"""Write a dataset: one pair of Parquet files per episode, and the manifest (docs/DESIGN.md section 6).
+"""Write a dataset: one pair of Parquet files per episode, and the manifest (docs/design/data.md).
 
 Collection drives an ``EpisodeWriter`` together with a ``DemoProjector``::
 

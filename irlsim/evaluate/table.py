@@ -1,7 +1,7 @@
 """Evaluation: Table I of the paper (model, trainable parameters, EVD, ED, OPD, DEMO) and plots.
 
-Protocol (docs/DESIGN.md section 5): on the sequential test split every model may use cycles <= t for cycle
-t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
+Protocol (docs/design/demonstrations.md): on the sequential test split every model may use cycles <= t for
+cycle t; stage-1 models use the mean of their last H predicted thetas within the episode, PTACNN(+S) its
 temporal mixture over the H-cycle history ending at t. PTACNN's H is fixed by its weights (one softmax
 weight per history entry), so every row uses that H; asking for another is refused. Metrics are
 averaged over cycles that have a demonstration. References: each model's OPD at its initial weights

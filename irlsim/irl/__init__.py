@@ -1,4 +1,5 @@
-"""Path-integral maximum-entropy IRL: the training objective and the metrics (docs/DESIGN.md section 5)."""
+"""Path-integral maximum-entropy IRL: the training objective and the metrics
+(docs/design/demonstrations.md)."""
 
 from irlsim.irl.objectives import (
     attention_loss,

@@ -1,4 +1,5 @@
-"""Path-integral maximum-entropy IRL objective and metrics (docs/DESIGN.md section 5), batched over cycles.
+"""Path-integral maximum-entropy IRL objective and metrics (docs/design/demonstrations.md), batched over
+cycles.
 
 Notation, per planning cycle with N policies (sorted by progress) and 15 path-integral feature costs:
 
@@ -7,7 +8,8 @@ Notation, per planning cycle with N policies (sorted by progress) and 15 path-in
     NLL           = theta^T f^D + logsumexp_pi(-theta^T f^pi)   gradient in theta: f^D - E_p[f]
 
 The paper's Eq. 3, E_p[f] - f^D, is the gradient of the log-likelihood L = -NLL (which it ascends);
-minimising the NLL is the same update (docs/DESIGN.md section 5; the original brief had the sign slipped).
+minimising the NLL is the same update (docs/design/demonstrations.md; the original brief had the sign
+slipped).
     EVD           = |E_p[V] - V(pi^D)| / |V(pi^D)|
     ED            = E_p[d(zeta, pi)]        OPD = d(zeta, argmax_pi V)      DEMO = d(zeta, pi^D)
 
@@ -81,7 +83,8 @@ def sampled_nll(
     The sample holds the demonstration always and m = min(n_sample, N) - 1 of the other N - 1 policies,
     drawn uniformly without replacement, each importance-weighted by (N - 1) / m:
     Z_hat = exp(V(pi^D)) + (N - 1) / m * sum_{j in sample} exp(V(j)), so E[Z_hat] = Z (unbiased);
-    log Z_hat, and so the NLL, is biased low by Jensen's inequality (measured in docs/RESULTS.md). With
+    log Z_hat, and so the NLL, is biased low by Jensen's inequality (measured in
+    docs/results/throughput.md). With
     n_sample >= N the sample is the whole set, every weight is 1 and the value is exactly :func:`nll`'s
     (up to float summation order). Only the sampled policies' values are computed.
     """

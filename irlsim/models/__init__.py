@@ -1,4 +1,4 @@
-"""Reward networks (PyTorch): LIRL, 1DCNN, Bi1DCNN, PACNN(+S), PTACNN(+S); see docs/DESIGN.md section 7."""
+"""Reward networks (PyTorch): LIRL, 1DCNN, Bi1DCNN, PACNN(+S), PTACNN(+S); see docs/design/models.md."""
 
 from irlsim.models.networks import LIRL, PACNN, PTACNN, Bi1DCNN, Conv1DCNN, RewardModel
 from irlsim.models.normalization import FeatureStats, compute_feature_stats

@@ -98,7 +98,8 @@ class PolicyEncoder(nn.Module):
     function with the same weights on the policy-major [B, N, D] layout: each conv is one matrix product
     of the policy's stacked neighbours [B * N, kernel * D] with the reshaped kernel, the pooling a sum over
     reshaped groups. Equal to the conv path up to float rounding (the summation order differs). Measured
-    slower than oneDNN's Conv1d on the 2-core AVX512 CPU of docs/RESULTS.md ("Training throughput": x0.85
+    slower than oneDNN's Conv1d on the 2-core AVX512 CPU of
+    docs/results/throughput.md ("Training throughput": x0.85
     of the work per cycle); kept for ``irlsim bench --train-throughput`` on other hardware.
     """
 

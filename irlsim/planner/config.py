@@ -130,7 +130,7 @@ class PlannerConfig:
     instant the simulator checks the lane (0 = off: the path integral alone, the paper's feature). Without
     it a lane change started 15-20 m before the checkpoint costs almost nothing (urgency is 0 past it) and
     learned rewards leave the required lane just too early: PACNN+S met 22/40 checkpoints in lane on the
-    development seeds without it, 40/40 with it (docs/RESULTS.md, "Closed loop: what failed")"""
+    development seeds without it, 40/40 with it (docs/results/closed-loop-fixes.md)"""
     progress_lookahead: float = 200.0
     """[m] progress measures the distance to a goal this far beyond the target checkpoint"""
 

@@ -60,7 +60,7 @@ THETA_EXPERT_DICT: dict[str, float] = {
     "stop_line": 100.0,
     "lc_delay": 1.0,
     "lat_overshoot": 10.0,
-    "proximity": 30.0,  # with the overlap term, argmax V alone avoids most collisions (docs/RESULTS.md)
+    "proximity": 30.0,  # with the overlap term, argmax V alone avoids most collisions (docs/HISTORY.md)
 }
 THETA_EXPERT = np.array([THETA_EXPERT_DICT[n] for n in FEATURE_NAMES], dtype=np.float64)
 

@@ -181,7 +181,7 @@ def scenario_path(spec: str | Path) -> Path:
         return p
     raise IrlsimError(
         f"scenario '{text}' not found: name a shipped one ({', '.join(shipped_scenarios())}) or the path of "
-        f"a {SCENARIO_FILE} (see docs/SCENARIOS.md)"
+        f"a {SCENARIO_FILE} (see docs/guide/scenarios.md)"
     )
 
 

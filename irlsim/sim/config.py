@@ -9,7 +9,7 @@ from irlsim.config import from_dict, require
 from irlsim.errors import IrlsimError
 from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
 
-MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/DESIGN.md section 3)
+MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/design/scenario.md)
 
 
 @dataclass(frozen=True)

@@ -113,7 +113,8 @@ class Stage1Config(TrainConfig):
     encoder_layout: str = field(default="channels_first", metadata=_IF_SET)
     """memory layout of the policy encoder's computation: 'channels_first' (torch's Conv1d on the
     transposed [B, D, N] batch) or 'channels_last' (the same convs as matrix products on the policy-major
-    [B, N, D] batch; measured slower on the 2-core CPU of docs/RESULTS.md, an option for other hardware);
+    [B, N, D] batch; measured slower on the 2-core CPU of docs/results/throughput.md, an option for other
+    hardware);
     same weights and function, the bytes differ by float rounding (irlsim.models.networks.PolicyEncoder).
     Inference always uses the default"""
     lr_schedule: str = field(default="constant", metadata=_IF_SET)

@@ -46,7 +46,7 @@ CHECK_COLUMNS = (
 
 
 def check_markdown(acc: Acceptance, name: str) -> str:
-    """The acceptance as the Markdown table of docs/SCENARIOS.md, with the verdict."""
+    """The acceptance as the Markdown table of docs/results/scenarios.md, with the verdict."""
     e, s = acc.expert, acc.sumo
     seeds = f"{acc.seeds[0]}-{acc.seeds[-1]}" if len(acc.seeds) > 1 else str(acc.seeds[0])
     stops = f"{int(e['stops_compliant'])}/{int(e['stops_passed'])}" if e["stops_passed"] else "-"

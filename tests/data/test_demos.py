@@ -1,4 +1,4 @@
-"""Distance to the demonstration and its streaming projection (docs/DESIGN.md section 5)."""
+"""Distance to the demonstration and its streaming projection (docs/design/demonstrations.md)."""
 
 from __future__ import annotations
 

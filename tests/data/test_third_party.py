@@ -1,4 +1,4 @@
-"""A dataset opened without irlsim: the guide's DuckDB queries (docs/GUIDE.md, "Data"), and the ways a
+"""A dataset opened without irlsim: the guide's DuckDB queries (docs/guide/data.md), and the ways a
 split folder is read by DuckDB, polars, pyarrow and pandas.
 
 A split folder holds two tables (cycles and policies files, two schemas) and each episode's
@@ -21,16 +21,13 @@ import pytest
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.reader import fixed_list_to_numpy, open_dataset
 
-GUIDE = Path(__file__).resolve().parents[2] / "docs" / "GUIDE.md"
+GUIDE = Path(__file__).resolve().parents[2] / "docs" / "guide" / "data.md"
 
 
 def _guide_queries() -> list[str]:
-    """The SQL statements of the guide's "Data" section, comments dropped."""
-    text = GUIDE.read_text()
-    section = text[text.index("\n## Data\n") :]
-    section = section[: section.index("\n## ", 1)]
-    blocks = re.findall(r"```sql\n(.*?)```", section, flags=re.S)
-    assert len(blocks) == 1, "expected one SQL block in docs/GUIDE.md's Data section"
+    """The SQL statements of the guide's page on data, comments dropped."""
+    blocks = re.findall(r"```sql\n(.*?)```", GUIDE.read_text(), flags=re.S)
+    assert len(blocks) == 1, "expected one SQL block in docs/guide/data.md"
     lines = [line for line in blocks[0].splitlines() if not line.lstrip().startswith("--")]
     return [q.strip() for q in "\n".join(lines).split(";") if q.strip()]
 

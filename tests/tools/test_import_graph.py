@@ -1,4 +1,4 @@
-"""The committed import-graph drawing (docs/img/import_graph.svg, docs/DESIGN.md section 2) is the one the
+"""The committed import-graph drawing (docs/img/import_graph.svg, docs/design/layers.md) is the one the
 code draws now: adding or removing an import edge between irlsim's layers, or changing the layers contract,
 without running ``python tools/import_graph.py`` fails here."""
 
