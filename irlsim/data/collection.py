@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
+from irlsim.data.demonstrator import EXPERT, DemonstratorConfig, SumoDemonstrator, demo_vtype
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
@@ -109,6 +110,8 @@ class CollectConfig:
     """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
     demo: DemoConfig = field(default_factory=DemoConfig)
     """demonstration projection"""
+    demonstrator: DemonstratorConfig = field(default_factory=DemonstratorConfig)
+    """who drives (irlsim.data.demonstrator): the expert (default) or SUMO's driver models"""
     scenarios: tuple[ScenarioEpisodes, ...] = ()
     """a dataset over several scenarios: ``[[scenarios]]`` tables ``{name, train_episodes,
     validation_episodes, test_episodes}``; each split's episodes are numbered over the list in order (the
@@ -172,6 +175,11 @@ class CollectConfig:
             "planner.horizon must equal scenario.horizon",
         )
         self.demo.validate()
+        self.demonstrator.validate()
+        require(
+            not self.dagger_round or self.demonstrator.kind == EXPERT,
+            "DAgger rounds label with the expert: drop [demonstrator] (or set kind = 'expert')",
+        )
         require_memory(
             f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
             self.workers * self.planner.n_policies * PLANNER_BYTES_PER_POLICY,
@@ -262,11 +270,14 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     if isinstance(scn, dict) and scn.get("name") == DEFAULT_SCENARIO:
         # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
         d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
-    # dagger_round 0 and no [[scenarios]] are left out: a manifest keeps its bytes (and identity) of before
+    # dagger_round 0, no [[scenarios]] and the expert as demonstrator are left out: a manifest keeps its
+    # bytes (and identity) of before
     return {
         k: v
         for k, v in d.items()
-        if k not in DATA_NEUTRAL_FIELDS and (k, v) not in (("dagger_round", 0), ("scenarios", []))
+        if k not in DATA_NEUTRAL_FIELDS
+        and (k, v) not in (("dagger_round", 0), ("scenarios", []))
+        and not (k == "demonstrator" and (v or {}).get("kind", EXPERT) == EXPERT)
     }
 
 
@@ -392,9 +403,11 @@ class CycleRecorder(ObserverBase):
             return
         self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
         # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
-        # time-out) must not complete a demonstration window with states that were never driven
+        # time-out) must not complete a demonstration window with states that were never driven; where
+        # SUMO drove (a SUMO demonstrator) the states are the simulation's odometry
+        driven = sim.odometry[len(sim.odometry) - cycle.driven :] if traj.by_sumo else None
         for j in range(1, cycle.driven + 1):
-            st = traj.state(j)
+            st = traj.state(j) if driven is None else driven[j - 1]
             self.projector.push_odometry(st.t, st.s, st.d, st.yaw)
         self.writer.add_demos(self.projector.pop_ready())
 
@@ -426,7 +439,13 @@ def collect_episode(
     seed_everything(job.seed)
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
     road = load_road(scenario=scenario.name)
-    driver: Any = ExpertDriver(road, cfg.planner) if make_driver is None else make_driver(road, cfg)
+    demonstrator = cfg.demonstrator
+    if make_driver is not None:
+        driver: Any = make_driver(road, cfg)
+    elif demonstrator.kind == EXPERT:
+        driver = ExpertDriver(road, cfg.planner)
+    else:
+        driver = SumoDemonstrator(road, cfg.planner, scenario)
     labeller = driver if make_driver is not None else None
     projector = DemoProjector(
         lap_length=road.lap_length,
@@ -445,7 +464,7 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with Simulation(road, scenario) as sim:
+    with Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
         record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder = CycleRecorder(writer, projector, labeller)
