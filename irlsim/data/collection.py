@@ -32,9 +32,12 @@ from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
+from irlsim.rollout.style import StyleObserver
 from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
+from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
+from irlsim.utils import first_difference as first_difference
 from irlsim.utils import seed_everything, write_json
 
 SPLITS = ("train", "validation", "test")
@@ -299,15 +302,6 @@ def episode_record(
     return out
 
 
-class _Missing:
-    def __repr__(self) -> str:
-        return "(not set)"
-
-
-#: stands for a key one of two configs lacks
-MISSING: Any = _Missing()
-
-
 def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
     """Whether two recorded DAgger drivers (manifest ``driver``: model, checkpoint path, sha256, the
     dataset it was trained on) are the same by content: model and checkpoint sha256, never the path, so a
@@ -315,18 +309,6 @@ def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
     if old is None or new is None:
         return old is new
     return (old.get("model"), old.get("sha256")) == (new.get("model"), new.get("sha256"))
-
-
-def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
-    """The first dotted key whose value differs between two nested dicts, with both values (a key
-    missing on one side gives ``MISSING`` there), or None when they are equal."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        for key in [*new, *(k for k in old if k not in new)]:
-            diff = first_difference(old.get(key, MISSING), new.get(key, MISSING), f"{prefix}{key}.")
-            if diff is not None:
-                return diff
-        return None
-    return None if old == new else (prefix.rstrip("."), old, new)
 
 
 @dataclass(frozen=True)
@@ -467,13 +449,13 @@ def collect_episode(
     with Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
         record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
-            recorder = CycleRecorder(writer, projector, labeller)
+            recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()
             runner = EpisodeRunner(
-                sim, observers=[_SetupClock(), recorder, *observers], max_cycles=cfg.max_cycles
+                sim, observers=[_SetupClock(), recorder, style, *observers], max_cycles=cfg.max_cycles
             )
             result = runner.run(driver, job.seed)
     n_cycles = result.cycles
-    stats = dict(result.stats)
+    stats = {**result.stats, **style.summary()}  # the demonstrator's style (irlsim.rollout.style)
     # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
     wall = time.perf_counter() - t_start
     stats.update(
