@@ -13,6 +13,7 @@ the same rules and distances whoever drives).
 from __future__ import annotations
 
 import hashlib
+import math
 import tempfile
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -28,6 +29,8 @@ from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_attributes
 
+#: SUMO's models of a vType that names none (sumo.dlr.de, "Vehicle Type Parameter Defaults")
+SUMO_DEFAULT_MODELS = {"carFollowModel": "Krauss", "laneChangeModel": "LC2013"}
 EXPERT = "expert"
 SUMO = "sumo"
 KINDS = (EXPERT, SUMO)
@@ -39,10 +42,12 @@ class DemonstratorConfig:
 
     kind: str = EXPERT
     """'expert' (irlsim's expert) or 'sumo' (SUMO's driver models)"""
-    car_follow_model: str = "Krauss"
-    """kind 'sumo': SUMO's carFollowModel (Krauss, IDM, EIDM, ACC, CACC, ...; SUMO decides)"""
-    lane_change_model: str = "LC2013"
-    """kind 'sumo': SUMO's laneChangeModel (LC2013, SL2015, ...)"""
+    car_follow_model: str = ""
+    """kind 'sumo': SUMO's carFollowModel (Krauss, IDM, EIDM, ACC, CACC, ...; SUMO decides); empty:
+    ``vtype_file``'s, else SUMO's default, Krauss"""
+    lane_change_model: str = ""
+    """kind 'sumo': SUMO's laneChangeModel (LC2013, SL2015, ...); empty: ``vtype_file``'s, else SUMO's
+    default, LC2013"""
     params: dict[str, Any] = field(default_factory=dict)
     """kind 'sumo': vType attributes over irlsim's ego type, e.g. {tau = 1.5, accel = 2.0} (SI units as
     SUMO takes them: s, m/s^2, m)"""
@@ -63,9 +68,9 @@ class DemonstratorConfig:
 
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
-        base = read_vtype_file(self.vtype_file) if self.vtype_file else {}
-        models = dict(zip(MODEL_KEYS, (self.car_follow_model, self.lane_change_model), strict=True))
-        return {**base, **models, **self.params}
+        base = {**SUMO_DEFAULT_MODELS, **(read_vtype_file(self.vtype_file) if self.vtype_file else {})}
+        models = zip(MODEL_KEYS, (self.car_follow_model, self.lane_change_model), strict=True)
+        return {**base, **{k: v for k, v in models if v}, **self.params}
 
 
 def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig, dict[str, Any]]:
@@ -78,7 +83,7 @@ def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig
     attrs = cfg.attributes()
     with tempfile.TemporaryDirectory(prefix="irlsim-check-") as tmp:
         check_vtype(net_file, vtype_attributes(attrs, 1.0), Path(tmp))
-    params = {k: v for k, v in attrs.items() if k not in MODEL_KEYS}
+    params = {k: _canonical(v) for k, v in attrs.items() if k not in MODEL_KEYS}
     out = replace(
         cfg,
         car_follow_model=str(attrs["carFollowModel"]),
@@ -96,6 +101,18 @@ def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig
         data = Path(cfg.vtype_file).read_bytes()
         record["vtype_file"] = {"path": str(cfg.vtype_file), "sha256": hashlib.sha256(data).hexdigest()}
     return out, record
+
+
+def _canonical(value: Any) -> Any:
+    """A vType attribute as recorded: a number (TOML's or a file's text) as a float, other text as it
+    is; so ``tau = 1.5`` in the config and ``tau="1.5"`` in a vType file are the same demonstrator."""
+    if isinstance(value, bool):
+        return value
+    try:
+        x = float(value)
+    except ValueError:
+        return value
+    return x if math.isfinite(x) else value
 
 
 def describe(record: dict[str, Any] | None) -> str:

@@ -82,23 +82,29 @@ def read_vtype_file(path: str | Path) -> dict[str, str]:
 
 def check_vtype(net_file: Path, attrs: dict[str, str], workdir: Path) -> None:
     """Ask SUMO whether the vType ``attrs`` is valid: load it with ``net_file`` (no step) in the sumo
-    binary with schema validation; SUMO's first error as one line naming the fix."""
+    binary, first by SUMO's own parser (its errors name the model or attribute), then with schema
+    validation (attributes SUMO does not know); SUMO's first error as one line naming the fix."""
     path = workdir / "demonstrator.add.xml"
     path.write_text(vtype_xml(attrs))
     cmd = [sumo_binary("sumo"), "-n", str(net_file), "-a", str(path), "--begin", "0", "--end", "0"]
-    cmd += ["--no-step-log", "true", "--xml-validation", "always", "--xml-validation.net", "never"]
+    cmd += ["--no-step-log", "true", "--xml-validation.net", "never", "--xml-validation"]
     env = {**os.environ, "SUMO_HOME": sumo_home()}
-    try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=CHECK_TIMEOUT_S, env=env)
-    except subprocess.TimeoutExpired:
-        raise IrlsimError(f"SUMO took over {CHECK_TIMEOUT_S:g} s to load the demonstrator's vType") from None
-    errors = [ln for ln in (res.stderr + res.stdout).splitlines() if ln.startswith("Error:")]
-    if res.returncode != 0 or errors:
-        why = errors[0][len("Error:") :].strip() if errors else f"exit status {res.returncode}"
-        raise IrlsimError(
-            f"SUMO refuses the demonstrator's vehicle type ({why}): fix [demonstrator] (models: SUMO's "
-            "carFollowModel / laneChangeModel names; params: vType attributes)"
-        )
+    for validation in ("never", "always"):
+        try:
+            res = subprocess.run(
+                [*cmd, validation], capture_output=True, text=True, timeout=CHECK_TIMEOUT_S, env=env
+            )
+        except subprocess.TimeoutExpired:
+            raise IrlsimError(
+                f"SUMO took over {CHECK_TIMEOUT_S:g} s to load the demonstrator's vType"
+            ) from None
+        errors = [ln for ln in (res.stderr + res.stdout).splitlines() if ln.startswith("Error:")]
+        if res.returncode != 0 or errors:
+            why = errors[0][len("Error:") :].strip() if errors else f"exit status {res.returncode}"
+            raise IrlsimError(
+                f"SUMO refuses the demonstrator's vehicle type ({why}): fix [demonstrator] (models: SUMO's "
+                "carFollowModel / laneChangeModel names; params: vType attributes)"
+            )
 
 
 class DemoTypeFile:
