@@ -124,8 +124,8 @@ def test_resume_as_another_demonstrator_is_refused(sumo_sets, capsys, section):
     err = capsys.readouterr().err.strip().splitlines()
     now = "sumo Krauss/LC2013 {accel=2.6,tau=1.0}" if section else "expert"
     assert err == [
-        f"irlsim: error: {outs['idm']} was collected with demonstrator sumo IDM/LC2013 {{accel=2.0,tau=1.5}}, "
-        f"this config has {now}: choose another --out or delete {outs['idm']}"
+        f"irlsim: error: {outs['idm']} was collected with demonstrator sumo IDM/LC2013 "
+        f"{{accel=2.0,tau=1.5}}, this config has {now}: choose another --out or delete {outs['idm']}"
     ]
     assert (outs["idm"] / "manifest.json").read_bytes() == before
 
@@ -170,3 +170,13 @@ def test_an_aggregate_of_several_demonstrators_names_each(sumo_sets):
         "sumo Krauss/LC2013 {accel=2.6,tau=1.0}",
     ]
     assert len(agg.split_tensors("train").demo_index) == 60
+
+
+def test_the_guides_sumo_config_loads():
+    from irlsim.config import load_config
+    from irlsim.data.collection import CollectConfig
+
+    cfg = load_config(CollectConfig, Path(__file__).resolve().parents[2] / "configs/collect/sumo_idm.toml")
+    cfg.validate()
+    assert (cfg.demonstrator.kind, cfg.demonstrator.car_follow_model) == ("sumo", "IDM")
+    assert cfg.demonstrator.lane_change_model == "SL2015" and cfg.demonstrator.params["tau"] == 1.5
