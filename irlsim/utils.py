@@ -270,3 +270,24 @@ def answers_http2(host: str, port: int, timeout: float) -> bool:
         except TimeoutError:
             return False
         return len(head) == 9 and head[3] == 4  # a SETTINGS frame
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "(not set)"
+
+
+#: stands for a key one of two configs lacks
+MISSING: Any = _Missing()
+
+
+def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
+    """The first dotted key whose value differs between two nested dicts, with both values (a key
+    missing on one side gives ``MISSING`` there), or None when they are equal."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        for key in [*new, *(k for k in old if k not in new)]:
+            diff = first_difference(old.get(key, MISSING), new.get(key, MISSING), f"{prefix}{key}.")
+            if diff is not None:
+                return diff
+        return None
+    return None if old == new else (prefix.rstrip("."), old, new)

@@ -25,7 +25,9 @@ folder, or one named by a relative path, is the same dataset. Its manifest's ``s
 episode seeds per split, so a checkpoint trained on it records them (``irlsim drive`` refuses them). An
 identity written before (a hash of the aggregate's manifest with the paths as typed) is still accepted
 (``legacy_identities``). The folders must share the schema, the features and the planner
-(the policies and features mean the same) and may differ in everything else (seeds, counts, DAgger round).
+(the policies and features mean the same) and may differ in everything else (seeds, counts, DAgger round,
+demonstrator). Folders of other demonstrators than the expert are never taken for the first folder's: the
+manifest then names every folder's demonstrator (``demonstrators``, in folder order).
 """
 
 from __future__ import annotations
@@ -38,6 +40,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from irlsim.data.demonstrator import EXPERT, describe
 from irlsim.data.npy import RowConcat
 from irlsim.data.prune import prune_caches
 from irlsim.data.reader import Dataset, open_dataset
@@ -95,6 +98,9 @@ class AggregateDataset:
             "splits": {s: self._ids(s) for s in splits},
             "complete": True,
         }
+        who = [describe(d.manifest.get("demonstrator")) for d in datasets]
+        if any(w != EXPERT for w in who):  # each folder's demonstrator named (the expert's alone: as before)
+            self.manifest["demonstrators"] = who
         #: what identified an aggregate before: its manifest as written above, the paths as typed
         self.legacy_identities = (manifest_identity(self.manifest),)
         self.identity = aggregate_identity(self.identities)

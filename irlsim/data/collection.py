@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
+from irlsim.data.demonstrator import EXPERT, DemonstratorConfig, SumoDemonstrator, demo_vtype
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
@@ -31,9 +32,12 @@ from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
+from irlsim.rollout.style import StyleObserver
 from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
+from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
+from irlsim.utils import first_difference as first_difference
 from irlsim.utils import seed_everything, write_json
 
 SPLITS = ("train", "validation", "test")
@@ -109,6 +113,8 @@ class CollectConfig:
     """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
     demo: DemoConfig = field(default_factory=DemoConfig)
     """demonstration projection"""
+    demonstrator: DemonstratorConfig = field(default_factory=DemonstratorConfig)
+    """who drives (irlsim.data.demonstrator): the expert (default) or SUMO's driver models"""
     scenarios: tuple[ScenarioEpisodes, ...] = ()
     """a dataset over several scenarios: ``[[scenarios]]`` tables ``{name, train_episodes,
     validation_episodes, test_episodes}``; each split's episodes are numbered over the list in order (the
@@ -172,6 +178,11 @@ class CollectConfig:
             "planner.horizon must equal scenario.horizon",
         )
         self.demo.validate()
+        self.demonstrator.validate()
+        require(
+            not self.dagger_round or self.demonstrator.kind == EXPERT,
+            "DAgger rounds label with the expert: drop [demonstrator] (or set kind = 'expert')",
+        )
         require_memory(
             f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
             self.workers * self.planner.n_policies * PLANNER_BYTES_PER_POLICY,
@@ -262,11 +273,14 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     if isinstance(scn, dict) and scn.get("name") == DEFAULT_SCENARIO:
         # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
         d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
-    # dagger_round 0 and no [[scenarios]] are left out: a manifest keeps its bytes (and identity) of before
+    # dagger_round 0, no [[scenarios]] and the expert as demonstrator are left out: a manifest keeps its
+    # bytes (and identity) of before
     return {
         k: v
         for k, v in d.items()
-        if k not in DATA_NEUTRAL_FIELDS and (k, v) not in (("dagger_round", 0), ("scenarios", []))
+        if k not in DATA_NEUTRAL_FIELDS
+        and (k, v) not in (("dagger_round", 0), ("scenarios", []))
+        and not (k == "demonstrator" and (v or {}).get("kind", EXPERT) == EXPERT)
     }
 
 
@@ -288,15 +302,6 @@ def episode_record(
     return out
 
 
-class _Missing:
-    def __repr__(self) -> str:
-        return "(not set)"
-
-
-#: stands for a key one of two configs lacks
-MISSING: Any = _Missing()
-
-
 def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
     """Whether two recorded DAgger drivers (manifest ``driver``: model, checkpoint path, sha256, the
     dataset it was trained on) are the same by content: model and checkpoint sha256, never the path, so a
@@ -304,18 +309,6 @@ def same_driver(old: dict[str, Any] | None, new: dict[str, Any] | None) -> bool:
     if old is None or new is None:
         return old is new
     return (old.get("model"), old.get("sha256")) == (new.get("model"), new.get("sha256"))
-
-
-def first_difference(old: Any, new: Any, prefix: str = "") -> tuple[str, Any, Any] | None:
-    """The first dotted key whose value differs between two nested dicts, with both values (a key
-    missing on one side gives ``MISSING`` there), or None when they are equal."""
-    if isinstance(old, dict) and isinstance(new, dict):
-        for key in [*new, *(k for k in old if k not in new)]:
-            diff = first_difference(old.get(key, MISSING), new.get(key, MISSING), f"{prefix}{key}.")
-            if diff is not None:
-                return diff
-        return None
-    return None if old == new else (prefix.rstrip("."), old, new)
 
 
 @dataclass(frozen=True)
@@ -392,9 +385,11 @@ class CycleRecorder(ObserverBase):
             return
         self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
         # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
-        # time-out) must not complete a demonstration window with states that were never driven
+        # time-out) must not complete a demonstration window with states that were never driven; where
+        # SUMO drove (a SUMO demonstrator) the states are the simulation's odometry
+        driven = sim.odometry[len(sim.odometry) - cycle.driven :] if traj.by_sumo else None
         for j in range(1, cycle.driven + 1):
-            st = traj.state(j)
+            st = traj.state(j) if driven is None else driven[j - 1]
             self.projector.push_odometry(st.t, st.s, st.d, st.yaw)
         self.writer.add_demos(self.projector.pop_ready())
 
@@ -426,7 +421,13 @@ def collect_episode(
     seed_everything(job.seed)
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
     road = load_road(scenario=scenario.name)
-    driver: Any = ExpertDriver(road, cfg.planner) if make_driver is None else make_driver(road, cfg)
+    demonstrator = cfg.demonstrator
+    if make_driver is not None:
+        driver: Any = make_driver(road, cfg)
+    elif demonstrator.kind == EXPERT:
+        driver = ExpertDriver(road, cfg.planner)
+    else:
+        driver = SumoDemonstrator(road, cfg.planner, scenario)
     labeller = driver if make_driver is not None else None
     projector = DemoProjector(
         lap_length=road.lap_length,
@@ -445,16 +446,16 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with Simulation(road, scenario) as sim:
+    with Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
         record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
-            recorder = CycleRecorder(writer, projector, labeller)
+            recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()
             runner = EpisodeRunner(
-                sim, observers=[_SetupClock(), recorder, *observers], max_cycles=cfg.max_cycles
+                sim, observers=[_SetupClock(), recorder, style, *observers], max_cycles=cfg.max_cycles
             )
             result = runner.run(driver, job.seed)
     n_cycles = result.cycles
-    stats = dict(result.stats)
+    stats = {**result.stats, **style.summary()}  # the demonstrator's style (irlsim.rollout.style)
     # the writer has closed (both files written and renamed) and SUMO has stopped: the clock covers them
     wall = time.perf_counter() - t_start
     stats.update(

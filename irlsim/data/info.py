@@ -5,6 +5,7 @@ Everything is computed row group by row group, so memory stays bounded at any da
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -12,9 +13,11 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.cache import CACHE_DIR
+from irlsim.data.demonstrator import describe
 from irlsim.data.reader import fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
 from irlsim.data.scenarios import episode_scenario, records_scenarios
-from irlsim.data.schema import TABLE_POLICIES
+from irlsim.data.schema import TABLE_POLICIES, stats_name
+from irlsim.rollout.style import format_style, pool_styles
 
 
 class _Moments:
@@ -64,7 +67,9 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
     policies_per_cycle, demo_distance {mean, median, p90} [m], random_policy_distance [m]}},
     ``features`` {name: {mean, std, min, max}} over all policies of all splits, ``disk_bytes`` (Parquet
     and manifest) and ``cache_bytes``; ``scenarios`` {name: {split: episodes}} where the manifest records
-    its roads. ``random_policy_distance`` is the mean d(zeta, pi) over all policies
+    its roads; ``demonstrator`` (who drove: 'expert', or SUMO's models and attributes) and ``style`` (the
+    driving style of the demonstrations, :func:`irlsim.rollout.style.pool_styles` over the episodes whose
+    figures recorded it). ``random_policy_distance`` is the mean d(zeta, pi) over all policies
     of the cycles with a demonstration, i.e. the expected distance of a uniformly random policy, to compare
     with the DEMO mean.
     """
@@ -120,7 +125,24 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
         "disk_bytes": _dir_size(ds.path, skip=CACHE_DIR),
         "cache_bytes": _dir_size(ds.path / CACHE_DIR) if (ds.path / CACHE_DIR).is_dir() else 0,
         **roads,
+        "demonstrator": describe(ds.manifest.get("demonstrator")),
+        "style": pool_styles(_episode_styles(ds)),
     }
+
+
+def _episode_styles(ds: Any) -> list[dict[str, Any]]:
+    """Every episode's style figures from its ``.stats.json`` (episodes without them are left out)."""
+    out = []
+    for split in ds.splits:
+        for ep in ds.episodes(split):
+            p = ds.path / split / stats_name(ep)
+            try:
+                stats = json.loads(p.read_text())
+            except (OSError, ValueError):  # informational figures: missing or unreadable ones are skipped
+                continue
+            if isinstance(stats, dict) and "style/time_s" in stats:
+                out.append(stats)
+    return out
 
 
 def _mb(n: int) -> str:
@@ -145,6 +167,8 @@ def format_info(info: dict[str, Any]) -> str:
             f"{k} ({', '.join(f'{s} {n}' for s, n in eps.items())})" for k, eps in info["scenarios"].items()
         ]
         lines += ["", "scenarios (episodes): " + "; ".join(per)]
+    if "demonstrator" in info:
+        lines += ["", f"demonstrator: {info['demonstrator']}", format_style(info.get("style") or {})]
     lines += [
         "",
         "distances in m; random = mean distance of a uniformly random policy (cycles with a demo)",

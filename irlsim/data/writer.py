@@ -54,6 +54,12 @@ from irlsim.planner.policy_set import PolicySet
 from irlsim.utils import atomic_path, naming
 
 
+def _nearest(distances: np.ndarray) -> int:
+    """The index of the smallest finite distance, 0 when none is finite."""
+    d = np.asarray(distances, dtype=np.float64)
+    return int(np.nanargmin(d)) if np.isfinite(d).any() else 0
+
+
 def _policies_writer(path: Path, schema: pa.Schema) -> pq.ParquetWriter:
     return pq.ParquetWriter(
         str(path),
@@ -141,7 +147,10 @@ class EpisodeWriter:
             policy_set: the cycle's N progress-sorted policies; only features, control points, actions,
                 progress and labels are kept (trajectories go to the ``DemoProjector``).
             ego: ego state at the cycle, keys ``x, y [m], yaw [rad], v [m/s], s, d [m], lane``.
-            executed_index: progress-sorted index of the policy the driver executed.
+            executed_index: progress-sorted index of the policy the driver executed; -1 for a driver
+                that executes none of them (a SUMO demonstrator): the policy nearest to what it drove
+                (the smallest demonstration distance, even beyond ``max_distance``; 0 where the horizon
+                was not driven to its end) is recorded.
             target_checkpoint: index of the next route checkpoint.
             situation: the cycle's situation code (``irlsim.data.situations``), -1 = not labelled.
         """
@@ -160,8 +169,8 @@ class EpisodeWriter:
                 f"cycle {cycle}: {n} policies x {k} control points, "
                 f"the episode started with {self._n} x {self._k}"
             )
-        if not 0 <= int(executed_index) < n:
-            raise ValueError(f"cycle {cycle}: executed_index {executed_index} not in [0, {n})")
+        if not -1 <= int(executed_index) < n:
+            raise ValueError(f"cycle {cycle}: executed_index {executed_index} not in [-1, {n})")
         rec = _Cycle(
             cycle=cycle,
             t=float(policy_set.t),
@@ -243,7 +252,7 @@ class EpisodeWriter:
                     rec.target_checkpoint,
                     rec.demo.demo_index,
                     rec.demo.demo_distance,
-                    rec.executed_index,
+                    rec.executed_index if rec.executed_index >= 0 else _nearest(rec.demo.distances),
                     rec.situation,
                 )
             )

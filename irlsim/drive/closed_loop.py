@@ -30,6 +30,7 @@ from irlsim.planner.policy_set import PolicySet
 from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
 from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
+from irlsim.rollout.style import StyleObserver
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation
 from irlsim.utils import progress, seed_everything
@@ -232,7 +233,8 @@ def drive_episode(
     if recorder is not None:
         observers.append(_Pictures(recorder, decider))
     scorer = ScorecardObserver()  # records every simulation step for the scorecard
-    observers += [_Progress(bar), scorer]
+    style = StyleObserver()  # the driving style (irlsim.rollout.style)
+    observers += [_Progress(bar), scorer, style]
     with Simulation(road, scenario) as sim:
         result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
@@ -253,6 +255,7 @@ def drive_episode(
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
     rec.update(_scores(scorer, dict(result.stats), model.is_expert, expert_progress))
+    rec.update(style.summary())
     rec["_inference_ms"] = timing.inference_ms
     return rec
 

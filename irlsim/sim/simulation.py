@@ -33,6 +33,7 @@ from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
+from irlsim.sim.vtype import DEMO_TYPE, DemoTypeFile
 from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
@@ -71,6 +72,7 @@ class Simulation:
         gui: bool = False,
         net_file: str | Path | None = None,
         vtypes_file: str | Path | None = None,
+        demo_vtype: dict[str, str] | None = None,
     ):
         self.road = road if road is not None else load_road(net_file)
         self.cfg = cfg if cfg is not None else ScenarioConfig()
@@ -89,6 +91,7 @@ class Simulation:
         self.vehicles = VehicleStates.empty()
         self.odometry: list[EgoState] = []
         self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
+        self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
@@ -106,12 +109,13 @@ class Simulation:
         binary = sumo_binary("sumo-gui" if self.gui else "sumo")
         if not self.vtypes_file.is_file():
             raise IrlsimError(f"vehicle types {self.vtypes_file} not found: restore sumo_net/ from git")
+        additional = [str(self.vtypes_file), *([self.demo_type.path()] if self.demo_type else [])]
         cmd = [
             binary,
             "--net-file",
             str(self.road.net_file),
             "--additional-files",
-            str(self.vtypes_file),
+            ",".join(additional),
             *(["--route-files", ",".join(str(p) for p in self.road.demand)] if self.road.demand else []),
             "--step-length",
             f"{self.cfg.step}",
@@ -179,6 +183,8 @@ class Simulation:
                 pass
         if _ACTIVE is self:
             _ACTIVE = None
+        if self.demo_type is not None:
+            self.demo_type.cleanup()
 
     def __enter__(self) -> Simulation:
         return self
@@ -286,7 +292,7 @@ class Simulation:
         """SUMO's own driver model drives the ego one step (:func:`irlsim.sim.sumo_ego.sumo_step`)."""
         assert self.ego is not None
         if not self._ego_by_sumo:
-            take_over(self._api, EGO, self.cfg.ego_target_speed)
+            take_over(self._api, EGO, self.cfg.ego_target_speed, DEMO_TYPE if self.demo_type else None)
             self._ego_by_sumo = True
         t1 = time.perf_counter()
         state = sumo_step(self._api, EGO, self.road, self.ego)

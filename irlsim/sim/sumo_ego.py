@@ -33,9 +33,14 @@ def add_ego(api: Any, ego: str, road: Road, eid: str, pos: float, lane: int, v0:
     )
 
 
-def take_over(api: Any, ego: str, target_speed: float) -> None:
-    """Hand the ego to SUMO: every safety check of its driver model, the road's limits, ``target_speed``."""
+def take_over(api: Any, ego: str, target_speed: float, vtype: str | None = None) -> None:
+    """Hand the ego to SUMO: every safety check of its driver model, the road's limits, ``target_speed``.
+    ``vtype``: a demonstrator's vehicle type (:mod:`irlsim.sim.vtype`), whose models and attributes,
+    ``maxSpeed`` and ``speedFactor`` included, then drive the ego."""
     api.vehicle.setSpeedMode(ego, 31)
+    if vtype is not None:
+        api.vehicle.setType(ego, vtype)
+        return
     api.vehicle.setSpeedFactor(ego, 1.0)
     api.vehicle.setMaxSpeed(ego, target_speed)
 

@@ -18,7 +18,7 @@ import hashlib
 import json
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +34,9 @@ from irlsim.data.collection import (
     first_difference,
     same_driver,
 )
+from irlsim.data.demonstrator import EXPERT as EXPERT_DEMONSTRATOR
+from irlsim.data.demonstrator import describe
+from irlsim.data.demonstrator import resolve as resolve_demonstrator
 from irlsim.data.layout import (
     check_episode,
     episode_done,
@@ -163,6 +166,12 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     collected with, a busy folder, a missing driver or an unusable output folder."""
     cfg = run.config
     cfg.check_roads()
+    # SUMO's refusal of a demonstrator's vehicle type: one line, before any work (nothing written)
+    demo_record = None
+    if cfg.demonstrator.kind != EXPERT_DEMONSTRATOR:
+        net = load_scenario(cfg.scenario_names[0]).net_file
+        demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, net)
+        cfg = replace(cfg, demonstrator=demonstrator)
     check_starts(cfg.scenario, cfg.scenario_names)  # a route too short for the ego's start: refused here
     if cfg.dagger_round and run.driver is None:
         raise IrlsimError(
@@ -176,7 +185,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
-            failed = _collect(cfg, out, run.executor, run.address, driver, timeout)
+            failed = _collect(cfg, out, run.executor, run.address, driver, timeout, demo_record)
     except LockBusy as busy:
         raise IrlsimError(
             f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
@@ -218,6 +227,7 @@ def _check_resumable(
     config: dict[str, Any],
     driver: dict[str, Any] | None = None,
     roads: dict[str, Any] | None = None,
+    demonstrator: dict[str, Any] | None = None,
 ) -> dict[str, Any] | None:
     """Refuse to add to a dataset of another schema version, feature set or data config (one line);
     returns the driver as recorded there (the same by content: its path may differ)."""
@@ -237,6 +247,9 @@ def _check_resumable(
         )
     if old.get("feature_names") != list(FEATURE_NAMES):
         raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
+    was, now = describe(old.get("demonstrator")), describe(demonstrator)
+    if was != now:  # its vType attributes in full: the config's difference below
+        raise IrlsimError(f"{out} was collected with demonstrator {was}, this config has {now}: {fix}")
     problem = _scenario_problem(old, roads or {})
     if problem is None and config.get("scenarios") != old["config"].get("scenarios"):
         problem = "was collected with another [[scenarios]] list (names or episodes per split)"
@@ -334,6 +347,11 @@ def _complete(cfg: Any, out: Path, record: dict[str, Any], collected: bool) -> P
     return manifest
 
 
+def _demo_record(demonstrator: dict[str, Any] | None) -> dict[str, Any]:
+    """The manifest's ``demonstrator`` entry: a SUMO demonstrator's record, nothing for the expert."""
+    return {"demonstrator": demonstrator} if demonstrator else {}
+
+
 def _collect(
     cfg: Any,
     out: Path,
@@ -341,18 +359,19 @@ def _collect(
     address: str | None = None,
     driver: dict[str, Any] | None = None,
     timeout: float | None = None,
+    demonstrator: dict[str, Any] | None = None,
 ) -> dict[str, str]:
     """The collection itself, run while this process holds ``<out>/.lock``. ``driver``: the learned
     driver's identity (:func:`driver_identity`) for a DAgger collection, recorded in the manifest;
-    ``timeout``: the executor's limit per episode attempt (:func:`episode_timeout`). Returns the episodes
-    that failed twice (key -> reason; empty when the dataset is complete)."""
+    ``timeout``: the executor's limit per episode attempt; ``demonstrator``: a SUMO demonstrator's record
+    (None: the expert). Returns the episodes that failed twice (key -> reason; empty when complete)."""
 
     manifest_path = out / "manifest.json"
     config = data_config(cfg)
     roads = scenario_records(cfg)  # a scenario that does not load: one line, before any work
     recorded = driver  # as the manifest records it: the first collection's, which the identity hashes
     if manifest_path.is_file():
-        recorded = _check_resumable(manifest_path, config, driver, roads)
+        recorded = _check_resumable(manifest_path, config, driver, roads, demonstrator)
         if "scenarios" not in json.loads(manifest_path.read_text()):
             roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
     build_net()  # once, before the workers start (they only read it)
@@ -363,7 +382,9 @@ def _collect(
     where += f", at most {timeout:g} s per episode" if timeout is not None else ", in this process"
     if driver is not None:
         where += f", {driver['model']} drives and the expert labels (DAgger round {cfg.dagger_round})"
-    ident = {**({"driver": recorded} if driver is not None else {}), **roads}
+    elif demonstrator:
+        where += f", demonstrator {describe(demonstrator)}"
+    ident = {**({"driver": recorded} if driver is not None else {}), **_demo_record(demonstrator), **roads}
     print(f"collect: {total} episodes ({total - len(jobs)} already done), {where} -> {out}", flush=True)
     if jobs or not manifest_path.is_file():
         # marked incomplete until the last episode is on disk, so no reader takes a partial dataset for

@@ -29,6 +29,7 @@ from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.rollout.style import format_style, pool_styles, style_distances
 from irlsim.sim.start import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
@@ -242,6 +243,7 @@ def _write_outputs(
     print(table, end="")
     print()
     print(scores, end="")
+    print(style_report(summaries), end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (
@@ -250,6 +252,24 @@ def _write_outputs(
             else ""
         )
     )
+
+
+def style_report(summaries: list[dict[str, Any]]) -> str:
+    """Each model's driving style on one line, and with several models their style distances
+    (:func:`irlsim.rollout.style.style_distances`)."""
+    names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
+    lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
+    if len(summaries) > 1:
+        dist = style_distances([s.get("style") or {} for s in summaries])
+        lines.append(
+            "style distance: "
+            + "; ".join(
+                f"{names[i]} vs {names[j]} {dist[i, j]:.2f}"
+                for i in range(len(names))
+                for j in range(i + 1, len(names))
+            )
+        )
+    return "\n".join(["", *lines, ""])
 
 
 def _run(run: DriveRun, device: str) -> DriveResult | None:
@@ -303,7 +323,7 @@ def _drive_into(
             rec.pop("_progress")
             recs.append(rec)
         episodes += recs
-        summaries.append(summarize(recs, times))
+        summaries.append({**summarize(recs, times), "style": pool_styles(recs)})
 
     _write_outputs(run, specs, cfg, out, summaries, episodes, device)
     return DriveResult(out, episodes, summaries)

@@ -1,0 +1,151 @@
+"""Demonstrators: who drives while a dataset is collected. A demonstrator is a source of odometry; every
+planning cycle the expert's planner samples its policy set at the ego's state, and the demonstration is
+the projection of what the demonstrator then drove over the horizon (:class:`irlsim.data.demos.DemoProjector`,
+the same rules and distances whoever drives).
+
+- ``expert`` (the default): irlsim's expert (:class:`irlsim.planner.expert.ExpertDriver`). A dataset of
+  the expert records no demonstrator: its manifest keeps the bytes of before.
+- ``sumo``: SUMO's own car-following and lane-change models drive the ego on the scenario's route
+  (:class:`SumoDemonstrator`), with any vType attributes (``params``, or the one vType of
+  ``vtype_file``), checked by SUMO before any work (:func:`irlsim.sim.vtype.check_vtype`).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import tempfile
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from irlsim.config import require
+from irlsim.planner.config import PlannerConfig
+from irlsim.planner.planner import Planner
+from irlsim.planner.policy_set import PolicySet
+from irlsim.road import Road
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.drivers import SumoDriver
+from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_attributes
+
+#: SUMO's models of a vType that names none (sumo.dlr.de, "Vehicle Type Parameter Defaults")
+SUMO_DEFAULT_MODELS = {"carFollowModel": "Krauss", "laneChangeModel": "LC2013"}
+EXPERT = "expert"
+SUMO = "sumo"
+KINDS = (EXPERT, SUMO)
+
+
+@dataclass(frozen=True)
+class DemonstratorConfig:
+    """A collect config's ``[demonstrator]``: who drives (docs/guide/demonstrators.md)."""
+
+    kind: str = EXPERT
+    """'expert' (irlsim's expert) or 'sumo' (SUMO's driver models)"""
+    car_follow_model: str = ""
+    """kind 'sumo': SUMO's carFollowModel (Krauss, IDM, EIDM, ACC, CACC, ...; SUMO decides); empty:
+    ``vtype_file``'s, else SUMO's default, Krauss"""
+    lane_change_model: str = ""
+    """kind 'sumo': SUMO's laneChangeModel (LC2013, SL2015, ...); empty: ``vtype_file``'s, else SUMO's
+    default, LC2013"""
+    params: dict[str, Any] = field(default_factory=dict)
+    """kind 'sumo': vType attributes over irlsim's ego type, e.g. {tau = 1.5, accel = 2.0} (SI units as
+    SUMO takes them: s, m/s^2, m)"""
+    vtype_file: str = ""
+    """kind 'sumo': an additional file with one <vType>, whose attributes come first (``params`` and
+    the two models then over them); read when the collection starts and recorded as its attributes
+    and sha256"""
+
+    def validate(self) -> None:
+        require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
+        bad = next((k for k, v in self.params.items() if not isinstance(v, (int, float, str, bool))), None)
+        require(bad is None, f"demonstrator.params.{bad} must be a number or a string (a vType attribute)")
+        if self.kind == EXPERT:
+            require(
+                not self.params and not self.vtype_file,
+                "demonstrator.params / vtype_file belong to kind = 'sumo': set it, or drop them",
+            )
+
+    def attributes(self) -> dict[str, Any]:
+        """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
+        base = {**SUMO_DEFAULT_MODELS, **(read_vtype_file(self.vtype_file) if self.vtype_file else {})}
+        models = zip(MODEL_KEYS, (self.car_follow_model, self.lane_change_model), strict=True)
+        return {**base, **{k: v for k, v in models if v}, **self.params}
+
+
+def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig, dict[str, Any]]:
+    """Before any work: the demonstrator with its ``vtype_file`` read into ``params`` (what the workers
+    get and the manifest's config records), and its manifest record (kind, models, params, the file's
+    path and sha256); SUMO's refusal of the type as one line (:func:`irlsim.sim.vtype.check_vtype`)."""
+    cfg.validate()
+    if cfg.kind == EXPERT:
+        return cfg, {"kind": EXPERT}
+    attrs = cfg.attributes()
+    with tempfile.TemporaryDirectory(prefix="irlsim-check-") as tmp:
+        check_vtype(net_file, vtype_attributes(attrs, 1.0), Path(tmp))
+    params = {k: _canonical(v) for k, v in attrs.items() if k not in MODEL_KEYS}
+    out = replace(
+        cfg,
+        car_follow_model=str(attrs["carFollowModel"]),
+        lane_change_model=str(attrs["laneChangeModel"]),
+        params=params,
+        vtype_file="",
+    )
+    record: dict[str, Any] = {
+        "kind": SUMO,
+        "car_follow_model": out.car_follow_model,
+        "lane_change_model": out.lane_change_model,
+        "params": params,
+    }
+    if cfg.vtype_file:
+        data = Path(cfg.vtype_file).read_bytes()
+        record["vtype_file"] = {"path": str(cfg.vtype_file), "sha256": hashlib.sha256(data).hexdigest()}
+    return out, record
+
+
+def _canonical(value: Any) -> Any:
+    """A vType attribute as recorded: a number (TOML's or a file's text) as a float, other text as it
+    is; so ``tau = 1.5`` in the config and ``tau="1.5"`` in a vType file are the same demonstrator."""
+    if isinstance(value, bool):
+        return value
+    try:
+        x = float(value)
+    except ValueError:
+        return value
+    return x if math.isfinite(x) else value
+
+
+def describe(record: dict[str, Any] | None) -> str:
+    """One short name of a recorded demonstrator: 'expert', 'sumo IDM/LC2013 {tau=1.5}'."""
+    if not record or record.get("kind", EXPERT) == EXPERT:
+        return EXPERT
+    params = record.get("params") or {}
+    text = ",".join(f"{k}={v}" for k, v in sorted(params.items()) if k != "maxSpeed")
+    return f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}" + (
+        f" {{{text}}}" if text else ""
+    )
+
+
+class SumoDemonstrator:
+    """SUMO's driver models drive the ego (a :class:`SumoDriver` with the simulation's demonstrator
+    type); every cycle the expert's planner samples the policy set at the ego's state, which collection
+    records. No policy of the set is executed: ``last_index`` is -1 and the writer records the policy
+    closest to what was driven as the executed one."""
+
+    def __init__(self, road: Road, planner: PlannerConfig, scenario: ScenarioConfig):
+        self.planner = Planner(road, planner)
+        self.sumo = SumoDriver(road, scenario)
+        self.last_policy_set: PolicySet | None = None
+        self.last_index = -1
+
+    def plan(self, obs: Observation) -> Trajectory:
+        self.last_policy_set = self.planner.plan(obs)
+        return self.sumo.plan(obs)
+
+
+def demo_vtype(cfg: DemonstratorConfig, scenario: ScenarioConfig) -> dict[str, str] | None:
+    """The vType attributes a worker's :class:`~irlsim.sim.simulation.Simulation` gets (None: the
+    expert); ``maxSpeed`` defaults to the scenario's ego target speed."""
+    if cfg.kind == EXPERT:
+        return None
+    return vtype_attributes(cfg.attributes(), scenario.ego_target_speed)

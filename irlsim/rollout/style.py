@@ -1,0 +1,194 @@
+"""Driving style, measured: one summary of any driving (a collection's demonstrator, a closed-loop
+drive), and the one style distance between drivings.
+
+:class:`StyleObserver` records every simulation step (0.1 s): time, route position, speed, lane, and the
+gap to the leader in the ego's lane. :func:`style_summary` turns such arrays into ``style/...`` figures
+(vectorised over the steps):
+
+- ``style/mean_speed`` [m/s]: distance along the route / time;
+- ``style/headway_median_s``, ``style/headway_p10_s`` [s]: time headway gap / speed to the leader while
+  following (a leader in the ego's lane within ``FOLLOW_RANGE`` m, speed above ``MIN_FOLLOW_SPEED``),
+  median and 10th percentile (NaN when never following); ``style/following_s`` the time following;
+- ``style/lane_changes``, ``style/lane_changes_per_km``: changes of the ego's lane between steps;
+- ``style/rms_accel`` [m/s^2], ``style/rms_jerk`` [m/s^3]: RMS of the longitudinal acceleration and
+  jerk (finite differences of the speed);
+- ``style/full_stops``, ``style/stops_per_km``: entries into standstill (speed to ``STOP_SPEED`` or
+  below from above it);
+- ``style/lane_share``: the share of time in each lane (route lane numbering, 0 = rightmost);
+- ``style/time_s``, ``style/km``: what was driven.
+
+:func:`pool_styles` combines episodes (time-, distance- and following-time-weighted: exact for every
+figure but the two headway percentiles, which are the following-time-weighted mean of the episodes').
+:func:`style_distances` is the style distance: the RMS over the figures of ``STYLE_FIGURES`` (and the lane
+shares) of their differences, each divided by that figure's spread (standard deviation) across the
+drivings compared; a figure that does not vary, or is NaN for one of the two, is left out.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+#: [m] a leader farther ahead than this is not being followed
+FOLLOW_RANGE = 100.0
+#: [m/s] below this speed time headway is not defined (a queue standing still)
+MIN_FOLLOW_SPEED = 1.0
+#: [m/s] standstill (the scenarios' stop_speed)
+STOP_SPEED = 0.1
+#: the scalar figures the style distance compares (besides each lane's share)
+STYLE_FIGURES = (
+    "style/mean_speed",
+    "style/headway_median_s",
+    "style/headway_p10_s",
+    "style/lane_changes_per_km",
+    "style/rms_accel",
+    "style/rms_jerk",
+    "style/stops_per_km",
+)
+
+
+def _per_km(n: float, km: float) -> float:
+    return float(n / km) if km > 0 else 0.0
+
+
+def style_summary(
+    t: np.ndarray, s: np.ndarray, v: np.ndarray, lane: np.ndarray, gap: np.ndarray
+) -> dict[str, Any]:
+    """The style figures of one driving from per-step arrays [S]: time [s], route position s [m],
+    speed [m/s], lane (int), gap [m] from the ego's front to its leader's rear in its lane (NaN: none).
+    Steps of equal spacing; at least two."""
+    t, s, v, gap = (np.asarray(a, dtype=np.float64) for a in (t, s, v, gap))
+    lane = np.asarray(lane, dtype=np.int64)
+    assert t.ndim == 1 and len(t) >= 2 and s.shape == v.shape == lane.shape == gap.shape == t.shape
+    dt = float(t[1] - t[0])
+    time_s = float(t[-1] - t[0])
+    km = float(np.abs(np.diff(s)).sum()) / 1000.0
+    follow = np.isfinite(gap) & (gap <= FOLLOW_RANGE) & (v > MIN_FOLLOW_SPEED)
+    headway = gap[follow] / v[follow]
+    acc = np.diff(v) / dt
+    jerk = np.diff(acc) / dt
+    changes = int(np.count_nonzero(np.diff(lane)))
+    stops = int(np.count_nonzero((v[1:] <= STOP_SPEED) & (v[:-1] > STOP_SPEED)))
+    share = np.bincount(np.maximum(lane, 0), minlength=int(lane.max(initial=0)) + 1) / len(lane)
+    return {
+        "style/time_s": time_s,
+        "style/km": km,
+        "style/mean_speed": 1000.0 * km / time_s if time_s > 0 else 0.0,
+        "style/headway_median_s": float(np.median(headway)) if headway.size else float("nan"),
+        "style/headway_p10_s": float(np.percentile(headway, 10)) if headway.size else float("nan"),
+        "style/following_s": float(follow.sum() * dt),
+        "style/lane_changes": changes,
+        "style/lane_changes_per_km": _per_km(changes, km),
+        "style/rms_accel": float(np.sqrt(np.mean(acc**2))) if acc.size else 0.0,
+        "style/rms_jerk": float(np.sqrt(np.mean(jerk**2))) if jerk.size else 0.0,
+        "style/full_stops": stops,
+        "style/stops_per_km": _per_km(stops, km),
+        "style/lane_share": [float(x) for x in share],
+    }
+
+
+def pool_styles(records: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """Several episodes' style figures as one driving's (see the module docstring)."""
+    recs = [r for r in records if r.get("style/time_s", 0) > 0]
+    if not recs:
+        return {}
+    w = np.array([r["style/time_s"] for r in recs])
+    km = float(sum(r["style/km"] for r in recs))
+    time_s = float(w.sum())
+    fol = np.array([r["style/following_s"] for r in recs])
+    out: dict[str, Any] = {"style/time_s": time_s, "style/km": km}
+    out["style/mean_speed"] = 1000.0 * km / time_s
+    for k in ("style/headway_median_s", "style/headway_p10_s"):
+        x = np.array([r[k] for r in recs], dtype=np.float64)
+        ok = np.isfinite(x) & (fol > 0)
+        out[k] = float(np.average(x[ok], weights=fol[ok])) if ok.any() else float("nan")
+    out["style/following_s"] = float(fol.sum())
+    counts = (("style/lane_changes", "style/lane_changes_per_km"), ("style/full_stops", "style/stops_per_km"))
+    for n, per in counts:
+        total = int(sum(r[n] for r in recs))
+        out[n], out[per] = total, _per_km(total, km)
+    for k in ("style/rms_accel", "style/rms_jerk"):
+        out[k] = float(np.sqrt(np.average([r[k] ** 2 for r in recs], weights=w)))
+    n_lanes = max(len(r["style/lane_share"]) for r in recs)
+    shares = np.stack([style_vector(r, n_lanes)[len(STYLE_FIGURES) :] for r in recs])
+    out["style/lane_share"] = [float(x) for x in np.average(shares, axis=0, weights=w)]
+    return out
+
+
+def style_vector(record: dict[str, Any], n_lanes: int) -> np.ndarray:
+    """[len(STYLE_FIGURES) + n_lanes] the figures the style distance compares."""
+    share = np.zeros(n_lanes)
+    got = np.asarray(record.get("style/lane_share", []), dtype=np.float64)[:n_lanes]
+    share[: len(got)] = got
+    return np.concatenate([[float(record.get(k, np.nan)) for k in STYLE_FIGURES], share])
+
+
+def style_distances(records: Sequence[dict[str, Any]]) -> np.ndarray:
+    """[n, n] the style distance between every two of ``records`` (style summaries): the RMS over the
+    figures of their difference divided by the figure's standard deviation across all ``records``;
+    figures without spread or NaN in either driving are left out (0 when none is left). Zero on the
+    diagonal, symmetric, unchanged when a figure is scaled (units) in every record."""
+    n_lanes = max((len(r.get("style/lane_share", [])) for r in records), default=0)
+    x = np.stack([style_vector(r, n_lanes) for r in records]) if records else np.zeros((0, 0))
+    with np.errstate(invalid="ignore"):
+        spread = np.nanstd(x, axis=0) if len(x) else np.zeros(0)
+    z = x / np.where(spread > 0, spread, np.nan)
+    diff = z[:, None, :] - z[None, :, :]  # [n, n, F]
+    ok = np.isfinite(diff)
+    sq = np.where(ok, diff, 0.0) ** 2
+    count = ok.sum(axis=2)
+    return np.sqrt(np.divide(sq.sum(axis=2), count, out=np.zeros(count.shape), where=count > 0))
+
+
+def format_style(record: dict[str, Any]) -> str:
+    """One line of a style summary for a terminal."""
+    if not record:
+        return "style: not recorded (no episode figures with style)"
+    share = "/".join(f"{100 * x:.0f}" for x in record["style/lane_share"])
+    return (
+        f"style: {3.6 * record['style/mean_speed']:.1f} km/h, headway median "
+        f"{record['style/headway_median_s']:.2f} s p10 {record['style/headway_p10_s']:.2f} s, "
+        f"{record['style/lane_changes_per_km']:.2f} lane changes/km, RMS accel "
+        f"{record['style/rms_accel']:.2f} m/s^2 jerk {record['style/rms_jerk']:.2f} m/s^3, "
+        f"{record['style/full_stops']} full stops, lane share % {share} ({record['style/km']:.2f} km)"
+    )
+
+
+class StyleObserver:
+    """The per-step recording of :func:`style_summary` (an episode runner observer that registers on
+    the simulation's per-step listeners, like the scorecard's); :meth:`summary` after the episode."""
+
+    def __init__(self) -> None:
+        self.rows: list[tuple[float, float, float, int, float]] = []
+
+    def on_reset(self, sim: Any, obs: Any = None) -> None:
+        self.rows = []
+        if self._on_step not in sim.step_listeners:
+            sim.step_listeners.append(self._on_step)
+        self._on_step(sim)
+
+    def on_cycle(self, sim: Any, cycle: Any = None) -> None:
+        pass
+
+    def on_end(self, sim: Any, result: Any = None) -> None:
+        if self._on_step in sim.step_listeners:
+            sim.step_listeners.remove(self._on_step)
+
+    def _on_step(self, sim: Any) -> None:
+        e, veh = sim.ego, sim.vehicles
+        gap = float("nan")
+        if veh.count:  # the leader in the ego's lane: vectorised over the vehicles
+            ahead = (veh.s - e.s) % sim.road.lap_length
+            same = np.asarray(sim.road.lane_of_d(veh.d)) == e.lane
+            g = np.where(same & (ahead > 0), ahead - veh.length, np.inf)
+            gap = float(g.min()) if np.isfinite(g).any() else gap
+        self.rows.append((e.t, e.s, e.v, int(e.lane), gap))
+
+    def summary(self) -> dict[str, Any]:
+        """The episode's style figures (empty before two steps were recorded)."""
+        if len(self.rows) < 2:
+            return {}
+        t, s, v, lane, gap = (np.array(c) for c in zip(*self.rows, strict=True))
+        return style_summary(t, s, v, lane, gap)

@@ -1,0 +1,114 @@
+"""The style summary against closed-form answers on synthetic drivings, its pooling, and the style
+distance's properties (zero to itself, symmetric, scale-free)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from irlsim.rollout.style import STYLE_FIGURES, pool_styles, style_distances, style_summary
+
+DT = 0.1
+
+
+def _drive(n: int = 1001, v: float = 10.0, gap: float = float("nan"), lane: int = 1) -> dict:
+    t = np.arange(n) * DT
+    return {
+        "t": t,
+        "s": v * t,
+        "v": np.full(n, v),
+        "lane": np.full(n, lane),
+        "gap": np.full(n, gap),
+    }
+
+
+def test_constant_speed_in_one_lane():
+    r = style_summary(**_drive())
+    assert r["style/time_s"] == pytest.approx(100.0)
+    assert r["style/km"] == pytest.approx(1.0)
+    assert r["style/mean_speed"] == pytest.approx(10.0)
+    assert r["style/rms_accel"] == pytest.approx(0.0, abs=1e-9)
+    assert r["style/rms_jerk"] == pytest.approx(0.0, abs=1e-9)
+    assert r["style/lane_changes"] == 0 and r["style/full_stops"] == 0
+    assert r["style/lane_share"] == [0.0, 1.0]
+    assert math.isnan(r["style/headway_median_s"]) and r["style/following_s"] == 0.0
+
+
+def test_known_headway_and_a_leader_out_of_range():
+    d = _drive(v=10.0, gap=20.0)  # 20 m at 10 m/s: 2 s
+    d["gap"][500:] = 150.0  # beyond FOLLOW_RANGE: not following
+    r = style_summary(**d)
+    assert r["style/headway_median_s"] == pytest.approx(2.0)
+    assert r["style/headway_p10_s"] == pytest.approx(2.0)
+    assert r["style/following_s"] == pytest.approx(50.0)
+    d["gap"][:500] = np.linspace(10.0, 40.0, 500)  # headways 1..4 s, uniformly
+    r = style_summary(**d)
+    assert r["style/headway_median_s"] == pytest.approx(2.5, abs=1e-6)
+    assert r["style/headway_p10_s"] == pytest.approx(1.3, abs=1e-6)
+
+
+def test_one_lane_change_over_a_known_distance_and_the_lane_shares():
+    d = _drive(n=501, v=10.0, lane=0)  # 500 m
+    d["lane"][125:] = 1
+    r = style_summary(**d)
+    assert r["style/lane_changes"] == 1
+    assert r["style/lane_changes_per_km"] == pytest.approx(2.0)
+    assert r["style/lane_share"] == pytest.approx([125 / 501, 376 / 501])
+
+
+def test_a_known_jerk_and_a_full_stop():
+    j = 0.5  # [m/s^3]: a = j t, v = 5 + j t^2 / 2
+    t = np.arange(201) * DT
+    v = 5.0 + 0.5 * j * t**2
+    s = 5.0 * t + j * t**3 / 6
+    r = style_summary(t, s, v, np.zeros(201, int), np.full(201, np.nan))
+    assert r["style/rms_jerk"] == pytest.approx(j, rel=1e-9)
+    acc = j * (t[:-1] + DT / 2)  # the finite difference of v: exact at the midpoints
+    assert r["style/rms_accel"] == pytest.approx(float(np.sqrt(np.mean(acc**2))), rel=1e-9)
+    v = np.concatenate([np.full(50, 5.0), np.zeros(20), np.full(50, 5.0), np.zeros(10)])
+    r = style_summary(np.arange(130) * DT, np.cumsum(v) * DT, v, np.zeros(130, int), np.full(130, np.nan))
+    assert r["style/full_stops"] == 2
+
+
+def test_pooling_is_exact_for_additive_figures():
+    a, b = _drive(n=501, v=10.0), _drive(n=1001, v=20.0, lane=0)
+    ra, rb = style_summary(**a), style_summary(**b)
+    p = pool_styles([ra, rb])
+    assert p["style/km"] == pytest.approx(ra["style/km"] + rb["style/km"])
+    assert p["style/mean_speed"] == pytest.approx(1000 * p["style/km"] / (50.0 + 100.0))
+    assert p["style/lane_share"] == pytest.approx([100 / 150, 50 / 150])
+    one = pool_styles([ra])
+    assert one.pop("style/lane_share") == ra["style/lane_share"]
+    assert one == pytest.approx({k: v for k, v in ra.items() if k != "style/lane_share"}, nan_ok=True)
+
+
+def _styles() -> list[dict]:
+    rng = np.random.default_rng(0)
+    out = []
+    for v, g in ((10.0, 20.0), (15.0, 30.0), (12.0, 60.0), (20.0, 25.0)):
+        d = _drive(v=v, gap=g)
+        d["v"] = d["v"] + rng.normal(0, 0.1, len(d["v"]))
+        d["lane"][rng.integers(100, 900) :] = 0
+        out.append(style_summary(**d))
+    return out
+
+
+def test_style_distance_properties():
+    styles = _styles()
+    dist = style_distances(styles)
+    assert dist.shape == (4, 4)
+    np.testing.assert_allclose(np.diag(dist), 0.0, atol=1e-12)  # zero to itself
+    np.testing.assert_allclose(dist, dist.T)  # symmetric
+    assert (dist[~np.eye(4, dtype=bool)] > 0).all()
+    # scale-free: every figure in other units (km/h, ms, per mile, ...) gives the same distances
+    scaled = [
+        {**s, **{k: 3.7 * s[k] for k in STYLE_FIGURES}, "style/lane_share": s["style/lane_share"]}
+        for s in styles
+    ]
+    np.testing.assert_allclose(style_distances(scaled), dist, rtol=1e-9)
+    # and the same driving twice is at distance zero from itself and equally far from the others
+    twice = style_distances([styles[0], styles[0], styles[1], styles[2]])
+    assert twice[0, 1] == pytest.approx(0.0, abs=1e-12)
+    assert twice[0, 2] == pytest.approx(twice[1, 2])
