@@ -110,32 +110,21 @@ class Simulation:
         if not self.vtypes_file.is_file():
             raise IrlsimError(f"vehicle types {self.vtypes_file} not found: restore sumo_net/ from git")
         additional = [str(self.vtypes_file), *([self.demo_type.path()] if self.demo_type else [])]
-        cmd = [
-            binary,
-            "--net-file",
-            str(self.road.net_file),
-            "--additional-files",
-            ",".join(additional),
-            *(["--route-files", ",".join(str(p) for p in self.road.demand)] if self.road.demand else []),
-            "--step-length",
-            f"{self.cfg.step}",
-            "--seed",
-            str(seed),
-            "--begin",
-            "0",
-            "--no-step-log",
-            "true",
-            "--no-warnings",
-            "true",
-            "--collision.action",
-            "warn",
-            "--collision.check-junctions",
-            "true",
-            "--collision.mingap-factor",
-            "0",
-            "--time-to-teleport",
-            "-1",
-        ]
+        options = {
+            "--net-file": str(self.road.net_file),
+            "--additional-files": ",".join(additional),
+            **({"--route-files": ",".join(str(p) for p in self.road.demand)} if self.road.demand else {}),
+            "--step-length": f"{self.cfg.step}",
+            "--seed": str(seed),
+            "--begin": "0",
+            "--no-step-log": "true",
+            "--no-warnings": "true",
+            "--collision.action": "warn",
+            "--collision.check-junctions": "true",
+            "--collision.mingap-factor": "0",
+            "--time-to-teleport": "-1",
+        }
+        cmd = [binary, *(x for kv in options.items() for x in kv)]
         if self.gui:
             cmd += ["--start", "true", "--delay", str(int(self.cfg.step * 1000))]
         return cmd
