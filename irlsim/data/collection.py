@@ -31,7 +31,7 @@ from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
-from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
+from irlsim.sim.config import ScenarioConfig, defaults_source, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import seed_everything, write_json
@@ -131,6 +131,12 @@ class CollectConfig:
         if not isinstance(table, dict) or data.get("scenarios"):
             return data
         return {**data, "scenario": with_scenario_defaults(table)}
+
+    @classmethod
+    def defaults_source(cls, data: dict[str, Any]) -> str | None:
+        """The scenario file whose ``[defaults]`` ``with_defaults`` used (``load_config`` names it)."""
+        table = data.get("scenario")
+        return defaults_source(table) if isinstance(table, dict) and not data.get("scenarios") else None
 
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
