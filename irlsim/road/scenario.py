@@ -225,6 +225,39 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
     )
 
 
+def network_advice(net_file: Path, scenario_file: Path | None) -> str:
+    """What fixes a broken network, as it was made: the oval's is rebuilt by 'irlsim net --force'; a
+    network irlsim built or unpacked from the scenario's [network] source is built again once deleted; a
+    network file of the scenario is the user's to fix; one of the eclipse-sumo wheel comes back with it."""
+    from irlsim.road.network import NET_FILE, OVAL_DIR
+
+    if net_file.resolve() == (OVAL_DIR / NET_FILE).resolve():
+        return "rebuild it with 'irlsim net --force'"
+    try:
+        spec = read_scenario_file(scenario_file).network if scenario_file is not None else None
+    except IrlsimError:
+        spec = None
+    if spec is None:
+        return "fix or regenerate it"
+    assert scenario_file is not None
+    where = f"the [network] of {scenario_file}"
+    name = spec.file or spec.netconvert or spec.netgenerate or spec.opendrive or spec.osm
+    source = Path(sumo_home()) / "tools" / spec.sumo_tools if spec.sumo_tools else scenario_file.parent / name
+    if spec.netconvert:
+        made = scenario_file.parent / f"{scenario_file.parent.name}.net.xml"
+    elif source.suffix == ".gz":
+        made = cache_dir(scenario_file) / source.name.removesuffix(".gz")
+    else:
+        made = cache_dir(scenario_file) / (source.name.split(".")[0] + ".net.xml")
+    if net_file.resolve() == made.resolve() and made.resolve() != source.resolve():  # irlsim made it
+        return f"delete it: it is made again from {source} ({where}); if it recurs, fix that"
+    if net_file.resolve() != source.resolve():  # given instead of the scenario's (irlsim sim --net)
+        return "fix or regenerate it"
+    if spec.sumo_tools:
+        return f"it is eclipse-sumo's ({where}): reinstall it ('pip install --force-reinstall eclipse-sumo')"
+    return f"fix or regenerate it ({where})"
+
+
 def _route_file(scenario: Path, name: str) -> Path:
     if name.startswith("sumo_tools/"):
         p = Path(sumo_home()) / "tools" / name.removeprefix("sumo_tools/")

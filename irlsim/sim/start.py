@@ -87,9 +87,14 @@ def check_start(road: Road, cfg: ScenarioConfig) -> float:
 
 def check_starts(scenario: ScenarioConfig, names: tuple[str, ...]) -> None:
     """Every road ``names`` (scenario names) leaves the ego a start with the episode settings
-    ``scenario``: a one-line IrlsimError otherwise, before a command's work (collect, drive)."""
+    ``scenario``, and SUMO loads its files (network, vehicle types, demand): a one-line IrlsimError
+    otherwise, before a command's work (collect, drive), not an episode's error retried in a worker."""
+    from irlsim.sim.simulation import check_sumo_inputs  # simulation.py imports this module
+
     for name in names:
-        check_start(load_road(scenario=name), replace(scenario, name=name))
+        road = load_road(scenario=name)
+        check_start(road, replace(scenario, name=name))
+        check_sumo_inputs(road)
 
 
 def draw_start(
