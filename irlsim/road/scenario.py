@@ -37,6 +37,7 @@ by :class:`irlsim.road.Road`.
 
 from __future__ import annotations
 
+import functools
 import gzip
 import hashlib
 import os
@@ -183,6 +184,26 @@ def scenario_path(spec: str | Path) -> Path:
         f"scenario '{text}' not found: name a shipped one ({', '.join(shipped_scenarios())}) or the path of "
         f"a {SCENARIO_FILE} (see docs/SCENARIOS.md)"
     )
+
+
+def scenario_identity(spec: str | Path) -> str:
+    """What a dataset records of a road: one identity however the scenario is spelled. A shipped scenario
+    is its name (``oval``, ``sumo_net/oval``, ``sumo_net/oval/scenario.toml``, relative or absolute, are
+    ``oval``); any other scenario file is ``<its name>@<the first 16 hex digits of its digest>`` (the
+    scenario file and its network by content: a copy elsewhere is the same road, no path is recorded)."""
+    path = scenario_path(spec).resolve()
+    net = load_scenario(path, build=False).net_file
+    return _identity(str(path), path.stat().st_mtime_ns, net.stat().st_mtime_ns if net.is_file() else 0)
+
+
+@functools.lru_cache(maxsize=32)
+def _identity(path: str, mtime_ns: int, net_mtime_ns: int) -> str:
+    """(cached while the scenario file and its network are unchanged)"""
+    shipped = {(SUMO_NET_DIR / n / SCENARIO_FILE).resolve(): n for n in shipped_scenarios()}
+    if Path(path) in shipped:
+        return shipped[Path(path)]
+    scn = load_scenario(path)
+    return f"{scn.name}@{scn.digest().removeprefix('sha256:')[:16]}"
 
 
 def read_scenario_file(path: Path) -> ScenarioFile:
