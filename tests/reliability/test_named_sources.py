@@ -81,3 +81,11 @@ def test_a_good_config_loads_as_before():
     """The attribution runs only on the error path: a valid config and its overrides load unchanged."""
     cfg = load_config(CollectConfig, TINY, {"planner.n_policies": 7, "seed": 3})
     assert (cfg.planner.n_policies, cfg.seed) == (7, 3)
+
+
+def test_the_environment_names_its_argument():
+    from irlsim.envs.oval import OvalEnv
+
+    with pytest.raises(IrlsimError) as e:
+        OvalEnv(overrides={"planner.n_policies": -3})
+    assert str(e.value) == "config: overrides['planner.n_policies']: planner.n_policies must be >= 1, got -3"
