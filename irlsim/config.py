@@ -8,6 +8,7 @@ an :class:`~irlsim.errors.IrlsimError`, so a typo never silently falls back to a
 from __future__ import annotations
 
 import argparse
+import copy
 import dataclasses
 import math
 import os
@@ -118,29 +119,53 @@ def to_dict(obj: Any, all_fields: bool = False) -> Any:
     return obj
 
 
-def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any] | None = None) -> T:
+def load_config(
+    cls: type[T],
+    path: str | Path | None,
+    overrides: dict[str, Any] | None = None,
+    labels: dict[str, str] | None = None,
+) -> T:
     """Load ``cls`` from a TOML file (or defaults when ``path`` is None), then apply ``overrides``.
 
     Overrides use dotted keys (``{"scenario.n_vehicles": 5}``). A class with a ``with_defaults(data)``
     classmethod fills defaults that depend on the data itself (the collect config: a scenario file's
-    ``[defaults]``) before it is built.
+    ``[defaults]``) before it is built. A bad value is one line naming where it came from: the config
+    file, the scenario file's ``[defaults]`` (``defaults_source(data)``) or the override, as
+    ``labels[key]`` names it (default ``--set KEY``); see :func:`_blame`.
     """
-    data: dict[str, Any] = {}
-    if path is not None:
-        p = Path(path)
-        if not p.is_file():
-            raise IrlsimError(f"config file {p} not found: pass an existing TOML file (see configs/)")
-        try:
-            data = tomllib.loads(p.read_bytes().decode("utf-8"))
-        except OSError as e:
-            raise IrlsimError(f"config file {p} cannot be read ({e.strerror}): check the path") from None
-        except UnicodeDecodeError as e:
-            raise IrlsimError(
-                f"config file {p} is not UTF-8 text (byte {e.start}): save it as UTF-8 TOML (see configs/)"
-            ) from None
-        except tomllib.TOMLDecodeError as e:
-            raise IrlsimError(f"config file {p} is not valid TOML ({e}): fix the syntax") from None
-    for key, value in (overrides or {}).items():
+    data = _read_toml(Path(path)) if path is not None else {}
+    full = _with_overrides(data, overrides or {})
+    try:
+        return _build(cls, full)
+    except IrlsimError as e:
+        msg = str(e)
+        if not msg.startswith("config: "):  # already names its object (a scenario file, a --set key)
+            raise
+        source = _blame(cls, data, overrides or {}, labels or {}, path, full)
+        if source is None:
+            raise
+        raise IrlsimError(f"config: {source}: {msg.removeprefix('config: ')}") from None
+
+
+def _read_toml(p: Path) -> dict[str, Any]:
+    if not p.is_file():
+        raise IrlsimError(f"config file {p} not found: pass an existing TOML file (see configs/)")
+    try:
+        return tomllib.loads(p.read_bytes().decode("utf-8"))
+    except OSError as e:
+        raise IrlsimError(f"config file {p} cannot be read ({e.strerror}): check the path") from None
+    except UnicodeDecodeError as e:
+        raise IrlsimError(
+            f"config file {p} is not UTF-8 text (byte {e.start}): save it as UTF-8 TOML (see configs/)"
+        ) from None
+    except tomllib.TOMLDecodeError as e:
+        raise IrlsimError(f"config file {p} is not valid TOML ({e}): fix the syntax") from None
+
+
+def _with_overrides(data: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """``data`` (a copy of every table on the way) with the dotted-key ``overrides`` set."""
+    data = copy.deepcopy(data)
+    for key, value in overrides.items():
         node = data
         parts = key.split(".")
         for i, part in enumerate(parts[:-1]):
@@ -154,10 +179,46 @@ def load_config(cls: type[T], path: str | Path | None, overrides: dict[str, Any]
                 )
             node = child
         node[parts[-1]] = value
-    hook = getattr(cls, "with_defaults", None)  # a config whose defaults depend on its data (a scenario's)
-    if callable(hook):
-        data = hook(data)
+    return data
+
+
+def _build(cls: type[T], data: dict[str, Any], hook: bool = True) -> T:
+    with_defaults = getattr(cls, "with_defaults", None)  # defaults that depend on the data (a scenario's)
+    if hook and callable(with_defaults):
+        data = with_defaults(data)
     return from_dict(cls, data)
+
+
+def _builds(cls: type[Any], data: dict[str, Any], hook: bool) -> bool:
+    try:
+        _build(cls, data, hook)
+    except IrlsimError:
+        return False
+    return True
+
+
+def _blame(
+    cls: type[Any],
+    data: dict[str, Any],
+    overrides: dict[str, Any],
+    labels: dict[str, str],
+    path: str | Path | None,
+    full: dict[str, Any],
+) -> str | None:
+    """Where the value that fails came from (None: unknown). Only on the error path: the config is built
+    again without a source to see whether it was that one. The scenario's ``[defaults]``, when the config
+    builds without them; else the first override (in the order given) whose addition to the file makes
+    it fail; else the file."""
+    source = getattr(cls, "defaults_source", None)
+    if callable(source) and _builds(cls, full, hook=False):
+        return source(full)  # type: ignore[no-any-return]
+    if overrides and _builds(cls, data, hook=False):
+        given: dict[str, Any] = {}
+        for key, value in overrides.items():
+            given[key] = value
+            if not _builds(cls, _with_overrides(data, given), hook=False):
+                return labels.get(key, f"--set {key}")
+    return f"config file {path}" if path is not None else None
 
 
 def require(cond: bool, message: str) -> None:

@@ -87,6 +87,15 @@ def add_executor_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: the config keys options set, as a bad value's line names them (other overrides are --set KEY)
+OPTION_KEYS = {
+    "workers": "--workers",
+    "seed": "--seed",
+    "dagger_round": "--round",
+    "scenario.name": "--scenario",
+}
+
+
 def request(args: argparse.Namespace) -> CollectRun:
     """The parsed arguments as the library's request (one-line errors for arguments that do not fit)."""
     overrides = parse_overrides(args.set)
@@ -105,7 +114,7 @@ def request(args: argparse.Namespace) -> CollectRun:
         overrides["dagger_round"] = args.round if args.round is not None else 1
     if args.scenario is not None:
         overrides["scenario.name"] = str(args.scenario)
-    cfg = load_config(CollectConfig, args.config, overrides)
+    cfg = load_config(CollectConfig, args.config, overrides, OPTION_KEYS)
     return CollectRun(
         cfg, args.out, args.executor, args.address, args.episode_timeout, args.driver, args.runs
     )

@@ -23,6 +23,7 @@ from typing import Any, Protocol, runtime_checkable
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
 from irlsim.data.demonstrator import EXPERT, DemonstratorConfig, SumoDemonstrator, demo_vtype
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
+from irlsim.data.scenarios import by_identity
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
@@ -30,10 +31,10 @@ from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
-from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.road.scenario import DEFAULT_SCENARIO, scenario_identity
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
-from irlsim.sim.config import ScenarioConfig, with_scenario_defaults
+from irlsim.sim.config import ScenarioConfig, defaults_source, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
@@ -138,6 +139,12 @@ class CollectConfig:
             return data
         return {**data, "scenario": with_scenario_defaults(table)}
 
+    @classmethod
+    def defaults_source(cls, data: dict[str, Any]) -> str | None:
+        """The scenario file whose ``[defaults]`` ``with_defaults`` used (``load_config`` names it)."""
+        table = data.get("scenario")
+        return defaults_source(table) if isinstance(table, dict) and not data.get("scenarios") else None
+
     def validate(self) -> None:
         require(self.seed >= 0, f"seed must be >= 0, got {self.seed}")
         self._validate_scenarios()
@@ -215,12 +222,22 @@ class CollectConfig:
 
     def check_roads(self) -> None:
         """Collection only (drive and the environment take one road of such a config with ``--scenario``):
-        ``[scenario] name`` and ``[[scenarios]]`` may not both name the road."""
+        ``[scenario] name`` and ``[[scenarios]]`` may not both name the road, nor two entries one road
+        spelled two ways (by :func:`~irlsim.road.scenario.scenario_identity`)."""
         require(
             not self.scenarios or self.scenario.name == DEFAULT_SCENARIO,
             f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
             "scenario in [[scenarios]] (and drop --scenario)",
         )
+        seen: dict[str, str] = {}
+        for name in self.scenario_names:
+            road = scenario_identity(name)
+            require(
+                road not in seen,
+                f"[[scenarios]] lists one road twice, as '{seen.get(road)}' and '{name}' (both {road}): give "
+                "each scenario one entry",
+            )
+            seen[road] = name
 
     @property
     def scenario_names(self) -> tuple[str, ...]:
@@ -268,7 +285,7 @@ def estimate_dataset_bytes(cfg: CollectConfig) -> int:
 def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
     types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
-    d = cfg if isinstance(cfg, dict) else to_dict(cfg)
+    d = cfg if isinstance(cfg, dict) else by_identity(to_dict(cfg))
     scn = d.get("scenario")
     if isinstance(scn, dict) and scn.get("name") == DEFAULT_SCENARIO:
         # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
@@ -298,7 +315,7 @@ def episode_record(
     and in a dataset over several scenarios (``scenario`` given) the episode's scenario."""
     out: dict[str, Any] = {"seed": int(seed), "config": config_hash(cfg)}
     if scenario is not None:
-        out["scenario"] = scenario
+        out["scenario"] = scenario_identity(scenario)
     return out
 
 
@@ -463,7 +480,7 @@ def collect_episode(
             "collect/split": job.split,
             "collect/episode": job.episode,
             "collect/seed": job.seed,
-            **({"collect/scenario": job.scenario} if job.scenario is not None else {}),
+            **({"collect/scenario": scenario_identity(job.scenario)} if job.scenario is not None else {}),
             "collect/cycles": n_cycles,
             "collect/setup_s": round(setup, 3),
             "collect/wall_s": round(wall, 3),

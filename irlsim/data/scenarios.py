@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.errors import IrlsimError
-from irlsim.road.scenario import DEFAULT_SCENARIO  # the scenario of a manifest that names none
+from irlsim.road.scenario import DEFAULT_SCENARIO, scenario_identity  # DEFAULT: of a manifest naming none
 
 #: evaluation accepts a model trained on any selection of a dataset's scenarios: up to this many of them
 MAX_SELECTABLE = 8
@@ -47,6 +47,17 @@ def episode_scenario(manifest: dict[str, Any], split: str, episode: int) -> str:
     return manifest_scenarios(manifest)[0]
 
 
+def by_identity(d: dict[str, Any]) -> dict[str, Any]:
+    """The config's scenario names as their identities (:func:`irlsim.road.scenario.scenario_identity`):
+    the same road spelled another way is the same data config, and no path enters it."""
+    scn = d.get("scenario")
+    if isinstance(scn, dict) and isinstance(scn.get("name"), str):
+        d = {**d, "scenario": {**scn, "name": scenario_identity(scn["name"])}}
+    if d.get("scenarios"):
+        d = {**d, "scenarios": [{**e, "name": scenario_identity(e["name"])} for e in d["scenarios"]]}
+    return d
+
+
 def parse_selection(text: str | None, option: str = "--scenario-select") -> tuple[str, ...] | None:
     """``A,B`` -> ('A', 'B'); None stays None; an empty name is one line naming the option."""
     if text is None:
@@ -59,7 +70,9 @@ def parse_selection(text: str | None, option: str = "--scenario-select") -> tupl
 
 def check_selection(where: Path | str, known: Sequence[str], names: Sequence[str]) -> tuple[str, ...]:
     """``names`` sorted and without repeats; one line (before any work) when one is not a scenario of
-    the dataset(s) ``where``."""
+    the dataset(s) ``where``. A name spelled otherwise (a shipped scenario's path, a scenario file) is
+    taken as its identity, as the dataset records it."""
+    names = [_as_recorded(n, known) for n in names]
     unknown = [n for n in names if n not in known]
     if unknown or not names:
         raise IrlsimError(
@@ -67,6 +80,15 @@ def check_selection(where: Path | str, known: Sequence[str], names: Sequence[str
             f"{', '.join(known)} (irlsim data info lists them)"
         )
     return tuple(sorted(set(names)))
+
+
+def _as_recorded(name: str, known: Sequence[str]) -> str:
+    if name in known:
+        return name
+    try:
+        return scenario_identity(name)
+    except IrlsimError:  # no scenario of that name: named as unknown
+        return name
 
 
 def selection_identity(manifest: dict[str, Any], selection: Sequence[str]) -> str:

@@ -239,7 +239,9 @@ class OvalEnv(gym.Env):
                 raise IrlsimError("overrides apply to a config file: pass config as a path (or None)")
         else:  # the scenario's own [defaults] beneath the config (CollectConfig.with_defaults)
             named = {"scenario.name": str(scenario)} if scenario is not None else {}
-            cfg = load_config(CollectConfig, config, {**(overrides or {}), **named})
+            given = {**(overrides or {}), **named}  # a bad value names the argument it came from
+            labels = {k: f"overrides[{k!r}]" for k in overrides or {}} | {"scenario.name": "scenario="}
+            cfg = load_config(CollectConfig, config, given, labels)
         sc = cfg.scenario
         if scenario is not None:
             sc = dataclasses.replace(sc, name=str(scenario))

@@ -192,7 +192,7 @@ class Road:
         scenario_file: str | Path | None = None,
     ):
         net_file = Path(net_file)
-        self.net = _read_net(net_file)
+        self.net = _read_net(net_file, Path(scenario_file) if scenario_file is not None else None)
         #: the scenario's own SUMO route files (empty: irlsim's spawner) and its warm-up [s]
         self.demand: tuple[Path, ...] = ()
         self.warmup = 0.0
@@ -1027,7 +1027,7 @@ def _open_reference(centre: np.ndarray) -> np.ndarray:
     return np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
 
 
-def _read_net(net_file: Path) -> Any:
+def _read_net(net_file: Path, scenario_file: Path | None = None) -> Any:
     """The sumolib network (internal lanes included); one-line errors for a missing, malformed or
     left-hand network."""
     try:
@@ -1039,9 +1039,10 @@ def _read_net(net_file: Path) -> Any:
     try:
         net = sumolib.net.readNet(str(net_file), withInternal=True)
     except Exception as e:  # sumolib raises bare SAX / attribute errors on malformed XML
-        raise IrlsimError(
-            f"network {net_file} is malformed ({type(e).__name__}): delete it and run 'irlsim net'"
-        ) from None
+        from irlsim.road.scenario import network_advice  # the fix that fits how the network was made
+
+        fix = network_advice(net_file, scenario_file)
+        raise IrlsimError(f"network {net_file} is malformed ({type(e).__name__}): {fix}") from None
     if _lefthand(net_file):
         raise IrlsimError(f"network {net_file} drives on the left: left-hand traffic is not supported")
     return net

@@ -37,6 +37,7 @@ by :class:`irlsim.road.Road`.
 
 from __future__ import annotations
 
+import functools
 import gzip
 import hashlib
 import os
@@ -185,6 +186,26 @@ def scenario_path(spec: str | Path) -> Path:
     )
 
 
+def scenario_identity(spec: str | Path) -> str:
+    """What a dataset records of a road: one identity however the scenario is spelled. A shipped scenario
+    is its name (``oval``, ``sumo_net/oval``, ``sumo_net/oval/scenario.toml``, relative or absolute, are
+    ``oval``); any other scenario file is ``<its name>@<the first 16 hex digits of its digest>`` (the
+    scenario file and its network by content: a copy elsewhere is the same road, no path is recorded)."""
+    path = scenario_path(spec).resolve()
+    net = load_scenario(path, build=False).net_file
+    return _identity(str(path), path.stat().st_mtime_ns, net.stat().st_mtime_ns if net.is_file() else 0)
+
+
+@functools.lru_cache(maxsize=32)
+def _identity(path: str, mtime_ns: int, net_mtime_ns: int) -> str:
+    """(cached while the scenario file and its network are unchanged)"""
+    shipped = {(SUMO_NET_DIR / n / SCENARIO_FILE).resolve(): n for n in shipped_scenarios()}
+    if Path(path) in shipped:
+        return shipped[Path(path)]
+    scn = load_scenario(path)
+    return f"{scn.name}@{scn.digest().removeprefix('sha256:')[:16]}"
+
+
 def read_scenario_file(path: Path) -> ScenarioFile:
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))
@@ -223,6 +244,39 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
         defaults=dict(sf.defaults),
         description=sf.description,
     )
+
+
+def network_advice(net_file: Path, scenario_file: Path | None) -> str:
+    """What fixes a broken network, as it was made: the oval's is rebuilt by 'irlsim net --force'; a
+    network irlsim built or unpacked from the scenario's [network] source is built again once deleted; a
+    network file of the scenario is the user's to fix; one of the eclipse-sumo wheel comes back with it."""
+    from irlsim.road.network import NET_FILE, OVAL_DIR
+
+    if net_file.resolve() == (OVAL_DIR / NET_FILE).resolve():
+        return "rebuild it with 'irlsim net --force'"
+    try:
+        spec = read_scenario_file(scenario_file).network if scenario_file is not None else None
+    except IrlsimError:
+        spec = None
+    if spec is None:
+        return "fix or regenerate it"
+    assert scenario_file is not None
+    where = f"the [network] of {scenario_file}"
+    name = spec.file or spec.netconvert or spec.netgenerate or spec.opendrive or spec.osm
+    source = Path(sumo_home()) / "tools" / spec.sumo_tools if spec.sumo_tools else scenario_file.parent / name
+    if spec.netconvert:
+        made = scenario_file.parent / f"{scenario_file.parent.name}.net.xml"
+    elif source.suffix == ".gz":
+        made = cache_dir(scenario_file) / source.name.removesuffix(".gz")
+    else:
+        made = cache_dir(scenario_file) / (source.name.split(".")[0] + ".net.xml")
+    if net_file.resolve() == made.resolve() and made.resolve() != source.resolve():  # irlsim made it
+        return f"delete it: it is made again from {source} ({where}); if it recurs, fix that"
+    if net_file.resolve() != source.resolve():  # given instead of the scenario's (irlsim sim --net)
+        return "fix or regenerate it"
+    if spec.sumo_tools:
+        return f"it is eclipse-sumo's ({where}): reinstall it ('pip install --force-reinstall eclipse-sumo')"
+    return f"fix or regenerate it ({where})"
 
 
 def _route_file(scenario: Path, name: str) -> Path:

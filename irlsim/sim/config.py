@@ -7,7 +7,7 @@ from typing import Any
 
 from irlsim.config import from_dict, require
 from irlsim.errors import IrlsimError
-from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
+from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario, scenario_path
 
 MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/design/scenario.md)
 
@@ -149,6 +149,11 @@ class ScenarioConfig:
         """The data with its scenario file's ``[defaults]`` beneath it (``load_config``'s hook)."""
         return with_scenario_defaults(data)
 
+    @classmethod
+    def defaults_source(cls, data: dict[str, Any]) -> str | None:
+        """Where ``with_defaults`` took values from (``load_config`` names it for a bad one)."""
+        return defaults_source(data)
+
     @property
     def steps_per_cycle(self) -> int:
         return int(round(self.cycle / self.step))
@@ -176,6 +181,30 @@ def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
     return {**defaults, **table}
 
 
+def defaults_source(table: dict[str, Any]) -> str | None:
+    """The scenario file whose ``[defaults]`` :func:`with_scenario_defaults` puts beneath ``table``, as an
+    error line names it (None: none, or a name that is no scenario: that has its own line)."""
+    name = table.get("name")
+    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
+        return None
+    try:
+        return f"scenario {scenario_path(name)} [defaults]"
+    except IrlsimError:
+        return None
+
+
 def scenario_config(name: str, **overrides: Any) -> ScenarioConfig:
-    """The episode settings for scenario ``name``: its file's ``[defaults]``, then ``overrides``."""
-    return from_dict(ScenarioConfig, with_scenario_defaults({**overrides, "name": name}))
+    """The episode settings for scenario ``name``: its file's ``[defaults]``, then ``overrides``; a bad
+    value of the ``[defaults]`` is one line naming the scenario file."""
+    table = {**overrides, "name": name}
+    try:
+        return from_dict(ScenarioConfig, with_scenario_defaults(table))
+    except IrlsimError as e:
+        source = defaults_source(table)
+        if source is None or not str(e).startswith("config: "):
+            raise
+        try:
+            from_dict(ScenarioConfig, table)
+        except IrlsimError:
+            raise e from None  # not the defaults' value
+        raise IrlsimError(f"config: {source}: {str(e).removeprefix('config: ')}") from None

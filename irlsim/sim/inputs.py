@@ -3,11 +3,20 @@ file at fault in one line, never blamed on the network or retried as a failed ep
 
 from __future__ import annotations
 
+import os
+import sys
+import tempfile
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 from xml.etree import ElementTree
 
 from irlsim.errors import IrlsimError
+from irlsim.road.network import sumo_binary
+from irlsim.road.scenario import network_advice
 from irlsim.sim.traffic import BG_TYPE
+
+if TYPE_CHECKING:
+    from irlsim.road.geometry import Road
 
 #: how to get the shipped vehicle types back
 RESTORE = "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
@@ -31,3 +40,86 @@ def check_inputs(vtypes_file: Path | str, demand: tuple[Path, ...]) -> None:
                     f"vehicle types {path} lacks vType '{lacking[0]}', which irlsim inserts (it needs "
                     f"ego, {BG_TYPE}): add it or {RESTORE}"
                 )
+
+
+def start_quietly(api: Any, cmd: list[str], quiet: bool = True, load: bool = False) -> str | None:
+    """``api.start(cmd)`` (``load``: ``api.load(cmd[1:])``) with what SUMO writes to stderr caught
+    (``quiet``): None when it started, else SUMO's message in one line (its exception's text, or the
+    first 'Error:' line it wrote when the exception says only 'Process Error')."""
+    run = (lambda: api.load(cmd[1:])) if load else (lambda: api.start(cmd))
+    if not quiet:
+        try:
+            run()
+        except Exception as e:  # libsumo / traci raise their own exception types
+            return _message(e, "")
+        return None
+    with tempfile.TemporaryFile() as log:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(log.fileno(), 2)
+        try:
+            run()
+            error = None
+        except Exception as e:
+            error = e
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        log.seek(0)
+        return None if error is None else _message(error, log.read().decode(errors="replace"))
+
+
+def _message(error: Exception, stderr: str) -> str:
+    text = str(error).strip()
+    if text in ("", "Process Error"):
+        lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
+        first = next((ln for ln in lines if ln.startswith("Error:")), lines[0] if lines else "")
+        text = first.removeprefix("Error:").strip() or text or type(error).__name__
+    return " ".join(text.split())
+
+
+def refusal(api: Any, road: Road, vtypes_file: Path, why: str) -> IrlsimError:
+    """The file SUMO refused, after it failed to start with ``why``: SUMO started again on the network
+    alone, then with the vehicle types, then with each route file in turn (every route read at once,
+    ``--route-steps 0``); the first that fails is named with SUMO's message and the fix that fits it."""
+    net, vtypes = str(road.net_file), ["--additional-files", str(vtypes_file)]
+    base = [sumo_binary("sumo"), "--net-file", net, *QUIET, "--route-steps", "0", "--begin", "0"]
+    stages: list[tuple[str, list[str], str]] = [
+        (f"network {net}", [], network_advice(road.net_file, road.scenario_file))
+    ]
+    stages.append((f"vehicle types {vtypes_file}", vtypes, f"fix it or {RESTORE}"))
+    for i, route_file in enumerate(road.demand):
+        files = ",".join(str(p) for p in road.demand[: i + 1])
+        fix = f"fix it or the [traffic] routes of {road.scenario_file}"
+        stages.append((f"route file {route_file}", [*vtypes, "--route-files", files], fix))
+    for what, extra, fix in stages:
+        refused = start_quietly(api, base + extra)
+        _close(api)
+        if refused is not None:
+            return IrlsimError(f"{what}: SUMO refused it ({refused}): {fix}")
+    return IrlsimError(f"SUMO failed to start on {net} ({why}), though it loads each of its input files")
+
+
+def probe(api: Any, road: Road, vtypes_file: Path) -> None:
+    """SUMO loads the road's network, the vehicle types and the scenario's demand (every route at once):
+    else one IrlsimError line naming the file it refused, before any episode (collect, drive check this
+    once, so that such an error is not an episode's, retried and marked failed)."""
+    check_inputs(vtypes_file, road.demand)
+    cmd = [sumo_binary("sumo"), "--net-file", str(road.net_file), "--additional-files", str(vtypes_file)]
+    if road.demand:
+        cmd += ["--route-files", ",".join(str(p) for p in road.demand)]
+    why = start_quietly(api, [*cmd, *QUIET, "--route-steps", "0", "--begin", "0"])
+    _close(api)
+    if why is not None:
+        raise refusal(api, road, vtypes_file, why)
+
+
+#: options that keep SUMO quiet
+QUIET = ("--no-step-log", "true", "--no-warnings", "true")
+
+
+def _close(api: Any) -> None:
+    try:
+        api.close()
+    except Exception:  # not started, or gone: nothing to release
+        pass

@@ -28,7 +28,7 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import first_collision, obb_collide
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.inputs import check_inputs
+from irlsim.sim.inputs import check_inputs, probe, refusal, start_quietly
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
@@ -137,7 +137,7 @@ class Simulation:
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
         cmd = self.command(check_seed(seed))
-        self._check_inputs()
+        check_inputs(self.vtypes_file, self.road.demand)  # the files SUMO reads besides the network
         module = "traci" if self.gui else "libsumo"
         try:
             api: Any = importlib.import_module(module)
@@ -145,21 +145,12 @@ class Simulation:
             raise IrlsimError(f"{module} is not installed: run 'make setup'") from None
         if not self.gui and _ACTIVE is not None and _ACTIVE is not self:
             _ACTIVE.close()  # libsumo: one simulation per process
-        try:
-            api.start(cmd)
-        except Exception as e:  # libsumo / traci raise their own exception types
-            msg = str(e).strip().splitlines()
-            raise IrlsimError(
-                f"SUMO failed to start on {self.road.net_file} ({msg[-1] if msg else type(e).__name__}): "
-                "rebuild the network with 'irlsim net --force'"
-            ) from None
+        why = start_quietly(api, cmd, quiet=not self.gui)
+        if why is not None:  # the file SUMO refused, by starting it on each in turn (sim.inputs)
+            raise refusal(api, self.road, self.vtypes_file, why) if not self.gui else IrlsimError(why)
         self._api = api
         if not self.gui:
             _ACTIVE = self
-
-    def _check_inputs(self) -> None:
-        """The files SUMO reads besides the network, one line naming a broken one (:mod:`.inputs`)."""
-        check_inputs(self.vtypes_file, self.road.demand)
 
     def close(self) -> None:
         """Stop SUMO; safe to call more than once."""
@@ -198,12 +189,10 @@ class Simulation:
         if self._api is None:
             self.start(seed)
         else:
-            try:
-                self._api.load(self.command(seed)[1:])
-            except Exception as e:
-                raise IrlsimError(
-                    f"SUMO failed to reload ({e}): rebuild the network with 'irlsim net --force'"
-                ) from None
+            why = start_quietly(self._api, self.command(seed), quiet=not self.gui, load=True)
+            if why is not None:
+                api, self._api = self._api, None
+                raise refusal(api, self.road, self.vtypes_file, why) if not self.gui else IrlsimError(why)
         api, cfg, road = self._api, self.cfg, self.road
         self.seed = seed
         rng = np.random.default_rng(seed)
@@ -493,3 +482,14 @@ class Simulation:
 
 #: wall-clock figures, which differ from run to run (see Simulation.stats): left out of determinism checks
 TIMING_KEYS = ("sim/steps_per_s", "sim/sumo_steps_per_s")
+
+
+def check_sumo_inputs(road: Road, vtypes_file: str | Path | None = None) -> None:
+    """SUMO loads ``road``'s files, checked before a command's episodes (:func:`.inputs.probe`)."""
+    if _ACTIVE is not None:
+        _ACTIVE.close()  # libsumo: one simulation per process
+    probe(
+        importlib.import_module("libsumo"),
+        road,
+        Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE,
+    )

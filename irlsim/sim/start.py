@@ -10,12 +10,10 @@ remains (:func:`start_scale`); a route too short for any start is refused in one
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road import Road, junctions, load_road
+from irlsim.road import Road, junctions
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import VehicleStates
@@ -83,13 +81,6 @@ def check_start(road: Road, cfg: ScenarioConfig) -> float:
     """:func:`start_scale` of ``road`` (a one-line IrlsimError where it leaves no start): what a command
     checks once before any work."""
     return start_scale(road, cfg, LoopEdges.from_road(road))
-
-
-def check_starts(scenario: ScenarioConfig, names: tuple[str, ...]) -> None:
-    """Every road ``names`` (scenario names) leaves the ego a start with the episode settings
-    ``scenario``: a one-line IrlsimError otherwise, before a command's work (collect, drive)."""
-    for name in names:
-        check_start(load_road(scenario=name), replace(scenario, name=name))
 
 
 def draw_start(

@@ -54,8 +54,8 @@ from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
 from irlsim.road.network import build_net
-from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
-from irlsim.sim.start import check_starts
+from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario, scenario_identity
+from irlsim.sim.preflight import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
 
@@ -200,10 +200,12 @@ def scenario_records(cfg: CollectConfig) -> dict[str, Any]:
     several; nothing for the oval alone (its manifest keeps the bytes of before)."""
     if not cfg.scenarios and cfg.scenario.name == DEFAULT_SCENARIO:
         return {}
-    out: dict[str, Any] = {"scenarios": {n: load_scenario(n).digest() for n in cfg.scenario_names}}
+    # each road by its identity (a shipped name, or name@digest): no path, one road however spelled
+    ident = {n: scenario_identity(n) for n in cfg.scenario_names}
+    out: dict[str, Any] = {"scenarios": {ident[n]: load_scenario(n).digest() for n in cfg.scenario_names}}
     if cfg.scenarios:
         out["episode_scenarios"] = {
-            s: {str(e): n for (e, _), n in zip(cfg.episodes(s), cfg.episode_scenarios(s), strict=True)}
+            s: {str(e): ident[n] for (e, _), n in zip(cfg.episodes(s), cfg.episode_scenarios(s), strict=True)}
             for s in SPLITS
         }
     return out

@@ -30,7 +30,7 @@ from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout.style import format_style, pool_styles, style_distances
-from irlsim.sim.start import check_starts
+from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
 

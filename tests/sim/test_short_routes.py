@@ -16,8 +16,8 @@ import pytest
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.preflight import check_starts
 from irlsim.sim.simulation import Simulation
-from irlsim.sim.start import check_starts
 from tests.road.test_scenario import make_scenario
 
 #: a config whose start clearances no route of a few hundred metres can meet, even scaled down
