@@ -16,18 +16,16 @@ from irlsim.data.tensors import SplitTensors
 class TrainingData(Protocol):
     """A dataset as the training code reads it.
 
-    Required:
-        ``split_tensors(split)``  the arrays of split 'train' / 'validation' (:class:`SplitTensors`)
-        ``manifest``              schema_version and feature_names (checked against this irlsim), and
-                                  what identifies the dataset in a checkpoint: its content hash, the
-                                  episode 'seeds' (drive refuses them), the planner's N and K
-        ``splits``                the names of the splits it has
-    Read where present (an in-memory dataset has none of them):
-        ``identity``              its own identity string (a scenario selection, an aggregate) instead of
-                                  the manifest's hash (:func:`irlsim.train.checkpoint.dataset_identity`)
-        ``legacy_identities``     identities an older irlsim recorded for it, still accepted on resume
-        ``episodes(split)``       episode ids of a split (preflight counts episodes; without it cycles)
-        ``path`` / ``paths``      the folder(s), named in error lines
+    Required: ``split_tensors(split)``, the arrays of split 'train' or 'validation'
+    (:class:`SplitTensors`); ``manifest``, its schema_version and feature_names (checked against this
+    irlsim's) and what identifies it in a checkpoint (its content hash, the episode 'seeds' that drive
+    refuses, the planner's N and K); ``splits``, the names of the splits it has.
+
+    Read where present (an in-memory dataset has none of them): ``identity``, its own identity (a
+    scenario selection's, an aggregate's) instead of the manifest's hash
+    (:func:`irlsim.train.checkpoint.dataset_identity`); ``legacy_identities``, identities an older
+    irlsim recorded for it, still accepted on resume; ``episodes(split)``, the episode ids of a split
+    (preflight counts episodes, else cycles); ``path`` / ``paths``, the folder(s) error lines name.
     """
 
     @property

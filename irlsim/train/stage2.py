@@ -180,7 +180,7 @@ class Stage2:
         return build_model(self.spec.name, self.model_cfg, 1, fstats)
 
     def prepare(self, model: torch.nn.Module) -> None:
-        pass
+        """Nothing: a temporal model starts from its seeded initial weights (or the resumed ones)."""
 
     def train_epoch(self, run: TrainingRun, epoch: int) -> dict[str, float]:
         """Shuffled mini-batches of (history, target cycles) pairs, one optimizer step each on the mean
