@@ -13,9 +13,12 @@ first) or when the smallest distance exceeds ``MAX_DEMO_DISTANCE``.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from irlsim.data.tensors import Rows
 
 #: discount of the distance per time step of DT_DEMO = 0.1 s [-]; 0.95^50 ~ 0.08, so the end of the
 #: 5 s horizon still counts but the near future, which the driver controls best, dominates
@@ -32,7 +35,7 @@ HORIZON = 5.0
 
 def safe_demo_index(
     demo_index: np.ndarray,
-    distances: np.ndarray,
+    distances: Rows,
     collision: np.ndarray | None,
     max_distance: float = MAX_DEMO_DISTANCE,
     stop_line: np.ndarray | None = None,

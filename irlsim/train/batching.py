@@ -14,22 +14,27 @@ from irlsim import FEATURE_NAMES
 from irlsim.data.demos import safe_demo_index
 from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
+from irlsim.data.tensors import SplitTensors
 from irlsim.devices import forward, to_device, to_numpy
 from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import sample_policies
+from irlsim.train.dataset import TrainingData
 from irlsim.utils import progress
 
 STOP_LINE = FEATURE_NAMES.index("stop_line")
 
 
-def as_dataset(dataset: Any) -> Any:
-    """A dataset object (anything with ``split_tensors(name)``), or a path opened with the data reader."""
+def as_dataset(dataset: TrainingData | str | Path) -> TrainingData:
+    """A dataset object (:class:`irlsim.train.dataset.TrainingData`), or a path opened with the data
+    reader."""
     if isinstance(dataset, (str, Path)):
         return open_dataset(dataset)
     return dataset
 
 
-def get_split(dataset: Any, name: str, safe_demos: bool = False, stop_demos: bool = False) -> Any:
+def get_split(
+    dataset: TrainingData, name: str, safe_demos: bool = False, stop_demos: bool = False
+) -> SplitTensors:
     """The SplitTensors of split ``name`` (train / validation / test); ``safe_demos``: demonstrations
     labelled as a predicted collision moved to the closest unlabelled policy; ``stop_demos``:
     demonstrations crossing an active stop line without standing (stop_line feature > 0) moved to the
@@ -49,7 +54,7 @@ def get_split(dataset: Any, name: str, safe_demos: bool = False, stop_demos: boo
     return split
 
 
-def dataset_meta(dataset: Any) -> dict[str, Any]:
+def dataset_meta(dataset: TrainingData) -> dict[str, Any]:
     """Schema version and feature names stored in checkpoints (from ``dataset.manifest``; an in-memory
     dataset without one is taken to be current)."""
     manifest = getattr(dataset, "manifest", None) or {}
@@ -68,7 +73,7 @@ def dataset_meta(dataset: Any) -> dict[str, Any]:
     return {"schema_version": version, "feature_names": names}
 
 
-def check_split_shape(name: str, entry: dict[str, Any], split: Any, split_name: str) -> None:
+def check_split_shape(name: str, entry: dict[str, Any], split: SplitTensors, split_name: str) -> None:
     """Refuse (one line) a split whose policies per cycle N or control points K differ from those the
     stage-1 ``entry`` (a checkpoint, or a stage-2 checkpoint's 'base') was trained on."""
     n, k = split.features.shape[1], split.control_points.shape[2]
@@ -90,7 +95,9 @@ def to_tensor(a: Any, dtype: torch.dtype = torch.float32) -> torch.Tensor:
     return to_device(torch.as_tensor(np.ascontiguousarray(a), dtype=dtype))
 
 
-def gather_batch(split: Any, rows: np.ndarray, sample: int = 0, rng: Any = None) -> dict[str, torch.Tensor]:
+def gather_batch(
+    split: SplitTensors, rows: np.ndarray, sample: int = 0, rng: Any = None
+) -> dict[str, torch.Tensor]:
     """Mini-batch of cycles ``rows`` (prefix ``b_``-style tensors): features, control_points, actions,
     distances, demo_index.
 
@@ -124,7 +131,7 @@ def gather_batch(split: Any, rows: np.ndarray, sample: int = 0, rng: Any = None)
 @torch.no_grad()
 def predict_split(
     model: nn.Module,
-    split: Any,
+    split: SplitTensors,
     chunk: int = 64,
     desc: str | None = None,
     keep: tuple[str, ...] = ("theta", "context", "attention"),

@@ -18,6 +18,7 @@ from irlsim.config import from_dict
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import MODEL_NAMES, ModelConfig
+from irlsim.train.dataset import TrainingData
 from irlsim.train.layout import STAGE_FOLDERS
 from irlsim.utils import atomic_write_bytes
 
@@ -26,7 +27,7 @@ from irlsim.utils import atomic_write_bytes
 CHECKPOINT_FORMAT = 2
 
 
-def dataset_identity(dataset: Any) -> str | None:
+def dataset_identity(dataset: TrainingData) -> str | None:
     """What identifies a dataset in a checkpoint, by content: the sha256 of its manifest (canonical JSON:
     sorted keys, no spaces), which records the collection config, the episode seeds and splits and the
     counts; an aggregate's own ``identity`` (its folders' identities in order, no paths). None for an
@@ -41,13 +42,13 @@ def dataset_identity(dataset: Any) -> str | None:
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
-def legacy_identities(dataset: Any) -> tuple[str, ...]:
+def legacy_identities(dataset: TrainingData) -> tuple[str, ...]:
     """Identities an older irlsim recorded for this dataset, still accepted (an aggregate's manifest
     hash with its paths as typed)."""
     return tuple(getattr(dataset, "legacy_identities", ()))
 
 
-def dataset_seeds(dataset: Any) -> list[int] | None:
+def dataset_seeds(dataset: TrainingData) -> list[int] | None:
     """Every episode seed of a dataset, all splits (from its manifest), sorted; None without a manifest.
     Stored in checkpoints so that ``irlsim drive`` can refuse evaluation seeds the model was trained,
     validated or tested on."""

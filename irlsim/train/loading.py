@@ -20,6 +20,7 @@ from irlsim.train.checkpoint import (
     model_config_from,
     read_checkpoint,
 )
+from irlsim.train.dataset import TrainingData
 
 
 def rebuild_stage1(entry: dict[str, Any]) -> nn.Module:
@@ -56,7 +57,7 @@ class LoadedModel:
         return int(self.checkpoint["base"]["parameters"]), int(self.checkpoint["parameters"])
 
 
-def load_model(checkpoint_path: str | Path, dataset: Any = None) -> LoadedModel:
+def load_model(checkpoint_path: str | Path, dataset: TrainingData | None = None) -> LoadedModel:
     """Load any model checkpoint (``<runs>/<model>/checkpoint.pt``) for inference: eval mode, on
     the current device (irlsim.devices); read onto the CPU first, so a checkpoint written on any device
     loads on any other.

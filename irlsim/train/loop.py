@@ -1,17 +1,19 @@
 """The one training loop of both stages: seed, build, resume, epochs of optimizer steps, validation,
-model selection, the metrics log and an atomic checkpoint after every epoch.
+model selection, the metrics log and an atomic checkpoint after every epoch (:class:`TrainingRun`).
 
-A stage supplies what differs: how to build its network, what one epoch of mini-batches is, how it
-validates and what its checkpoint carries besides the common entries (see stage1.py, stage2.py).
+A stage supplies what differs through the small :class:`Stage` protocol (stage1.Stage1,
+stage2.Stage2): how to build its network, what one epoch of mini-batches is, how it validates and
+what its checkpoint carries besides the common entries, which are written here only
+(:meth:`TrainingRun.payload`, in ``ENTRY_ORDER``).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import torch
@@ -21,8 +23,16 @@ from irlsim.config import to_dict
 from irlsim.devices import current_device
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import count_parameters
-from irlsim.train.checkpoint import save_checkpoint
+from irlsim.train.batching import dataset_meta
+from irlsim.train.checkpoint import (
+    dataset_identity,
+    dataset_seeds,
+    legacy_identities,
+    read_checkpoint,
+    save_checkpoint,
+)
 from irlsim.train.config import TrainConfig
+from irlsim.train.dataset import TrainingData
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.metrics_log import MetricsLog
 from irlsim.train.repro import provenance
@@ -126,59 +136,165 @@ def scheduled_lr(cfg: TrainConfig, step: int, steps_per_epoch: int) -> float:
     return cfg.lr * 0.5 * (1.0 + math.cos(math.pi * min(step, total) / total))
 
 
-class TrainingRun:
-    """One model's training into ``run_dir``: ``build()`` makes the network after seeding torch with
-    ``cfg.seed``; ``ckpt`` (a checkpoint already checked to match what is asked) resumes its weights,
-    optimizer state, metrics and best epoch. ``fit`` runs the remaining epochs."""
+@dataclass(frozen=True)
+class DatasetRecord:
+    """What every checkpoint records of the dataset it was trained on: its identity (the content hash,
+    or the dataset's own ``identity``), every episode seed (drive refuses them), older identities still
+    accepted on resume, and ``meta`` (schema version, feature names)."""
 
-    def __init__(
-        self,
-        name: str,
-        stage: int,
-        cfg: TrainConfig,
-        run_dir: Path,
-        ckpt: dict[str, Any] | None,
-        build: Callable[[], nn.Module],
-        dataset: str | None = None,
-        seeds: list[int] | None = None,
-        legacy: tuple[str, ...] = (),
-    ) -> None:
-        self.name, self.stage, self.cfg, self.run_dir = name, stage, cfg, run_dir
-        self.dataset = dataset
-        self.seeds = seeds  # every episode seed of the training dataset (drive refuses them)
+    identity: str | None
+    seeds: list[int] | None
+    legacy: tuple[str, ...]
+    meta: dict[str, Any]
+
+    @classmethod
+    def of(cls, dataset: TrainingData) -> DatasetRecord:
+        """The record of ``dataset``; another feature set or schema -> IrlsimError (one line)."""
+        meta = dataset_meta(dataset)
+        return cls(dataset_identity(dataset), dataset_seeds(dataset), legacy_identities(dataset), meta)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """What one model's training is: model ``name`` of stage ``stage`` (1 or 2) with ``cfg``, into
+    ``run_dir`` (checkpoint.pt, metrics.csv), on the dataset ``data``."""
+
+    name: str
+    stage: int
+    cfg: TrainConfig
+    run_dir: Path
+    data: DatasetRecord
+
+
+class Stage(Protocol):
+    """What a stage supplies to :class:`TrainingRun` for one model (stage1.Stage1, stage2.Stage2): its
+    ``spec``; ``ckpt``, the model's existing checkpoint (read and checked against the stage's own
+    entries) or None; ``build()`` the network (torch is seeded with ``cfg.seed`` just before);
+    ``prepare(model)`` once the network is built and resumed (a warm start, a layout); one epoch of
+    optimizer steps ``train_epoch(run, epoch)`` -> its train metrics; ``validate(model)`` -> validation
+    metrics; its own checkpoint ``entries()`` (by name in ``ENTRY_ORDER``) and ``summary()`` entries."""
+
+    spec: RunSpec
+    ckpt: dict[str, Any] | None
+
+    def build(self) -> nn.Module: ...
+
+    def prepare(self, model: nn.Module) -> None: ...
+
+    def train_epoch(self, run: TrainingRun, epoch: int) -> dict[str, float]: ...
+
+    def validate(self, model: nn.Module) -> dict[str, float]: ...
+
+    def entries(self) -> dict[str, Any]: ...
+
+    def summary(self) -> dict[str, Any]: ...
+
+
+#: every checkpoint entry in the order written (the checkpoint's bytes follow it): the common ones and,
+#: where a stage has them, its own (model_config, n_policies, feature_stats, base, warm_start)
+ENTRY_ORDER = (
+    "model",
+    "stage",
+    "config",
+    "model_config",
+    "n_policies",
+    "state_dict",
+    "optimizer",
+    "epoch",
+    "feature_stats",
+    "parameters",
+    "base",
+    "metrics",
+    "best",
+    "provenance",
+    "schema_version",
+    "feature_names",
+    "warm_start",
+    "dataset",
+    "dataset_seeds",
+    "resumes",
+)
+
+
+def existing_checkpoint(spec: RunSpec) -> dict[str, Any] | None:
+    """The checkpoint already in ``spec.run_dir`` (checked to be model ``spec.name`` of its stage), or
+    None."""
+    path = spec.run_dir / CHECKPOINT_NAME
+    return read_checkpoint(path, model=spec.name, stage=spec.stage) if path.exists() else None
+
+
+def train_model(stage: Stage) -> dict[str, Any]:
+    """Train (or resume) one model with the stage's parts; returns its summary."""
+    return TrainingRun(stage).fit()
+
+
+class TrainingRun:
+    """One model's training into ``stage.spec.run_dir``: seeds torch with ``cfg.seed``, builds the
+    stage's network, resumes from ``stage.ckpt`` (weights, optimizer state, metrics, best epoch) and
+    ``fit`` runs the remaining epochs."""
+
+    def __init__(self, stage: Stage) -> None:
+        spec, ckpt = stage.spec, stage.ckpt
+        self.stage, self.spec = stage, spec
+        self.name, self.cfg = spec.name, spec.cfg
         self.resumes: list[dict[str, Any]] = list(ckpt.get("resumes") or []) if ckpt else []
-        self.ckpt_path = run_dir / CHECKPOINT_NAME
-        torch.manual_seed(cfg.seed)
-        self.model = build().to(current_device())
-        self.optimizer = torch.optim.Adam(self.model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+        self.ckpt_path = spec.run_dir / CHECKPOINT_NAME
+        torch.manual_seed(self.cfg.seed)
+        self.model = stage.build().to(current_device())
+        self.optimizer = torch.optim.Adam(
+            self.model.parameters(), lr=self.cfg.lr, weight_decay=self.cfg.weight_decay
+        )
         self.start_epoch = 0
         if ckpt:
-            changed = check_resume(self.ckpt_path, ckpt, resume_view(cfg, ckpt), dataset, legacy)
-            self.model.load_state_dict(ckpt["state_dict"])
-            self.optimizer.load_state_dict(ckpt["optimizer"])
-            for group in self.optimizer.param_groups:  # the asked values, not the stored ones
-                group["lr"], group["weight_decay"] = cfg.lr, cfg.weight_decay
-            self.start_epoch = int(ckpt["epoch"])
-            if changed and self.start_epoch < cfg.epochs:
-                self.resumes.append({"epoch": self.start_epoch, "changed": changed})
-                print(
-                    f"{name}: resuming after epoch {self.start_epoch} with "
-                    + ", ".join(f"{k} {_short(a)} -> {_short(b)}" for k, (a, b) in changed.items()),
-                    flush=True,
-                )
-        self.log = MetricsLog(run_dir, ckpt["metrics"] if ckpt else [], cfg.tensorboard)
-        self.best = BestTracker(cfg.select_by, ckpt.get("best") if ckpt else None)
+            self._resume(ckpt)
+        self.log = MetricsLog(spec.run_dir, ckpt["metrics"] if ckpt else [], self.cfg.tensorboard)
+        self.best = BestTracker(self.cfg.select_by, ckpt.get("best") if ckpt else None)
+        stage.prepare(self.model)
 
-    def payload(self, stage_payload: Callable[[int], dict[str, Any]], epochs_done: int) -> dict[str, Any]:
-        """The checkpoint: the stage's entries, then the identity and resume record every checkpoint
-        carries. Metric rows are stored without their wall times (``time/*``), which differ between identical
-        runs: metrics.csv keeps them."""
-        out = stage_payload(epochs_done)
-        out["metrics"] = [{k: v for k, v in r.items() if not k.startswith("time/")} for r in out["metrics"]]
-        out["dataset"] = self.dataset
-        out["dataset_seeds"] = self.seeds
-        out["resumes"] = self.resumes
-        return out
+    def _resume(self, ckpt: dict[str, Any]) -> None:
+        cfg = self.cfg
+        data = self.spec.data
+        changed = check_resume(self.ckpt_path, ckpt, resume_view(cfg, ckpt), data.identity, data.legacy)
+        self.model.load_state_dict(ckpt["state_dict"])
+        self.optimizer.load_state_dict(ckpt["optimizer"])
+        for group in self.optimizer.param_groups:  # the asked values, not the stored ones
+            group["lr"], group["weight_decay"] = cfg.lr, cfg.weight_decay
+        self.start_epoch = int(ckpt["epoch"])
+        if changed and self.start_epoch < cfg.epochs:
+            self.resumes.append({"epoch": self.start_epoch, "changed": changed})
+            print(
+                f"{self.name}: resuming after epoch {self.start_epoch} with "
+                + ", ".join(f"{k} {_short(a)} -> {_short(b)}" for k, (a, b) in changed.items()),
+                flush=True,
+            )
+
+    def payload(self, epochs_done: int) -> dict[str, Any]:
+        """The checkpoint after ``epochs_done`` epochs: the entries every checkpoint carries and the
+        stage's own, in ``ENTRY_ORDER``. Metric rows are stored without their wall times (``time/*``),
+        which differ between identical runs: metrics.csv keeps them."""
+        spec, data = self.spec, self.spec.data
+        common = {
+            "model": spec.name,
+            "stage": spec.stage,
+            "config": to_dict(spec.cfg),
+            "state_dict": self.model.state_dict(),
+            "optimizer": self.optimizer.state_dict(),
+            "epoch": epochs_done,
+            "parameters": count_parameters(self.model),
+            "metrics": [{k: v for k, v in r.items() if not k.startswith("time/")} for r in self.log.rows],
+            "best": self.best.best,
+            "provenance": provenance(),
+            **data.meta,
+            "dataset": data.identity,
+            "dataset_seeds": data.seeds,
+            "resumes": self.resumes,
+        }
+        own = self.stage.entries()
+        if own.keys() & common.keys():
+            raise ValueError(f"stage entries {sorted(own.keys() & common.keys())} would replace common ones")
+        entries = {**common, **own}
+        ordered = {k: entries.pop(k) for k in ENTRY_ORDER if k in entries}
+        return {**ordered, **entries}
 
     def order(self, rows: np.ndarray, epoch: int) -> np.ndarray:
         """The epoch's shuffled ``rows``; depends only on (seed, epoch), so a resumed run sees the same
@@ -188,7 +304,7 @@ class TrainingRun:
     def step(self, loss: torch.Tensor, epoch: int, lr: float | None = None) -> None:
         """One optimizer step on ``loss`` (refused if not finite), with gradient clipping; ``lr``: this
         step's learning rate (a schedule's), else the one the optimizer has."""
-        check_finite(loss, self.name, epoch, self.cfg.lr, f"stage{self.stage}")
+        check_finite(loss, self.name, epoch, self.cfg.lr, f"stage{self.spec.stage}")
         if lr is not None:
             for group in self.optimizer.param_groups:
                 group["lr"] = lr
@@ -198,37 +314,31 @@ class TrainingRun:
             torch.nn.utils.clip_grad_norm_(self.model.parameters(), self.cfg.grad_clip)
         self.optimizer.step()
 
-    def fit(
-        self,
-        train_epoch: Callable[[int], dict[str, float]],
-        validate: Callable[[], dict[str, float]],
-        payload: Callable[[int], dict[str, Any]],
-        summary_extra: dict[str, Any] | None = None,
-    ) -> dict[str, Any]:
-        """Epochs ``start_epoch .. cfg.epochs``: ``train_epoch(epoch)`` -> the epoch's train metrics;
-        ``validate()`` every ``validate_every`` epochs and after the last; then the metrics row, model
-        selection and the checkpoint ``payload(epochs_done)``. Returns the model's summary."""
-        cfg = self.cfg
-        desc = f"stage {self.stage} {self.name}"
+    def fit(self) -> dict[str, Any]:
+        """Epochs ``start_epoch .. cfg.epochs``: the stage's ``train_epoch`` -> the epoch's train
+        metrics; its ``validate`` every ``validate_every`` epochs and after the last; then the metrics
+        row, model selection and the checkpoint. Returns the model's summary."""
+        cfg, stage = self.cfg, self.stage
+        desc = f"stage {self.spec.stage} {self.name}"
         for epoch in progress(range(self.start_epoch, cfg.epochs), desc=desc, unit="epoch"):
             t0 = time.perf_counter()
             self.model.train()
-            row: dict[str, Any] = {"epoch": epoch + 1, **train_epoch(epoch)}
+            row: dict[str, Any] = {"epoch": epoch + 1, **stage.train_epoch(self, epoch)}
             if (epoch + 1) % cfg.validate_every == 0 or epoch + 1 == cfg.epochs:
-                row.update(validate())
+                row.update(stage.validate(self.model))
             row["time/epoch_s"] = time.perf_counter() - t0
             self.log.add(row)
             self.best.update(row, self.model)
-            save_checkpoint(self.ckpt_path, self.payload(payload, epoch + 1))
+            save_checkpoint(self.ckpt_path, self.payload(epoch + 1))
         self.log.close()
         if not self.ckpt_path.exists():  # epochs == 0: still leave an (untrained) checkpoint behind
-            save_checkpoint(self.ckpt_path, self.payload(payload, 0))
+            save_checkpoint(self.ckpt_path, self.payload(0))
         return {
             "checkpoint": str(self.ckpt_path),
             **({"resumes": self.resumes} if self.resumes else {}),
             "epochs": max(cfg.epochs, self.start_epoch),
             "parameters": count_parameters(self.model),
-            **(summary_extra or {}),
+            **stage.summary(),
             "selected_epoch": self.best.epoch,
             "final": self.log.rows[-1] if self.log.rows else {},
             "provenance": provenance(),

@@ -18,6 +18,7 @@ import torch
 from irlsim.config import require_memory
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import STAGE2_BASE, ModelConfig, build_model
+from irlsim.train.dataset import TrainingData
 
 #: the splits training reads: the train split's demonstrations, the validation split for model
 #: selection and the validation metrics
@@ -46,15 +47,15 @@ def check_split_sizes(episodes: Mapping[str, int], where: str) -> None:
             raise IrlsimError(f"{where} has an empty {split} split (no episodes), training needs one: {fix}")
 
 
-def split_episode_counts(dataset: Any) -> dict[str, int]:
+def split_episode_counts(dataset: TrainingData) -> dict[str, int]:
     """split -> episodes of a dataset (a folder or an aggregate: its ``splits`` and ``episodes``)."""
-    splits = getattr(dataset, "splits", None) or ()
-    if not callable(getattr(dataset, "episodes", None)):  # in memory (irlsim.train.synthetic): by cycles
+    splits, episodes = dataset.splits or (), getattr(dataset, "episodes", None)
+    if not callable(episodes):  # in memory (irlsim.bench.synthetic): by cycles
         return {s: len(dataset.split_tensors(s).demo_index) if s in splits else 0 for s in TRAINING_SPLITS}
-    return {s: len(dataset.episodes(s)) if s in splits else 0 for s in TRAINING_SPLITS}
+    return {s: len(episodes(s)) if s in splits else 0 for s in TRAINING_SPLITS}
 
 
-def _where(dataset: Any) -> str:
+def _where(dataset: TrainingData) -> str:
     paths = getattr(dataset, "paths", None) or [getattr(dataset, "path", "the dataset")]
     return "dataset " + " + ".join(map(str, paths))
 
@@ -77,7 +78,7 @@ def training_bytes(name: str, model: ModelConfig, n_policies: int, k: int, batch
     return 4 * (PARAMETER_COPIES * params + ACTIVATION_COPIES * activations)
 
 
-def check_trainable(dataset: Any, cfg: Any) -> None:
+def check_trainable(dataset: TrainingData, cfg: Any) -> None:
     """Everything training checks before any work: the train and validation splits hold episodes
     (:func:`check_split_sizes`) and each model of ``cfg.models`` fits the available memory
     (:func:`training_bytes` with ``cfg.model``, the dataset's policies per cycle and the larger of

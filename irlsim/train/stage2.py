@@ -27,22 +27,16 @@ from irlsim.errors import IrlsimError
 from irlsim.irl.objectives import cycle_metrics, evaluate_thetas, history_indices, summarize
 from irlsim.models.networks import PTACNN
 from irlsim.models.normalization import FeatureStats
-from irlsim.models.registry import STAGE2_BASE, build_model, count_parameters
-from irlsim.train.batching import as_dataset, dataset_meta, get_split, predict_split, to_tensor
-from irlsim.train.checkpoint import (
-    dataset_identity,
-    dataset_seeds,
-    expected_identity,
-    inference_state,
-    legacy_identities,
-    read_checkpoint,
-)
+from irlsim.models.registry import STAGE2_BASE, build_model
+from irlsim.train.batching import as_dataset, get_split, predict_split, to_tensor
+from irlsim.train.checkpoint import expected_identity, inference_state, read_checkpoint
 from irlsim.train.config import Stage2Config
+from irlsim.train.dataset import TrainingData
 from irlsim.train.layout import CHECKPOINT_NAME
 from irlsim.train.loading import rebuild_stage1
-from irlsim.train.loop import TrainingRun
+from irlsim.train.loop import DatasetRecord, RunSpec, TrainingRun, existing_checkpoint, train_model
 from irlsim.train.preflight import check_trainable
-from irlsim.train.repro import deterministic, provenance
+from irlsim.train.repro import deterministic
 
 
 @torch.no_grad()
@@ -89,19 +83,18 @@ def weight_regulariser(weights: torch.Tensor, kind: str) -> torch.Tensor:
 
 
 def train_one_stage2(
-    name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path | None = None
+    name: str, dataset: TrainingData, cfg: Stage2Config, out_dir: Path, base_dir: Path | None = None
 ) -> dict[str, Any]:
     """Train (or resume) one temporal model into ``out_dir/<name>/`` on the frozen stage-1 model in
     ``base_dir/<base>/`` (default ``out_dir``); returns its summary. Deterministic like stage 1."""
     with deterministic(cfg.threads):
-        return _train_one_stage2(name, dataset, cfg, out_dir, out_dir if base_dir is None else base_dir)
+        return train_model(Stage2(name, dataset, cfg, out_dir, out_dir if base_dir is None else base_dir))
 
 
-# size-ok: stage 2's epoch and checkpoint entries, closures over one TrainingRun (irlsim.train.loop)
-def _train_one_stage2(
-    name: str, dataset: Any, cfg: Stage2Config, out_dir: Path, base_dir: Path
-) -> dict[str, Any]:
-    meta = dataset_meta(dataset)  # refuse another feature set or schema before any work
+def frozen_base(name: str, base_dir: Path, data: DatasetRecord) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The checkpoint of the stage-1 model that temporal model ``name`` trains on (in ``base_dir``,
+    trained on the dataset ``data``), and its checkpoint entry 'base': the validation-selected weights
+    and what rebuilds it. Missing folder or checkpoint, another dataset -> IrlsimError (one line)."""
     base_name = STAGE2_BASE[name]
     base_path = base_dir / base_name / CHECKPOINT_NAME
     if not base_dir.is_dir():
@@ -114,76 +107,90 @@ def _train_one_stage2(
             f"{name} needs a trained {base_name} ({base_path} not found): run stage 1 with {base_name} in "
             "its models first (or point --base at the folder holding it)"
         )
-    ident = dataset_identity(dataset)
     base_model, base_stage = expected_identity(base_path)
     base_ckpt = read_checkpoint(
-        base_path,
-        model=base_model or base_name,
-        stage=base_stage,
-        dataset=ident,
-        legacy=legacy_identities(dataset),
+        base_path, model=base_model or base_name, stage=base_stage, dataset=data.identity, legacy=data.legacy
     )
-    base = rebuild_stage1(base_ckpt)
-    for p in base.parameters():
-        p.requires_grad_(False)
-    base_entry = {
-        k: base_ckpt[k] for k in ("model", "model_config", "n_policies", "feature_stats", "parameters")
-    }
-    # the frozen base is the validation-selected PACNN (what rebuild_stage1 loaded)
-    base_entry["state_dict"] = inference_state(base_ckpt)
-    base_entry["selected_epoch"] = (base_ckpt.get("best") or {}).get("epoch", base_ckpt["epoch"])
-    model_cfg = dataclasses.replace(cfg.model, latent=int(base_ckpt["model_config"]["latent"]))
-    H = model_cfg.history
+    entry = {k: base_ckpt[k] for k in ("model", "model_config", "n_policies", "feature_stats", "parameters")}
+    # the frozen base is the validation-selected PACNN (what rebuild_stage1 loads)
+    entry["state_dict"] = inference_state(base_ckpt)
+    entry["selected_epoch"] = (base_ckpt.get("best") or {}).get("epoch", base_ckpt["epoch"])
+    return base_ckpt, entry
 
-    # frozen PACNN outputs for every cycle of the sequential splits
-    train, validation = (
-        get_split(dataset, "train", cfg.safe_demos, cfg.stop_demos),
-        get_split(dataset, "validation"),
-    )
-    n_cycles = train.features.shape[0] if not cfg.max_cycles else min(cfg.max_cycles, train.features.shape[0])
-    keep = ("theta", "context")  # not the attention: 4 N bytes a cycle that stage 2 does not read
-    tr = predict_split(base, train, cfg.eval_batch, desc=f"{base_name} on train", keep=keep)
-    va = predict_split(base, validation, cfg.eval_batch, desc=f"{base_name} on validation", keep=keep)
-    train_episode = np.asarray(train.episode)[:n_cycles]
-    hist = history_indices(train_episode, H)
-    targets = target_rows(train_episode, np.asarray(train.demo_index)[:n_cycles], cfg.target_ahead)
-    pairs = np.flatnonzero((targets >= 0).any(1))
-    if len(pairs) == 0:
-        raise IrlsimError(
-            "the train split has no (cycle, next cycle with a demonstration) pair: collect more"
+
+class Stage2:
+    """Stage 2's parts of one temporal model's training (:class:`irlsim.train.loop.Stage`): the frozen
+    PACNN's contexts and thetas for every cycle of the sequential splits, the H-cycle histories and
+    their target rows, the next-cycle NLL epoch and the temporal mixture's validation."""
+
+    def __init__(
+        self, name: str, dataset: TrainingData, cfg: Stage2Config, out_dir: Path, base_dir: Path
+    ) -> None:
+        data = DatasetRecord.of(dataset)  # refuse another feature set or schema before any work
+        self.cfg = cfg
+        self.base_ckpt, self.base_entry = frozen_base(name, base_dir, data)
+        base = rebuild_stage1(self.base_ckpt)
+        for p in base.parameters():
+            p.requires_grad_(False)
+        latent = int(self.base_ckpt["model_config"]["latent"])
+        self.model_cfg = dataclasses.replace(cfg.model, latent=latent)
+        self._frozen_outputs(base, dataset, STAGE2_BASE[name])
+        self.spec = RunSpec(name, 2, cfg, out_dir / name, data)
+        self.ckpt = existing_checkpoint(self.spec)
+        if self.ckpt and not self._same_base(self.ckpt):
+            raise IrlsimError(
+                f"checkpoint {self.spec.run_dir / CHECKPOINT_NAME} was trained on another "
+                f"{STAGE2_BASE[name]} or with other sizes: delete it to retrain"
+            )
+
+    def _frozen_outputs(self, base: torch.nn.Module, dataset: TrainingData, base_name: str) -> None:
+        """The frozen base's outputs for every cycle of the sequential splits, the train histories and
+        the (cycle, target cycles) pairs trained on."""
+        cfg = self.cfg
+        self.train = get_split(dataset, "train", cfg.safe_demos, cfg.stop_demos)
+        self.validation = get_split(dataset, "validation")
+        n_cycles = self.train.features.shape[0]
+        n_cycles = min(cfg.max_cycles, n_cycles) if cfg.max_cycles else n_cycles
+        keep = ("theta", "context")  # not the attention: 4 N bytes a cycle that stage 2 does not read
+        self.tr = predict_split(base, self.train, cfg.eval_batch, desc=f"{base_name} on train", keep=keep)
+        self.va = predict_split(
+            base, self.validation, cfg.eval_batch, desc=f"{base_name} on validation", keep=keep
+        )
+        train_episode = np.asarray(self.train.episode)[:n_cycles]
+        self.hist = history_indices(train_episode, self.model_cfg.history)
+        demo = np.asarray(self.train.demo_index)[:n_cycles]
+        self.targets = target_rows(train_episode, demo, cfg.target_ahead)
+        self.pairs = np.flatnonzero((self.targets >= 0).any(1))
+        if len(self.pairs) == 0:
+            raise IrlsimError(
+                "the train split has no (cycle, next cycle with a demonstration) pair: collect more"
+            )
+
+    def _same_base(self, ckpt: dict[str, Any]) -> bool:
+        """Whether a checkpoint was trained with these sizes on these frozen base weights."""
+        theirs, ours = ckpt["base"]["state_dict"], self.base_entry["state_dict"]
+        return (
+            ckpt["model_config"] == to_dict(self.model_cfg)
+            and theirs.keys() == ours.keys()
+            and all(torch.equal(theirs[k], v) for k, v in ours.items())
         )
 
-    ckpt_path = out_dir / name / CHECKPOINT_NAME
-    ckpt = read_checkpoint(ckpt_path, model=name, stage=2) if ckpt_path.exists() else None
-    if ckpt and (
-        ckpt["model_config"] != to_dict(model_cfg)
-        or ckpt["base"]["state_dict"].keys() != base_entry["state_dict"].keys()
-        or any(not torch.equal(ckpt["base"]["state_dict"][k], v) for k, v in base_entry["state_dict"].items())
-    ):
-        raise IrlsimError(
-            f"checkpoint {ckpt_path} was trained on another {base_name} or with other sizes: "
-            "delete it to retrain"
-        )
-    fstats = FeatureStats.from_dict(base_ckpt["feature_stats"])
-    run = TrainingRun(
-        name,
-        2,
-        cfg,
-        out_dir / name,
-        ckpt,
-        lambda: build_model(name, model_cfg, 1, fstats),
-        ident,
-        dataset_seeds(dataset),
-        legacy_identities(dataset),
-    )
-    model = run.model
+    def build(self) -> torch.nn.Module:
+        fstats = FeatureStats.from_dict(self.base_ckpt["feature_stats"])
+        return build_model(self.spec.name, self.model_cfg, 1, fstats)
 
-    def train_epoch(epoch: int) -> dict[str, float]:
-        order = run.order(pairs, epoch)
+    def prepare(self, model: torch.nn.Module) -> None:
+        """Nothing: a temporal model starts from its seeded initial weights (or the resumed ones)."""
+
+    def train_epoch(self, run: TrainingRun, epoch: int) -> dict[str, float]:
+        """Shuffled mini-batches of (history, target cycles) pairs, one optimizer step each on the mean
+        NLL of each sample's targets (plus the weight regulariser) -> the epoch's mean train metrics."""
+        cfg, train, tr, hist, targets = self.cfg, self.train, self.tr, self.hist, self.targets
+        order = run.order(self.pairs, epoch)
         sums = {"train/nll": 0.0, "train/evd": 0.0}
         for start in range(0, len(order), cfg.batch_size):
             mb_t = np.sort(order[start : start + cfg.batch_size])
-            out = forward(model, to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
+            out = forward(run.model, to_tensor(tr["context"][hist[mb_t]]), to_tensor(tr["theta"][hist[mb_t]]))
             # every (sample, target cycle) pair at once: rows t+1 .. t+target_ahead that exist
             tgt = targets[mb_t]  # [B, A]
             b_idx, a_idx = np.nonzero(tgt >= 0)
@@ -207,35 +214,29 @@ def _train_one_stage2(
             sums["train/evd"] += m["evd"].detach().mean().item() * len(mb_t)
         return {k: v / len(order) for k, v in sums.items()}
 
-    def validate() -> dict[str, float]:
-        thetas, w = predict_temporal(model, va["context"], va["theta"], np.asarray(validation.episode))
-        row = {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, validation)).items()}
+    def validate(self, model: torch.nn.Module) -> dict[str, float]:
+        va, episode = self.va, np.asarray(self.validation.episode)
+        thetas, w = predict_temporal(model, va["context"], va["theta"], episode)
+        row = {f"val/{k}": v for k, v in summarize(evaluate_thetas(thetas, self.validation)).items()}
         row["val/newest_weight"] = float(w[:, -1].mean()) if len(w) else float("nan")
         return row
 
-    def checkpoint(epochs_done: int) -> dict[str, Any]:
+    def entries(self) -> dict[str, Any]:
         return {
-            "model": name,
-            "stage": 2,
-            "config": to_dict(cfg),
-            "model_config": to_dict(model_cfg),
-            "state_dict": model.state_dict(),
-            "optimizer": run.optimizer.state_dict(),
-            "epoch": epochs_done,
-            "feature_stats": base_ckpt["feature_stats"],
-            "parameters": count_parameters(model),
-            "base": base_entry,
-            "metrics": run.log.rows,
-            "best": run.best.best,
-            "provenance": provenance(),
-            **meta,
+            "model_config": to_dict(self.model_cfg),
+            "feature_stats": self.base_ckpt["feature_stats"],
+            "base": self.base_entry,
         }
 
-    return run.fit(train_epoch, validate, checkpoint, {"base_parameters": int(base_ckpt["parameters"])})
+    def summary(self) -> dict[str, Any]:
+        return {"base_parameters": int(self.base_ckpt["parameters"])}
 
 
 def train_stage2(
-    dataset: Any, cfg: Stage2Config, out_dir: str | Path, base_dir: str | Path | None = None
+    dataset: TrainingData | str | Path,
+    cfg: Stage2Config,
+    out_dir: str | Path,
+    base_dir: str | Path | None = None,
 ) -> dict[str, Any]:
     """Train every model of ``cfg.models`` into ``out_dir/<model>/`` on the frozen stage-1 checkpoints
     ``base_dir/PACNN`` / ``base_dir/PACNN+S`` (``base_dir`` defaults to ``out_dir``; ``irlsim train --stage

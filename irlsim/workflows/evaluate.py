@@ -25,6 +25,7 @@ from irlsim.errors import IrlsimError
 from irlsim.evaluate import evaluate_models
 from irlsim.outputs import check_output_dir
 from irlsim.train.checkpoint import dataset_identity, legacy_identities, read_checkpoint
+from irlsim.train.dataset import TrainingData
 from irlsim.train.layout import SUMMARY_NAME
 from irlsim.viz.temporal import save_situation_strips
 
@@ -172,7 +173,7 @@ def _folders_trained_on(checkpoint: str) -> set[str]:
     return out
 
 
-def _record(run: EvaluateRun, dataset: object, trained: dict[str, str]) -> dict[str, object]:
+def _record(run: EvaluateRun, dataset: TrainingData, trained: dict[str, str]) -> dict[str, object]:
     """What results.json records of the evaluation: the data evaluated, whether it is held out, and what
     each model was trained on (its checkpoint's dataset identity, its stage's summary.json ``data`` and
     whether those folders are that data, read again); ``note``: the same as a line of results.md."""
