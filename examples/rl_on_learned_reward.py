@@ -1,7 +1,7 @@
 """Reinforcement learning on a learned reward: does RL on it recover the expert's driving?
 
 A small policy-gradient agent (plain torch REINFORCE) learns to pick one of the planner's sampled policies
-per 0.2 s cycle in ``irlsim/Oval-v0``, rewarded by a learned reward (any of the seven models, or
+per 0.2 s cycle in ``irlsim/Planning-v0``, rewarded by a learned reward (any of the seven models, or
 ``expert-theta``). Then it, the expert, the learned reward's own planner (argmax of its value, what
 ``irlsim drive`` drives) and a uniformly random agent drive the same evaluation seeds, and the closed-loop
 scorecard (irlsim.drive.scorecard) of each is reported.
@@ -152,7 +152,7 @@ def table(results: dict[str, list[dict[str, Any]]]) -> str:
 def main() -> int:
     import gymnasium as gym
 
-    import irlsim.envs  # noqa: F401  (registers irlsim/Oval-v0)
+    import irlsim.envs  # noqa: F401  (registers irlsim/Planning-v0)
     from irlsim.utils import atomic_path, atomic_write_text, seed_everything, write_json
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -174,7 +174,11 @@ def main() -> int:
     seed_everything(args.seed)
     torch.set_num_threads(1)
     env = gym.make(
-        "irlsim/Oval-v0", reward=args.reward, runs=args.runs, config=args.config, max_cycles=args.max_cycles
+        "irlsim/Planning-v0",
+        reward=args.reward,
+        runs=args.runs,
+        config=args.config,
+        max_cycles=args.max_cycles,
     )
     agent = PolicyScorer()
     log = train(env, agent, 60.0 * args.minutes, args.seed, args.gamma, args.lr)

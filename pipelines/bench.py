@@ -43,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--env",
         action="store_true",
-        help="Gymnasium env steps/s (irlsim/Oval-v0, 500 policies), single and 2 AsyncVectorEnv workers",
+        help="Gymnasium env steps/s (irlsim/Planning-v0, 500 policies), single and 2 AsyncVectorEnv workers",
     )
     parser.add_argument("--env-steps", type=int_in(1), default=200, help="timed env steps (default 200)")
     parser.add_argument("--cycles", type=int_in(1), default=300, help="timed planner cycles (default 300)")

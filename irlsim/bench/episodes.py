@@ -165,15 +165,15 @@ def _make_env(n_policies: int) -> Any:
 
     import irlsim.envs  # noqa: F401  (registers the ids)
 
-    return gym.make("irlsim/Oval-v0", overrides={"planner.n_policies": n_policies})
+    return gym.make("irlsim/Planning-v0", overrides={"planner.n_policies": n_policies})
 
 
 def bench_env(steps: int = 200, n_policies: int = 500, n_envs: int = 2, seed: int = 0) -> dict[str, Any]:
     """Environment steps (planning cycles) per second with uniformly random actions and the expert-theta
-    reward: one ``irlsim/Oval-v0`` in this process, then ``n_envs`` in a ``gymnasium.vector.AsyncVectorEnv``
-    (one libsumo per subprocess, spawned). Resets are outside the single env's timing; the vectorised
-    figure counts every step of every env over the wall time of ``steps`` vector steps (autoresets
-    included)."""
+    reward: one ``irlsim/Planning-v0`` in this process, then ``n_envs`` in a
+    ``gymnasium.vector.AsyncVectorEnv`` (one libsumo per subprocess, spawned). Resets are outside the
+    single env's timing; the vectorised figure counts every step of every env over the wall time of
+    ``steps`` vector steps (autoresets included)."""
     from gymnasium.vector import AsyncVectorEnv  # lazy: the optional extra 'gym'
 
     build_net()

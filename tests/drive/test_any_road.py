@@ -44,11 +44,11 @@ def test_drive_a_reward_trained_on_the_ramp_on_another_road(multi, ramp_runs, ro
 def test_environment_takes_a_scenario_and_a_learned_reward(ramp_runs):
     import gymnasium as gym
 
-    import irlsim.envs  # noqa: F401  (registers irlsim/Oval-v0)
+    import irlsim.envs  # noqa: F401  (registers irlsim/Planning-v0)
 
     overrides = {"planner.n_policies": 120, "scenario.n_vehicles": 3}
     env = gym.make(
-        "irlsim/Oval-v0",
+        "irlsim/Planning-v0",
         reward="PACNN",
         runs=ramp_runs,
         scenario="motorway",

@@ -20,7 +20,7 @@ from irlsim.train.preflight import check_split_sizes  # noqa: E402
 TINY_ENV = {"planner.n_policies": 120, "scenario.n_vehicles": 2}
 
 
-def _env(env_id: str = "irlsim/Oval-v0", **kw):
+def _env(env_id: str = "irlsim/Planning-v0", **kw):
     return gym.make(env_id, overrides=TINY_ENV, max_cycles=6, **kw)
 
 
@@ -52,7 +52,7 @@ def test_actions_are_checked_not_truncated():
         env.step(np.array(4))
     finally:
         env.close()
-    cont = _env("irlsim/OvalContinuous-v0")
+    cont = _env("irlsim/PlanningContinuous-v0")
     try:
         cont.reset(seed=3)
         for bad in ([np.nan, 0.0], [0.0, np.inf], [0.0], [[0.0, 0.0]], [0.0, 0.0, 0.0], "ab"):

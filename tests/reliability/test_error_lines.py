@@ -104,7 +104,7 @@ class _Theta:
     ],
 )
 def test_a_reward_callable_of_the_wrong_type_is_the_one_line_of_a_wrong_shape(returned, what):
-    from irlsim.envs.oval import callable_theta
+    from irlsim.envs.planning import callable_theta
 
     with pytest.raises(IrlsimError) as exc:
         callable_theta(returned)
@@ -118,7 +118,7 @@ def test_the_environment_refuses_a_reward_of_the_wrong_type_in_one_line():
     gym = pytest.importorskip("gymnasium")
     from tests.reliability.test_edges import TINY_ENV
 
-    env = gym.make("irlsim/Oval-v0", overrides=TINY_ENV, max_cycles=6, reward=lambda ps, obs: "fast")
+    env = gym.make("irlsim/Planning-v0", overrides=TINY_ENV, max_cycles=6, reward=lambda ps, obs: "fast")
     try:
         with pytest.raises(IrlsimError) as exc:
             env.reset(seed=3)

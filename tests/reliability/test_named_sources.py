@@ -84,8 +84,8 @@ def test_a_good_config_loads_as_before():
 
 
 def test_the_environment_names_its_argument():
-    from irlsim.envs.oval import OvalEnv
+    from irlsim.envs.planning import PlanningEnv
 
     with pytest.raises(IrlsimError) as e:
-        OvalEnv(overrides={"planner.n_policies": -3})
+        PlanningEnv(overrides={"planner.n_policies": -3})
     assert str(e.value) == "config: overrides['planner.n_policies']: planner.n_policies must be >= 1, got -3"

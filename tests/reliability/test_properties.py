@@ -190,7 +190,7 @@ _ACTIONS = st.one_of(
 @settings(max_examples=400, deadline=None)
 @given(action=_ACTIONS, n=st.integers(1, 16))
 def test_any_discrete_action_is_a_policy_index_or_one_line(action, n):
-    from irlsim.envs.oval import discrete_index
+    from irlsim.envs.planning import discrete_index
 
     integral = isinstance(action, (int, np.integer)) and not isinstance(action, (bool, np.bool_))
     integral = integral or (
@@ -212,7 +212,7 @@ def test_any_discrete_action_is_a_policy_index_or_one_line(action, n):
     )
 )
 def test_any_continuous_action_is_two_finite_numbers_or_one_line(action):
-    from irlsim.envs.oval import continuous_action
+    from irlsim.envs.planning import continuous_action
 
     try:
         a = continuous_action(action)
@@ -227,7 +227,7 @@ def test_any_continuous_action_is_two_finite_numbers_or_one_line(action):
 @given(theta=st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=17))
 def test_any_theta_is_finite_weights_or_one_line(theta):
     from irlsim import N_FEATURES
-    from irlsim.envs.oval import check_theta
+    from irlsim.envs.planning import check_theta
 
     try:
         out = check_theta(np.asarray(theta, dtype=np.float64), "r")

@@ -1,4 +1,5 @@
-"""``OvalEnv``: the oval course as a :class:`gymnasium.Env`, on the one episode runner.
+"""``PlanningEnv``: a road (any scenario, default the oval) as a :class:`gymnasium.Env` whose action is
+one of the planner's sampled policies, on the one episode runner.
 
 Every step is one planning cycle (0.2 s of simulated time, 2 SUMO steps): the planner samples its
 ``n_policies`` policies from the ego's state (reward-agnostic, as for collection and driving), the agent
@@ -8,7 +9,7 @@ same one ``irlsim sim``, ``irlsim collect`` and ``irlsim drive`` drive their epi
 Spaces (N = ``planner.n_policies``, K = ``planner.n_control_points``; all float32 unless said):
 
     action      Discrete(N): the index of a policy of the current cycle's set (sorted by progress).
-                Continuous variant (``continuous=True``, ``irlsim/OvalContinuous-v0``): Box(2,)
+                Continuous variant (``continuous=True``, ``irlsim/PlanningContinuous-v0``): Box(2,)
                 (target acceleration [m/s^2] in [a_min, a_max], lateral target [m] in [-8, 8]), turned
                 into the policy with the nearest (acceleration at its first control point, lateral offset
                 to the ego at the horizon), distances scaled by 1 m/s^2 and the lane width (3.2 m)
@@ -112,7 +113,7 @@ def continuous_action(action: Any) -> np.ndarray:
         a = None
     if a is None or a.shape != (2,) or not np.isfinite(a).all():
         raise IrlsimError(
-            f"action {action!r} is not two finite numbers: OvalContinuous takes (target acceleration "
+            f"action {action!r} is not two finite numbers: PlanningContinuous takes (target acceleration "
             "[m/s^2], lateral target [m]) of shape (2,)"
         )
     return a
@@ -204,8 +205,9 @@ class _CallableReward:
             reset()
 
 
-class OvalEnv(gym.Env):
-    """The oval course (see the module docstring for spaces, reward, episode end and seeding).
+class PlanningEnv(gym.Env):
+    """A road, the oval unless ``scenario`` names another (see the module docstring for spaces, reward,
+    episode end and seeding).
 
     ``config``: a collect TOML path or a :class:`~irlsim.data.collection.CollectConfig` (its scenario and
     planner; default: the built-in one); ``overrides``: dotted keys applied on top

@@ -1,4 +1,5 @@
-"""irlsim/Oval-v0: Gymnasium's checker, seeding, vectorisation, the expert's episode, rewards (real SUMO)."""
+"""irlsim/Planning-v0 (and its alias irlsim/Oval-v0): Gymnasium's checker, seeding, vectorisation, the
+expert's episode, rewards (real SUMO)."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ TINY = {"planner.n_policies": TINY_POLICIES, "scenario.n_vehicles": 3}
 def make(**kw):
     kw.setdefault("overrides", TINY)
     kw.setdefault("max_cycles", 12)
-    return gym.make("irlsim/Oval-v0", **kw)
+    return gym.make("irlsim/Planning-v0", **kw)
 
 
 def test_pure_helpers():
@@ -59,7 +60,7 @@ def test_check_env_and_render():
 def test_continuous_variant_checks_and_steps():
     from gymnasium.utils.env_checker import check_env
 
-    env = gym.make("irlsim/OvalContinuous-v0", overrides=TINY, max_cycles=5)
+    env = gym.make("irlsim/PlanningContinuous-v0", overrides=TINY, max_cycles=5)
     try:
         check_env(env.unwrapped, skip_render_check=True)
         env.reset(seed=1)
@@ -104,6 +105,23 @@ def test_reset_seed_reproduces_the_episode_and_info():
         env.close()
 
 
+def test_the_old_ids_are_the_same_environments():
+    from irlsim.envs import ALIASES, CONTINUOUS_ENV_ID, ENV_ID, OvalEnv, PlanningEnv
+
+    assert ALIASES == {"irlsim/Oval-v0": ENV_ID, "irlsim/OvalContinuous-v0": CONTINUOUS_ENV_ID}
+    assert OvalEnv is PlanningEnv
+    for old, new in ALIASES.items():
+        a, b = gym.spec(old), gym.spec(new)
+        assert (a.entry_point, a.kwargs) == (b.entry_point, b.kwargs)
+    new_env, old_env = make(), gym.make("irlsim/Oval-v0", overrides=TINY, max_cycles=12)
+    try:  # the same episode, byte for byte, under either id
+        for x, y in zip(_rollout(new_env, 5), _rollout(old_env, 5), strict=True):
+            np.testing.assert_array_equal(x, y)
+    finally:
+        old_env.close()
+        new_env.close()
+
+
 def test_truncation_terminated_and_bad_input():
     env = make(max_cycles=3)
     try:
@@ -120,7 +138,7 @@ def test_truncation_terminated_and_bad_input():
     with pytest.raises(IrlsimError, match="unknown model"):
         make(reward="NoSuchModel")
     with pytest.raises(IrlsimError, match="render_mode"):
-        irlsim.envs.OvalEnv(render_mode="human")
+        irlsim.envs.PlanningEnv(render_mode="human")
 
 
 def test_learned_and_callable_rewards(tiny_runs):
@@ -189,7 +207,7 @@ def test_expert_choice_through_the_env_is_irlsim_sim_expert(tmp_path):
         == 0
     )
     ref = json.loads((tmp_path / "sim.json").read_text())["episodes"][0]
-    env = gym.make("irlsim/Oval-v0", overrides={"scenario.max_time": max_time})
+    env = gym.make("irlsim/Planning-v0", overrides={"scenario.max_time": max_time})
     try:
         env.reset(seed=seed)
         done = False
