@@ -190,12 +190,14 @@ class Road:
         to_edge: str = "",
         name: str = "",
         scenario_file: str | Path | None = None,
+        demand: tuple[Path, ...] = (),
+        warmup: float = 0.0,
     ):
         net_file = Path(net_file)
         self.net = _read_net(net_file, Path(scenario_file) if scenario_file is not None else None)
         #: the scenario's own SUMO route files (empty: irlsim's spawner) and its warm-up [s]
-        self.demand: tuple[Path, ...] = ()
-        self.warmup = 0.0
+        self.demand: tuple[Path, ...] = tuple(demand)
+        self.warmup = float(warmup)
         self.net_file = net_file
         self.name = name or net_file.name.split(".")[0]
         #: the scenario file that names the route and the checkpoints (None: given directly)
@@ -1061,7 +1063,7 @@ def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: fl
 
     scn = load_scenario(scenario, build=False)
     checkpoints = scn.checkpoints or None
-    road = Road(
+    return Road(
         path,
         scn.edges,
         checkpoints,
@@ -1069,9 +1071,9 @@ def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: fl
         to_edge=scn.to_edge,
         name=scn.name,
         scenario_file=scn.path,
+        demand=scn.demand,
+        warmup=scn.warmup,
     )
-    road.demand, road.warmup = scn.demand, scn.warmup
-    return road
 
 
 def load_road(
