@@ -21,8 +21,17 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
-from irlsim.data.demonstrator import EXPERT, DemonstratorConfig, SumoDemonstrator, demo_vtype
+from irlsim.data.demonstrator import (
+    EXPERT,
+    RECORDING,
+    DemonstratorConfig,
+    SumoDemonstrator,
+    as_recorded,
+    demo_vtype,
+    recorded_ego,
+)
 from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
+from irlsim.data.recorded import recorded_episode
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
@@ -276,7 +285,7 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     # dagger_round 0, no [[scenarios]] and the expert as demonstrator are left out: a manifest keeps its
     # bytes (and identity) of before
     return {
-        k: v
+        k: as_recorded(v) if k == "demonstrator" else v
         for k, v in d.items()
         if k not in DATA_NEUTRAL_FIELDS
         and (k, v) not in (("dagger_round", 0), ("scenarios", []))
@@ -421,11 +430,15 @@ def collect_episode(
     seed_everything(job.seed)
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
     road = load_road(scenario=scenario.name)
-    demonstrator = cfg.demonstrator
+    demonstrator, replay = cfg.demonstrator, None
     if make_driver is not None:
         driver: Any = make_driver(road, cfg)
     elif demonstrator.kind == EXPERT:
         driver = ExpertDriver(road, cfg.planner)
+    elif demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
+        counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
+        ego = recorded_ego(demonstrator, counts, job.split, job.episode)
+        driver, road, scenario, replay = recorded_episode(demonstrator.file, scenario, cfg.planner, ego)
     else:
         driver = SumoDemonstrator(road, cfg.planner, scenario)
     labeller = driver if make_driver is not None else None
@@ -446,7 +459,7 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
+    with replay or Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
         record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()
