@@ -260,3 +260,17 @@ def test_the_cli_refuses_a_bad_recording_before_any_work(fcd, tmp_path, capsys, 
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and needle in err[0], err
     assert not out.exists()
+
+
+def test_a_manifest_records_only_its_own_kinds_fields():
+    from irlsim.data.collection import CollectConfig, data_config
+    from irlsim.data.demonstrator import DemonstratorConfig
+
+    sumo = data_config(CollectConfig(demonstrator=DemonstratorConfig(kind="sumo")))["demonstrator"]
+    assert set(sumo) == {"kind", "car_follow_model", "lane_change_model", "params", "vtype_file"}  # as before
+    rec = data_config(CollectConfig(demonstrator=DemonstratorConfig(kind="recording", file="r.xml")))
+    assert set(rec["demonstrator"]) == {"kind", "file", "ego", "min_duration"}
+    with pytest.raises(IrlsimError, match="belong to kind = 'recording'"):
+        DemonstratorConfig(kind="sumo", file="r.xml").validate()
+    with pytest.raises(IrlsimError, match="needs file"):
+        DemonstratorConfig(kind="recording").validate()
