@@ -29,7 +29,7 @@ from irlsim.road import Road, load_road
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.replay import ReplaySimulation, Tracks
 from irlsim.sim.traffic import LoopEdges, wrap_route
-from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.types import EgoState, Observation, Trajectory
 
 #: the episode of a recorded ego ends with its recording, never on laps
 LAPS = 1_000_000
@@ -178,6 +178,11 @@ class RecordingDemonstrator:
         self.lane = ego.road.lane_of_d(ego.d)
         self._t_first: float | None = None
 
+    def state(self, k: int) -> EgoState:
+        """The ego's recorded state ``k`` (its time: the recording's)."""
+        values = {name: float(a[k]) for name, a in self.states.items()}
+        return EgoState(t=0.0, lane=int(self.lane[k]), **values)
+
     def plan(self, obs: Observation) -> Trajectory:
         self.last_policy_set = self.planner.plan(obs)
         t = obs.ego.t
@@ -211,5 +216,6 @@ def recorded_episode(
         max_time=max(et.duration, scenario.step),
         laps=LAPS,
     )
-    sim = ReplaySimulation(road, scn, others(rec, vid), t_begin=et.t0)
-    return RecordingDemonstrator(et, planner, scn), road, scn, sim
+    driver = RecordingDemonstrator(et, planner, scn)
+    sim = ReplaySimulation(road, scn, others(rec, vid), t_begin=et.t0, start=driver.state(0))
+    return driver, road, scn, sim

@@ -183,13 +183,18 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     n = table.num_rows
     lane = None
     if "lane" in table.column_names:
-        lane = np.array(
-            [str(s) if s is not None else "" for s in table.column("lane").to_pylist()], dtype=object
-        )
-    ids = np.array([str(s) for s in table.column("id").to_pylist()], dtype=object)
+        lane = _text(table.column("lane"))
+    ids = _text(table.column("id"))
     return Rows(
         p, ids, num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False
     )
+
+
+def _text(column: Any) -> np.ndarray:
+    """A pyarrow column as an object array of str (numbers as their text, nulls as '')."""
+    import pyarrow as pa
+
+    return np.asarray(column.cast(pa.string()).fill_null("").to_numpy(zero_copy_only=False), dtype=object)
 
 
 def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.ndarray]:

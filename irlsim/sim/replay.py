@@ -54,9 +54,19 @@ class ReplaySimulation(Simulation):
     state at reset is the recording's at time ``t_begin``; the others follow the recording's clock from
     there."""
 
-    def __init__(self, road: Road, cfg: ScenarioConfig, tracks: Tracks, t_begin: float, **kwargs: Any):
+    def __init__(
+        self,
+        road: Road,
+        cfg: ScenarioConfig,
+        tracks: Tracks,
+        t_begin: float,
+        start: EgoState | None = None,
+        **kwargs: Any,
+    ):
         super().__init__(road, dataclasses.replace(cfg, n_vehicles=0, recycle_behind=NEVER), **kwargs)
         self.tracks, self.t_begin = tracks, t_begin
+        #: the ego's recorded state at reset (None: the scenario's start, on its lane's centre)
+        self.recorded_start = start
         self._t_reset: float | None = None  # simulation time of the ego's first state
 
     def reset(self, seed: int) -> Observation:
@@ -69,6 +79,7 @@ class ReplaySimulation(Simulation):
             if self._t_reset is None:  # the first step after SUMO (re)loaded: the ego's start
                 self._t_reset = t_next
                 self._api.route.add(ROUTE, [self.road.edges[0]])
+                state = state if self.recorded_start is None else self.recorded_start
             self.place_others(self.t_begin + t_next - self._t_reset)
         super()._advance(state, bookkeeping, placed)
 
