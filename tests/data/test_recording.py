@@ -169,9 +169,9 @@ kind = "recording"
 """
 
 
-def _collect(tmp: Path, name: str, section: str) -> tuple[int, Path]:
+def _collect(tmp: Path, name: str, section: str, train: int = 2) -> tuple[int, Path]:
     cfg = tmp / f"{name}.toml"
-    cfg.write_text(COLLECT + section)
+    cfg.write_text(COLLECT.replace("train_episodes = 2", f"train_episodes = {train}") + section)
     out = tmp / name
     return main(["collect", "--config", str(cfg), "--out", str(out)]), out
 
@@ -275,3 +275,32 @@ def test_a_manifest_records_only_its_own_kinds_fields():
         DemonstratorConfig(kind="sumo", file="r.xml").validate()
     with pytest.raises(IrlsimError, match="needs file"):
         DemonstratorConfig(kind="recording").validate()
+
+
+def test_an_ego_off_the_scenarios_route_drives_its_own(tmp_path, capsys):
+    """On the grid: a vehicle recorded on other streets than the scenario's route gets the route of its
+    recorded edges; one on the scenario's route gets the scenario's road."""
+    from irlsim.data.recorded import ego_track
+
+    road = load_road(scenario="grid")
+    path, _ = road.net.getShortestPath(road.net.getEdge("B3B2"), road.net.getEdge("A2A3"))
+    own = [e.getID() for e in path]
+    routes = tmp_path / "grid.rou.xml"
+    routes.write_text(
+        f'<routes><route id="own" edges="{" ".join(own)}"/><route id="main" edges="{" ".join(road.edges)}"/>'
+        '<vehicle id="side" route="own" depart="0" departSpeed="max"/>'
+        '<vehicle id="main" route="main" depart="0" departSpeed="max"/></routes>'
+    )
+    fcd = tmp_path / "grid.fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "40"]
+    subprocess.run([*cmd, "--fcd-output", str(fcd), "--no-step-log", "true"], check=True, capture_output=True)
+    rec = load_recording(fcd, road.net, 0.1)
+    side, main_ = ego_track(rec, "side", road), ego_track(rec, "main", road)
+    assert not isinstance(side, str) and len(side.road.edges) >= 2  # the edges it drove in 40 s
+    assert side.road.edges == rec.edges[rec.ids.index("side")] == tuple(own[: len(side.road.edges)])
+    assert not isinstance(main_, str) and main_.road is road
+    section = f'file = "{fcd}"\nego = "side"\nmin_duration = 10.0\n\n[scenario]\nname = "grid"\n'
+    rc, out = _collect(tmp_path, "grid", section, train=1)
+    assert rc == 0
+    cyc = pq.read_table(out / "train" / "episode_00000.cycles.parquet").to_pandas()
+    assert cyc["has_demo"].sum() > 0 and (np.abs(cyc["ego_d"]) < 3.0).all()
