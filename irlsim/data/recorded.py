@@ -153,7 +153,9 @@ def others(rec: Recording, vid: str) -> Tracks:
         x=rec.x[rows],
         y=rec.y[rows],
         heading=rec.heading[rows],
+        v=rec.v[rows],
         step=rec.step,
+        edges=tuple(e for e, k in zip(rec.edges, keep, strict=True) if k),
     )
 
 
@@ -195,11 +197,11 @@ class RecordingDemonstrator:
 
 
 def recorded_episode(
-    file: str, scenario: ScenarioConfig, planner: PlannerConfig, vid: str
+    file: str, scenario: ScenarioConfig, planner: PlannerConfig, vid: str, reactive: bool = False
 ) -> tuple[RecordingDemonstrator, Road, ScenarioConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on the scenario of ``scenario``: the ego starts at its recorded state and the episode ends
-    with its recording."""
+    with its recording; ``reactive``: SUMO drives the others from their first recorded pose on."""
     scenario_name = scenario.name
     rec = open_recording(file, scenario_name, scenario.step)
     et = ego_track(rec, vid, load_road(scenario=scenario_name))
@@ -217,5 +219,6 @@ def recorded_episode(
         laps=LAPS,
     )
     driver = RecordingDemonstrator(et, planner, scn)
-    sim = ReplaySimulation(road, scn, others(rec, vid), t_begin=et.t0, start=driver.state(0))
+    start = driver.state(0)
+    sim = ReplaySimulation(road, scn, others(rec, vid), et.t0, start=start, reactive=reactive)
     return driver, road, scn, sim

@@ -304,3 +304,76 @@ def test_an_ego_off_the_scenarios_route_drives_its_own(tmp_path, capsys):
     assert rc == 0
     cyc = pq.read_table(out / "train" / "episode_00000.cycles.parquet").to_pandas()
     assert cyc["has_demo"].sum() > 0 and (np.abs(cyc["ego_d"]) < 3.0).all()
+
+
+@pytest.fixture(scope="module")
+def follower(tmp_path_factory) -> Path:
+    """A recording of two cars in the oval's rightmost lane, 'follow' 60 m behind 'lead', 12.5 m/s."""
+    tmp = tmp_path_factory.mktemp("follower")
+    road = load_road()
+    routes = tmp / "two.rou.xml"
+    routes.write_text(
+        f'<routes><vType id="car" sigma="0" maxSpeed="12.5" lcStrategic="0" lcSpeedGain="0"/>'
+        f'<route id="loop" edges="{" ".join(road.edges)}"/>'
+        + "".join(
+            f'<vehicle id="{v}" type="car" route="loop" depart="0" departLane="0" departPos="{pos}" '
+            'departSpeed="max"/>'
+            for v, pos in (("lead", 100), ("follow", 40))
+        )
+        + "</routes>"
+    )
+    out = tmp / "two.fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "30"]
+    subprocess.run([*cmd, "--fcd-output", str(out), "--no-step-log", "true"], check=True, capture_output=True)
+    return out
+
+
+@pytest.mark.parametrize("reactive", [False, True])
+def test_replayed_others_drive_through_a_standing_ego_reactive_ones_do_not(follower, reactive):
+    """The recorded 'lead' is the ego and stands still at its start: replayed, 'follow' drives on as
+    recorded, into it (a collision ends the episode); reactive, SUMO drives 'follow' around or behind it."""
+    from irlsim.data.recorded import recorded_episode
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.sim.config import ScenarioConfig
+
+    _, road, _, sim = recorded_episode(
+        str(follower), ScenarioConfig(), PlannerConfig(n_policies=50), "lead", reactive=reactive
+    )
+    with sim:
+        obs = sim.reset(0)
+        for _ in range(100):
+            sim.step(None)  # the ego stands where the recording starts it
+            if sim.done:
+                break
+        obs = sim.observe()
+    assert sim.stats["sim/collisions"] == (0 if reactive else 1)
+    assert sim.done != reactive
+    if reactive:  # it passed the ego in another lane, or waits behind it
+        v = obs.vehicles
+        assert v.ids == ("rec/follow",)
+        other_lane = abs(v.d[0] - obs.ego.d) > 0.5 * road.lane_width
+        assert other_lane or v.s[0] < obs.ego.s - 4.5
+
+
+@pytest.mark.parametrize("reactive", [False, True])
+def test_closed_loop_on_a_recording(fcd, tmp_path, capsys, reactive):
+    cfg = tmp_path / "rec.toml"
+    cfg.write_text(COLLECT + f'file = "{fcd}"\n')
+    out = tmp_path / "drive"
+    args = ["drive", "--model", "expert", "--config", str(cfg), "--episodes", "2", "--max-cycles", "20"]
+    rc = main([*args, "--frames", "0", "--out", str(out), *(["--reactive"] if reactive else [])])
+    assert rc == 0
+    drive = json.loads((out / "drive.json").read_text())
+    assert drive["config"]["recording"] == {"file": str(fcd), "egos": ["veh0", "veh1"], "reactive": reactive}
+    # each episode on its ego's recording; the replayed others do not yield, so the expert may hit one
+    assert [e["drive/seed"] for e in drive["episodes"]] == [100, 101]
+    assert all(e["drive/end_reason"] in ("max_cycles", "collision") for e in drive["episodes"])
+
+
+def test_reactive_needs_a_recording(tmp_path, capsys):
+    capsys.readouterr()
+    out = tmp_path / "drive"
+    rc = main(["drive", "--model", "expert", "--reactive", "--max-cycles", "5", "--out", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and "--reactive drives a recording's vehicles" in err[0], err
+    assert not out.exists()
