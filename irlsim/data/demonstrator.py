@@ -78,6 +78,10 @@ class DemonstratorConfig:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         bad = next((k for k, v in self.params.items() if not isinstance(v, (int, float, str, bool))), None)
         require(bad is None, f"demonstrator.params.{bad} must be a number or a string (a vType attribute)")
+        require(
+            math.isfinite(self.min_duration) and self.min_duration > 0,
+            f"demonstrator.min_duration must be a number > 0 s, got {self.min_duration}",
+        )
         if self.kind != SUMO:
             require(
                 not self.params and not self.vtype_file,
@@ -96,7 +100,6 @@ class DemonstratorConfig:
         require(
             bool(self.file), "demonstrator kind = 'recording' needs file = 'an FCD .xml, .csv or .parquet'"
         )
-        require(self.min_duration > 0, f"demonstrator.min_duration must be > 0 s, got {self.min_duration}")
 
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
