@@ -47,6 +47,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the collect TOML the models were trained with (planner and scenario; default: built-in)",
     )
     p.add_argument(
+        "--reactive",
+        action="store_true",
+        help="on a recording (a --config with [demonstrator] kind = 'recording'): SUMO drives the other "
+        "vehicles from their first recorded pose on (default: they replay their recorded motion)",
+    )
+    p.add_argument(
         "--safety",
         action="store_true",
         help="learned models drop policies labelled collision / off-road / exit (model-based check)",
@@ -112,6 +118,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         args.device,
         args.precision,
         args.scenario,
+        reactive=args.reactive,
     )
 
 

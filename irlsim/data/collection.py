@@ -21,8 +21,19 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
-from irlsim.data.demonstrator import EXPERT, DemonstratorConfig, SumoDemonstrator, demo_vtype
-from irlsim.data.demos import ALPHA, MAX_DEMO_DISTANCE, W_YAW, DemoProjector, expert_projection
+from irlsim.data.demonstrator import (
+    EXPERT,
+    RECORDING,
+    DemonstratorConfig,
+    SumoDemonstrator,
+    as_recorded,
+    demo_vtype,
+    recorded_ego,
+)
+from irlsim.data.demos import DemoConfig as DemoConfig  # re-exported: a field of CollectConfig
+from irlsim.data.demos import DemoProjector, expert_projection
+from irlsim.data.recorded import recorded_episode
+from irlsim.data.scenarios import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
 from irlsim.data.scenarios import by_identity
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
@@ -53,34 +64,6 @@ DAGGER_OFFSET = 300_000
 DAGGER_SPLIT_STRIDE = 10_000
 DAGGER_ROUND_STRIDE = len(SPLITS) * DAGGER_SPLIT_STRIDE
 MAX_DAGGER_ROUND = (SEED_STRIDE - DAGGER_OFFSET) // DAGGER_ROUND_STRIDE
-
-
-@dataclass(frozen=True)
-class DemoConfig:
-    """Projection of the odometry onto the policy set (docs/design/demonstrations.md)."""
-
-    alpha: float = ALPHA
-    """discount per 0.1 s step of the distance's time weights alpha^t"""
-    w_yaw: float = W_YAW
-    """[m/rad^2] weight of the squared yaw difference"""
-    max_distance: float = MAX_DEMO_DISTANCE
-    """[m] cycles whose closest policy is farther than this have no demonstration"""
-
-    def validate(self) -> None:
-        require(0 < self.alpha <= 1, f"demo.alpha must be in (0, 1], got {self.alpha}")
-        require(self.w_yaw >= 0, "demo.w_yaw must be >= 0")
-        require(self.max_distance > 0, "demo.max_distance must be > 0 m")
-
-
-@dataclass(frozen=True)
-class ScenarioEpisodes:
-    """One entry of a collect config's ``[[scenarios]]``: a scenario and its episodes per split."""
-
-    name: str = ""
-    """a shipped scenario (``irlsim scenario list``) or the path of a scenario.toml"""
-    train_episodes: int = 0
-    validation_episodes: int = 0
-    test_episodes: int = 0
 
 
 #: the top-level episode counts when a config leaves them out
@@ -293,7 +276,7 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     # dagger_round 0, no [[scenarios]] and the expert as demonstrator are left out: a manifest keeps its
     # bytes (and identity) of before
     return {
-        k: v
+        k: as_recorded(v) if k == "demonstrator" else v
         for k, v in d.items()
         if k not in DATA_NEUTRAL_FIELDS
         and (k, v) not in (("dagger_round", 0), ("scenarios", []))
@@ -438,11 +421,15 @@ def collect_episode(
     seed_everything(job.seed)
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
     road = load_road(scenario=scenario.name)
-    demonstrator = cfg.demonstrator
+    demonstrator, replay = cfg.demonstrator, None
     if make_driver is not None:
         driver: Any = make_driver(road, cfg)
     elif demonstrator.kind == EXPERT:
         driver = ExpertDriver(road, cfg.planner)
+    elif demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
+        counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
+        ego = recorded_ego(demonstrator, counts, job.split, job.episode)
+        driver, road, scenario, replay = recorded_episode(demonstrator.file, scenario, cfg.planner, ego)
     else:
         driver = SumoDemonstrator(road, cfg.planner, scenario)
     labeller = driver if make_driver is not None else None
@@ -463,7 +450,7 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
+    with replay or Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
         record = episode_record(job.seed, cfg, job.scenario)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()

@@ -8,6 +8,8 @@ the same rules and distances whoever drives).
 - ``sumo``: SUMO's own car-following and lane-change models drive the ego on the scenario's route
   (:class:`SumoDemonstrator`), with any vType attributes (``params``, or the one vType of
   ``vtype_file``), checked by SUMO before any work (:func:`irlsim.sim.vtype.check_vtype`).
+- ``recording``: recorded vehicles (SUMO's FCD output or a columnar file, :mod:`irlsim.data.recording`),
+  each an ego in turn while the others replay their recorded motion (:mod:`irlsim.data.recorded`).
 """
 
 from __future__ import annotations
@@ -20,10 +22,13 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.config import require
+from irlsim.data.recorded import egos as recorded_egos
+from irlsim.data.recorded import open_recording
+from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
-from irlsim.road import Road
+from irlsim.road import Road, load_road
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.types import Observation, Trajectory
@@ -33,7 +38,12 @@ from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_att
 SUMO_DEFAULT_MODELS = {"carFollowModel": "Krauss", "laneChangeModel": "LC2013"}
 EXPERT = "expert"
 SUMO = "sumo"
-KINDS = (EXPERT, SUMO)
+RECORDING = "recording"
+KINDS = (EXPERT, SUMO, RECORDING)
+#: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
+#: keeps the bytes of before recordings existed)
+SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file")
+RECORDING_FIELDS = ("file", "ego", "min_duration")
 
 
 @dataclass(frozen=True)
@@ -41,7 +51,7 @@ class DemonstratorConfig:
     """A collect config's ``[demonstrator]``: who drives (docs/guide/demonstrators.md)."""
 
     kind: str = EXPERT
-    """'expert' (irlsim's expert) or 'sumo' (SUMO's driver models)"""
+    """'expert' (irlsim's expert), 'sumo' (SUMO's driver models) or 'recording' (recorded vehicles)"""
     car_follow_model: str = ""
     """kind 'sumo': SUMO's carFollowModel (Krauss, IDM, EIDM, ACC, CACC, ...; SUMO decides); empty:
     ``vtype_file``'s, else SUMO's default, Krauss"""
@@ -55,16 +65,41 @@ class DemonstratorConfig:
     """kind 'sumo': an additional file with one <vType>, whose attributes come first (``params`` and
     the two models then over them); read when the collection starts and recorded as its attributes
     and sha256"""
+    file: str = ""
+    """kind 'recording': the recording, SUMO's FCD output (.xml) or a columnar file (.csv, .parquet) on
+    the scenario's network (docs/guide/demonstrators.md, "Recordings")"""
+    ego: str = ""
+    """kind 'recording': the ego vehicles' ids, separated by commas, one per episode in turn (train,
+    then validation, then test); empty: every vehicle on a route of the network for ``min_duration``"""
+    min_duration: float = 20.0
+    """kind 'recording': [s] the least time a vehicle drives on its route to be an ego"""
 
     def validate(self) -> None:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
         bad = next((k for k, v in self.params.items() if not isinstance(v, (int, float, str, bool))), None)
         require(bad is None, f"demonstrator.params.{bad} must be a number or a string (a vType attribute)")
-        if self.kind == EXPERT:
+        require(
+            math.isfinite(self.min_duration) and self.min_duration > 0,
+            f"demonstrator.min_duration must be a number > 0 s, got {self.min_duration}",
+        )
+        if self.kind != SUMO:
             require(
                 not self.params and not self.vtype_file,
                 "demonstrator.params / vtype_file belong to kind = 'sumo': set it, or drop them",
             )
+            require(
+                self.kind == EXPERT or not (self.car_follow_model or self.lane_change_model),
+                "demonstrator car_follow_model / lane_change_model belong to kind = 'sumo': drop them",
+            )
+        if self.kind != RECORDING:
+            require(
+                not self.file and not self.ego,
+                "demonstrator.file / ego belong to kind = 'recording': set it, or drop them",
+            )
+            return
+        require(
+            bool(self.file), "demonstrator kind = 'recording' needs file = 'an FCD .xml, .csv or .parquet'"
+        )
 
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
@@ -73,13 +108,23 @@ class DemonstratorConfig:
         return {**base, **{k: v for k, v in models if v}, **self.params}
 
 
-def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig, dict[str, Any]]:
+def resolve(
+    cfg: DemonstratorConfig,
+    net_file: Path,
+    scenarios: tuple[str, ...] = (),
+    step: float = 0.1,
+    episodes: int = 0,
+) -> tuple[DemonstratorConfig, dict[str, Any]]:
     """Before any work: the demonstrator with its ``vtype_file`` read into ``params`` (what the workers
     get and the manifest's config records), and its manifest record (kind, models, params, the file's
-    path and sha256); SUMO's refusal of the type as one line (:func:`irlsim.sim.vtype.check_vtype`)."""
+    path and sha256); SUMO's refusal of the type as one line (:func:`irlsim.sim.vtype.check_vtype`).
+    A recording (kind 'recording', on the one scenario of ``scenarios``, ``episodes`` episodes at the
+    simulation ``step``): see :func:`resolve_recording`."""
     cfg.validate()
     if cfg.kind == EXPERT:
         return cfg, {"kind": EXPERT}
+    if cfg.kind == RECORDING:
+        return resolve_recording(cfg, scenarios, step, episodes)
     attrs = cfg.attributes()
     with tempfile.TemporaryDirectory(prefix="irlsim-check-") as tmp:
         check_vtype(net_file, vtype_attributes(attrs, 1.0), Path(tmp))
@@ -103,6 +148,42 @@ def resolve(cfg: DemonstratorConfig, net_file: Path) -> tuple[DemonstratorConfig
     return out, record
 
 
+def resolve_recording(
+    cfg: DemonstratorConfig, scenarios: tuple[str, ...], step: float, episodes: int
+) -> tuple[DemonstratorConfig, dict[str, Any]]:
+    """A recording read and checked on its scenario's network (one line before any work), its egos
+    (``ego``, else every vehicle long enough) written into ``ego``, and the manifest record: kind, the
+    file's path and sha256, the egos."""
+    require(
+        len(scenarios) == 1,
+        f"a recording is on one scenario's network, this config lists {len(scenarios)}: give [scenario] name",
+    )
+    rec = open_recording(cfg.file, scenarios[0], step)
+    wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
+    ids = recorded_egos(rec, load_road(scenario=scenarios[0]), wanted, cfg.min_duration)
+    if len(ids) < episodes:
+        raise IrlsimError(
+            f"recording {cfg.file} gives {len(ids)} ego(s) (vehicles on a route of the network for "
+            f"min_duration {cfg.min_duration:g} s), the config asks for {episodes} episodes: ask for at most "
+            f"{len(ids)} episodes (one per ego), or lower demonstrator.min_duration"
+        )
+    out = replace(cfg, ego=",".join(ids))
+    return out, {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
+
+
+def recorded_ego(cfg: DemonstratorConfig, counts: dict[str, int], split: str, episode: int) -> str:
+    """The ego of episode ``episode`` of ``split`` (``counts``: the episodes of each split, in the order
+    of the splits): the resolved egos in turn, train, then validation, then test."""
+    names = list(counts)
+    return cfg.ego.split(",")[sum(counts[s] for s in names[: names.index(split)]) + episode]
+
+
+def as_recorded(d: dict[str, Any]) -> dict[str, Any]:
+    """A demonstrator's config as a manifest records it: only its own kind's fields."""
+    drop = SUMO_FIELDS if d.get("kind") == RECORDING else RECORDING_FIELDS
+    return {k: v for k, v in d.items() if k not in drop}
+
+
 def _canonical(value: Any) -> Any:
     """A vType attribute as recorded: a number (TOML's or a file's text) as a float, other text as it
     is; so ``tau = 1.5`` in the config and ``tau="1.5"`` in a vType file are the same demonstrator."""
@@ -119,6 +200,9 @@ def describe(record: dict[str, Any] | None) -> str:
     """One short name of a recorded demonstrator: 'expert', 'sumo IDM/LC2013 {tau=1.5}'."""
     if not record or record.get("kind", EXPERT) == EXPERT:
         return EXPERT
+    if record.get("kind") == RECORDING:
+        n = len(record.get("egos") or [])
+        return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos)"
     params = record.get("params") or {}
     text = ",".join(f"{k}={v}" for k, v in sorted(params.items()) if k != "maxSpeed")
     return f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}" + (
@@ -146,6 +230,6 @@ class SumoDemonstrator:
 def demo_vtype(cfg: DemonstratorConfig, scenario: ScenarioConfig) -> dict[str, str] | None:
     """The vType attributes a worker's :class:`~irlsim.sim.simulation.Simulation` gets (None: the
     expert); ``maxSpeed`` defaults to the scenario's ego target speed."""
-    if cfg.kind == EXPERT:
+    if cfg.kind != SUMO:
         return None
     return vtype_attributes(cfg.attributes(), scenario.ego_target_speed)

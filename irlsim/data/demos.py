@@ -13,9 +13,12 @@ first) or when the smallest distance exceeds ``MAX_DEMO_DISTANCE``.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
+
+from irlsim.config import require
 
 if TYPE_CHECKING:
     from irlsim.data.tensors import Rows
@@ -336,3 +339,20 @@ def expert_projection(
     )
     dist[expert_index] = 0.0  # exactly: float rounding of (a - a) is 0 already; stated, not relied on
     return Projection(int(cycle_index), dist, int(expert_index), 0.0)
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    """Projection of the odometry onto the policy set (docs/design/demonstrations.md)."""
+
+    alpha: float = ALPHA
+    """discount per 0.1 s step of the distance's time weights alpha^t"""
+    w_yaw: float = W_YAW
+    """[m/rad^2] weight of the squared yaw difference"""
+    max_distance: float = MAX_DEMO_DISTANCE
+    """[m] cycles whose closest policy is farther than this have no demonstration"""
+
+    def validate(self) -> None:
+        require(0 < self.alpha <= 1, f"demo.alpha must be in (0, 1], got {self.alpha}")
+        require(self.w_yaw >= 0, "demo.w_yaw must be >= 0")
+        require(self.max_distance > 0, "demo.max_distance must be > 0 m")

@@ -13,6 +13,7 @@ import hashlib
 import itertools
 import json
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -111,3 +112,14 @@ def selections(names: Sequence[str]) -> list[tuple[str, ...]]:
         return []
     ordered = sorted(names)
     return [c for k in range(1, len(ordered) + 1) for c in itertools.combinations(ordered, k)]
+
+
+@dataclass(frozen=True)
+class ScenarioEpisodes:
+    """One entry of a collect config's ``[[scenarios]]``: a scenario and its episodes per split."""
+
+    name: str = ""
+    """a shipped scenario (``irlsim scenario list``) or the path of a scenario.toml"""
+    train_episodes: int = 0
+    validation_episodes: int = 0
+    test_episodes: int = 0

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 
 from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import RECORDING
+from irlsim.data.recorded import recorded_episode
 from irlsim.drive.metrics import episode_metrics
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
@@ -31,6 +33,7 @@ from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
 from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
+from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation
 from irlsim.utils import progress, seed_everything
@@ -192,26 +195,25 @@ def drive_episode(
     max_cycles: int = 0,
     show_progress: bool = True,
     expert_progress: tuple[Any, Any] | None = None,
+    reactive: bool = False,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
-    ``model``: a :class:`~irlsim.reward.LearnedReward` (load it once with
-    :func:`~irlsim.reward.load_reward` to drive several episodes), or a spec string resolved against
-    ``runs``. ``cfg``: the collect config the model was trained
-    with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``). ``max_cycles`` > 0 stops
-    early (end reason 'max_cycles'). ``pictures``: write stills and an animation (see :class:`PictureSpec`).
-    ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (see :func:`_scores`).
+    ``model``: a :class:`~irlsim.reward.LearnedReward` (load it once with :func:`~irlsim.reward.load_reward`
+    to drive several episodes), or a spec string resolved against ``runs``. ``cfg``: the collect config
+    the model was trained with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``).
+    ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
+    ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
+    ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`).
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    if laps < 1:
-        raise IrlsimError(f"--laps must be >= 1, got {laps}")
+    road, scenario, sim = _simulation(cfg, road, laps, episode, reactive)
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
-    scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
     seed_everything(seed)
     decider = RewardDriver(model, road, cfg.planner, safety)
     recorder = (
@@ -235,7 +237,7 @@ def drive_episode(
     scorer = ScorecardObserver()  # records every simulation step for the scorecard
     style = StyleObserver()  # the driving style (irlsim.rollout.style)
     observers += [_Progress(bar), scorer, style]
-    with Simulation(road, scenario) as sim:
+    with sim:
         result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
     bar.close()
@@ -258,6 +260,23 @@ def drive_episode(
     rec.update(style.summary())
     rec["_inference_ms"] = timing.inference_ms
     return rec
+
+
+def _simulation(
+    cfg: CollectConfig, road: Road, laps: int, episode: int, reactive: bool
+) -> tuple[Road, ScenarioConfig, Simulation]:
+    """The episode's road, settings and simulation: the scenario's; on a recording (its egos resolved
+    into ``cfg.demonstrator.ego``) ego number ``episode``'s route, start and time, the other vehicles
+    replaying their recorded motion (non-reactive) or, ``reactive``, driven by SUMO from their first
+    recorded pose on."""
+    if laps < 1:
+        raise IrlsimError(f"--laps must be >= 1, got {laps}")
+    scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
+    if cfg.demonstrator.kind != RECORDING:
+        return road, scenario, Simulation(road, scenario)
+    ego = cfg.demonstrator.ego.split(",")[episode]
+    _, road, scenario, sim = recorded_episode(cfg.demonstrator.file, scenario, cfg.planner, ego, reactive)
+    return road, scenario, sim
 
 
 def _scores(

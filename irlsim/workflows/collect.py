@@ -170,7 +170,9 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     demo_record = None
     if cfg.demonstrator.kind != EXPERT_DEMONSTRATOR:
         net = load_scenario(cfg.scenario_names[0]).net_file
-        demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, net)
+        n = cfg.train_episodes + cfg.validation_episodes + cfg.test_episodes
+        names, step = cfg.scenario_names, cfg.scenario.step
+        demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, net, names, step, n)
         cfg = replace(cfg, demonstrator=demonstrator)
     check_starts(cfg.scenario, cfg.scenario_names)  # a route too short for the ego's start: refused here
     if cfg.dagger_round and run.driver is None:

@@ -20,6 +20,7 @@ from typing import Any
 from irlsim import devices
 from irlsim.config import MAX_SEED, load_config
 from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import RECORDING, resolve_recording
 from irlsim.drive.closed_loop import PictureSpec, drive_episode
 from irlsim.drive.metrics import markdown_table, summarize
 from irlsim.drive.scorecard import scorecard_table
@@ -71,6 +72,9 @@ class DriveRun:
     precision: str = "fp32"
     scenario: str | None = None
     """the road to drive (a shipped scenario or a scenario.toml path; None: the collect config's)"""
+    reactive: bool = False
+    """on a recording (the config's ``[demonstrator] kind = 'recording'``): SUMO drives the other
+    vehicles from their first recorded pose on (False: they replay their recorded motion)"""
 
 
 @dataclass
@@ -99,6 +103,7 @@ class DriveJob:
     device: str = "cpu"
     precision: str = "fp32"
     expert_progress: Any = None  # the expert's (t, s) on the same seed, for the scorecard
+    reactive: bool = False  # on a recording: SUMO drives the other vehicles
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -134,6 +139,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         pictures=job.pictures,
         max_cycles=job.max_cycles,
         expert_progress=job.expert_progress,
+        reactive=job.reactive,
     )
 
 
@@ -182,6 +188,7 @@ def _episode_jobs(
                 run.threads,
                 device,
                 run.precision,
+                reactive=run.reactive,
             )
             jobs.append(Job(f"{label}/{i}", job))
 
@@ -232,8 +239,9 @@ def _write_outputs(
                 "device": device,
                 "precision": run.precision,
             }
-            # the road, where it is not the oval (the oval's tables keep their bytes)
-            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != DEFAULT_SCENARIO else {}),
+            # the road, where it is not the oval (the oval's tables keep their bytes), and a recording
+            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != DEFAULT_SCENARIO else {})
+            | _recording_record(cfg, run),
             "summary": summaries,
             "episodes": episodes,
         },
@@ -289,6 +297,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     check_executor(run.executor, run.workers, run.address)
     scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
     cfg = load_config(CollectConfig, run.config_file, scenario)
+    cfg = _recording(cfg, run)
     check_starts(cfg.scenario, (cfg.scenario.name,))  # a route too short for the ego's start: refused here
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
@@ -327,6 +336,25 @@ def _drive_into(
 
     _write_outputs(run, specs, cfg, out, summaries, episodes, device)
     return DriveResult(out, episodes, summaries)
+
+
+def _recording(cfg: CollectConfig, run: DriveRun) -> CollectConfig:
+    """On a recording: its egos, one per episode (read and checked in one line before any work)."""
+    if cfg.demonstrator.kind != RECORDING:
+        if run.reactive:
+            raise IrlsimError("--reactive drives a recording's vehicles: give a --config with a recording")
+        return cfg
+    scenario = cfg.scenario
+    resolved, _ = resolve_recording(cfg.demonstrator, (scenario.name,), scenario.step, run.episodes)
+    return replace(cfg, demonstrator=resolved)
+
+
+def _recording_record(cfg: CollectConfig, run: DriveRun) -> dict[str, Any]:
+    """drive.json's record of a recording: the file, the egos driven and the mode."""
+    if cfg.demonstrator.kind != RECORDING:
+        return {}
+    egos = cfg.demonstrator.ego.split(",")[: run.episodes]
+    return {"recording": {"file": cfg.demonstrator.file, "egos": egos, "reactive": run.reactive}}
 
 
 def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:

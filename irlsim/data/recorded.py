@@ -1,0 +1,224 @@
+"""The recording demonstrator: recorded vehicles as demonstrators, each an ego in turn (log replay).
+
+For an ego vehicle of a recording (:mod:`irlsim.data.recording`): the route it drove (the scenario's
+route when every edge it recorded lies on it, else a :class:`~irlsim.road.Road` of its recorded edges),
+an episode on a :class:`~irlsim.sim.replay.ReplaySimulation` where the other recorded vehicles replay
+their motion (non-reactive) and the ego is placed every step at its recorded pose
+(:class:`RecordingDemonstrator`); every cycle the expert's planner samples its policy set at the ego's
+state, and the demonstration is the projection of the ego's recorded odometry. A vehicle is an ego when
+it stays on its route (within half a lane of the road's edges) for ``min_duration`` from its first point
+outside a junction.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from irlsim.data.recording import Recording, load_recording
+from irlsim.errors import IrlsimError
+from irlsim.planner.config import PlannerConfig
+from irlsim.planner.planner import Planner
+from irlsim.planner.policy_set import PolicySet
+from irlsim.road import Road, load_road
+from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.replay import ReplaySimulation, Tracks
+from irlsim.sim.traffic import LoopEdges, wrap_route
+from irlsim.sim.types import EgoState, Observation, Trajectory
+
+#: the episode of a recorded ego ends with its recording, never on laps
+LAPS = 1_000_000
+
+
+@functools.lru_cache(maxsize=2)
+def _cached(path: str, mtime: float, scenario: str, step: float) -> Recording:
+    return load_recording(path, load_road(scenario=scenario).net, step)
+
+
+def open_recording(path: str | Path, scenario: str, step: float) -> Recording:
+    """The recording ``path`` on the network of ``scenario``, checked and resampled to ``step`` (read once
+    per process)."""
+    p = Path(path)
+    if not p.is_file():
+        raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
+    return _cached(str(p.resolve()), p.stat().st_mtime, scenario, step)
+
+
+@dataclass(frozen=True)
+class EgoTrack:
+    """A recorded ego at the step from its first point outside a junction: its route and its states."""
+
+    vid: str
+    road: Road
+    t0: float  # [s] recording time of the first state
+    x: np.ndarray
+    y: np.ndarray
+    yaw: np.ndarray
+    v: np.ndarray
+    s: np.ndarray  # unwrapped route position [m]
+    d: np.ndarray
+    step: float  # [s]
+
+    @property
+    def duration(self) -> float:
+        """[s] from the first state to the last."""
+        return (len(self.x) - 1) * self.step
+
+
+def _without_demand(road: Road) -> Road:
+    """The scenario's road without its own SUMO demand: the recording is the traffic."""
+    if not road.demand:
+        return road
+    out = copy.copy(road)
+    out.demand, out.warmup = (), 0.0
+    return out
+
+
+def ego_track(rec: Recording, vid: str, scenario_road: Road) -> EgoTrack | str:
+    """Vehicle ``vid`` of ``rec`` as an ego, or why it cannot be one (a phrase)."""
+    k = rec.ids.index(vid)
+    road = scenario_road
+    if rec.edges[k] and not set(rec.edges[k]) <= set(scenario_road.edges):
+        try:
+            road = Road(scenario_road.net_file, rec.edges[k], name=f"{scenario_road.name}:{vid}")
+        except IrlsimError as e:
+            return f"its recorded edges are no route of the network ({e})"
+    road = _without_demand(road)
+    tr = rec.track(vid)
+    s_w, d = road.to_frenet(tr["x"], tr["y"])
+    s = s_w[0] + np.concatenate([[0.0], np.cumsum(wrap_route(np.diff(s_w), road.lap_length))])
+    off = np.flatnonzero(np.abs(d) > road.half_road + 0.5 * road.lane_width)
+    if len(off):
+        return f"it leaves its route at t = {tr['t'][off[0]]:g} s"
+    edges = LoopEdges.from_road(road)
+    first = next((i for i, si in enumerate(s) if edges.locate(float(si), road.lap_length)), None)
+    if first is None:
+        return "it never leaves a junction"
+    cut = slice(first, None)
+    return EgoTrack(
+        vid,
+        road,
+        float(tr["t"][first]),
+        tr["x"][cut],
+        tr["y"][cut],
+        tr["heading"][cut],
+        tr["v"][cut],
+        s[cut],
+        d[cut],
+        rec.step,
+    )
+
+
+def egos(rec: Recording, scenario_road: Road, wanted: tuple[str, ...], min_duration: float) -> list[str]:
+    """The ego vehicles of ``rec``: ``wanted`` (each refused in one line unless it can be one), else every
+    vehicle that can be one for ``min_duration`` seconds, in the recording's order."""
+    unknown = [v for v in wanted if v not in rec.ids]
+    if unknown:
+        raise IrlsimError(
+            f"recording {rec.path} has no vehicle {unknown[0]!r}: name one of {', '.join(rec.ids[:8])}"
+            + (", ..." if len(rec.ids) > 8 else "")
+        )
+    out = []
+    for vid in wanted or rec.ids:
+        et = ego_track(rec, vid, scenario_road)
+        why = et if isinstance(et, str) else None
+        if why is None and isinstance(et, EgoTrack) and et.duration < min_duration:
+            why = (
+                f"it is recorded {et.duration:.1f} s on its route, less than min_duration {min_duration:g} s"
+            )
+        if why is None:
+            out.append(vid)
+        elif wanted:
+            raise IrlsimError(
+                f"recording {rec.path}: vehicle {vid} cannot be an ego: {why}: choose another or lower "
+                "demonstrator.min_duration"
+            )
+    return out
+
+
+def others(rec: Recording, vid: str) -> Tracks:
+    """Every recorded vehicle but ``vid``, for the replay."""
+    keep = np.array([v != vid for v in rec.ids])
+    n = np.diff(rec.start)
+    rows = np.repeat(keep, n)
+    return Tracks(
+        ids=tuple(v for v in rec.ids if v != vid),
+        start=np.concatenate([[0], np.cumsum(n[keep])]),
+        t0=rec.t0[keep],
+        x=rec.x[rows],
+        y=rec.y[rows],
+        heading=rec.heading[rows],
+        v=rec.v[rows],
+        step=rec.step,
+        edges=tuple(e for e, k in zip(rec.edges, keep, strict=True) if k),
+    )
+
+
+class RecordingDemonstrator:
+    """The recorded ego drives: its trajectory each cycle is its recorded states (placed by the
+    simulation with moveToXY), and the expert's planner samples the policy set at its state. No policy
+    of the set is executed: ``last_index`` is -1 and the writer records the policy closest to what was
+    driven as the executed one."""
+
+    def __init__(self, ego: EgoTrack, planner: PlannerConfig, scenario: ScenarioConfig):
+        self.planner = Planner(ego.road, planner)
+        self.last_policy_set: PolicySet | None = None
+        self.last_index = -1
+        self.n, self.dt = scenario.horizon_steps + 1, scenario.step
+        dt = self.dt
+        grad = (lambda z: np.gradient(z, dt)) if len(ego.x) > 1 else np.zeros_like
+        d_dot = grad(ego.d)
+        self.states = {
+            "x": ego.x, "y": ego.y, "yaw": ego.yaw, "v": ego.v, "a": grad(ego.v), "s": ego.s, "d": ego.d,
+            "d_dot": d_dot, "d_ddot": grad(d_dot),
+        }  # fmt: skip
+        self.lane = ego.road.lane_of_d(ego.d)
+        self._t_first: float | None = None
+
+    def state(self, k: int) -> EgoState:
+        """The ego's recorded state ``k`` (its time: the recording's)."""
+        values = {name: float(a[k]) for name, a in self.states.items()}
+        return EgoState(t=0.0, lane=int(self.lane[k]), **values)
+
+    def plan(self, obs: Observation) -> Trajectory:
+        self.last_policy_set = self.planner.plan(obs)
+        t = obs.ego.t
+        if self._t_first is None:
+            self._t_first = t
+        k = int(round((t - self._t_first) / self.dt))
+        idx = np.minimum(k + np.arange(self.n), len(self.lane) - 1)  # held at the recording's end
+        arrays = {name: a[idx].astype(np.float64) for name, a in self.states.items()}
+        return Trajectory(t0=t, dt=self.dt, lane=self.lane[idx].astype(np.int8), **arrays)
+
+
+def recorded_episode(
+    file: str, scenario: ScenarioConfig, planner: PlannerConfig, vid: str, reactive: bool = False
+) -> tuple[RecordingDemonstrator, Road, ScenarioConfig, ReplaySimulation]:
+    """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
+    ``file`` on the scenario of ``scenario``: the ego starts at its recorded state and the episode ends
+    with its recording; ``reactive``: SUMO drives the others from their first recorded pose on."""
+    scenario_name = scenario.name
+    rec = open_recording(file, scenario_name, scenario.step)
+    et = ego_track(rec, vid, load_road(scenario=scenario_name))
+    if isinstance(et, str):
+        raise IrlsimError(f"recording {rec.path}: vehicle {vid} cannot be an ego: {et}")
+    road = et.road
+    lane0 = int(road.lane_of_d(np.array([et.d[0]]))[0])
+    scn = dataclasses.replace(
+        scenario,
+        ego_start_random=False,
+        ego_start_s=float(et.s[0] % road.lap_length),
+        ego_start_lane=max(lane0, 0),
+        ego_start_speed=float(et.v[0]),
+        max_time=max(et.duration, scenario.step),
+        laps=LAPS,
+    )
+    driver = RecordingDemonstrator(et, planner, scn)
+    start = driver.state(0)
+    sim = ReplaySimulation(road, scn, others(rec, vid), et.t0, start=start, reactive=reactive)
+    return driver, road, scn, sim

@@ -1,0 +1,381 @@
+"""Recorded trajectories (log replay): SUMO's FCD output or a columnar file, read into one table, checked
+before any work and resampled to the simulation step.
+
+Two formats (docs/guide/demonstrators.md, "Recordings"):
+
+- SUMO's FCD output (``sumo --fcd-output``, ``.xml``): ``<timestep time=..><vehicle id x y angle speed
+  lane .../>``; SUMO's angle is degrees from north, clockwise, and becomes the ENU heading in radians.
+- A columnar file (``.csv`` or ``.parquet``): one row per vehicle and time, columns ``id`` (text), ``t``
+  [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's], ``v`` [m/s],
+  ``heading`` [rad, ENU: counter-clockwise from east]; ``lane`` (a SUMO lane id) optional.
+
+Checked, each refusal one line naming the file and the row or vehicle: missing columns, values that are
+not finite, time not increasing within a vehicle, gaps longer than ``max_gap``, headings that look like
+degrees, speeds that look like km/h (3.6 times what the positions travel), points off the network or a
+recording in another network's coordinates. Grouping by vehicle is a stable sort and a split (no loop
+over rows); each vehicle is then resampled to the step by linear interpolation (heading unwrapped).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from irlsim.errors import IrlsimError
+from irlsim.road import wrap_angle
+
+COLUMNS = ("id", "t", "x", "y", "v", "heading")
+FORMATS = (".xml", ".csv", ".parquet")
+#: [s] the longest time between two rows of one vehicle
+MAX_GAP = 1.0
+#: [m] a point farther than this from every lane of the network is off the network
+OFF_NETWORK_M = 5.0
+#: share of a recording's points off the network above which it is another network's coordinates
+FOREIGN_SHARE = 0.5
+#: recorded speed / speed of the displacement in this band: km/h given for m/s (3.6)
+KMH_BAND = (2.6, 5.0)
+#: [m/s] a vehicle slower than this (displacement over time) is not tested for km/h
+KMH_MIN_SPEED = 2.0
+
+
+@dataclass(frozen=True)
+class Rows:
+    """A recording as read: one entry per row, in file order; ``row`` is the row's place in the file (a
+    CSV line number, a Parquet row index, the number of an FCD ``<vehicle>`` record)."""
+
+    path: Path
+    id: np.ndarray  # [N] str
+    t: np.ndarray  # [N] [s]
+    x: np.ndarray
+    y: np.ndarray
+    v: np.ndarray  # [N] [m/s]
+    heading: np.ndarray  # [N] [rad] ENU
+    lane: np.ndarray | None  # [N] str, SUMO lane ids; None: not recorded
+    row: np.ndarray  # [N] int
+    fcd: bool  # SUMO's FCD (the heading was converted from degrees by definition)
+
+    def where(self, i: int) -> str:
+        """The file and the place of row ``i`` in it."""
+        return f"{self.path}: {'vehicle record' if self.fcd else 'row'} {int(self.row[i])}"
+
+
+@dataclass(frozen=True)
+class Recording:
+    """Every vehicle's track at the simulation step: vehicle ``k`` owns rows ``start[k]:start[k + 1]``,
+    at times ``t0[k] + j * step``. ``edges[k]``: the network edges it drove, in order (internal ones left
+    out; empty when the recording has no lanes)."""
+
+    path: Path
+    sha256: str
+    step: float
+    ids: tuple[str, ...]
+    start: np.ndarray  # [V + 1]
+    t0: np.ndarray  # [V] [s]
+    x: np.ndarray  # [R]
+    y: np.ndarray
+    v: np.ndarray
+    heading: np.ndarray
+    edges: tuple[tuple[str, ...], ...]
+
+    def track(self, vid: str) -> dict[str, np.ndarray]:
+        """One vehicle's arrays t, x, y, v, heading at the step."""
+        k = self.ids.index(vid)
+        a, b = int(self.start[k]), int(self.start[k + 1])
+        t = self.t0[k] + self.step * np.arange(b - a)
+        return {"t": t, "x": self.x[a:b], "y": self.y[a:b], "v": self.v[a:b], "heading": self.heading[a:b]}
+
+    def duration(self) -> np.ndarray:
+        """[V] [s] each vehicle's recorded time."""
+        return (np.diff(self.start) - 1) * self.step
+
+
+def read_rows(path: str | Path) -> Rows:
+    """The rows of an FCD XML, CSV or Parquet file; one line naming the file when it cannot be read."""
+    p = Path(path)
+    if not p.is_file():
+        raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
+    suffix = p.suffix.lower()
+    if suffix not in FORMATS:
+        raise IrlsimError(f"recording {p}: unknown format {suffix!r}: give an FCD .xml, a .csv or a .parquet")
+    if suffix == ".xml":
+        return _read_fcd(p)
+    return _read_columns(p, suffix)
+
+
+def _read_fcd(p: Path) -> Rows:
+    """SUMO's FCD output, streamed (xml.etree.iterparse); the angle (deg, north, clockwise) -> ENU rad."""
+    cols: dict[str, list[Any]] = {k: [] for k in ("id", "x", "y", "angle", "speed", "lane")}
+    times: list[str] = []
+    t = "nan"
+    try:
+        for ev, el in ET.iterparse(p, events=("start", "end")):
+            if ev == "start" and el.tag == "timestep":
+                t = el.attrib.get("time", "nan")
+            elif ev == "start" and el.tag == "vehicle":
+                a = el.attrib
+                for k in ("x", "y", "angle", "speed"):
+                    cols[k].append(a.get(k, "nan"))
+                cols["id"].append(a.get("id", ""))
+                cols["lane"].append(a.get("lane", ""))
+                times.append(t)
+            elif ev == "end" and el.tag == "timestep":
+                el.clear()
+    except ET.ParseError as e:
+        raise IrlsimError(f"recording {p} is not valid XML ({e}): give SUMO's FCD output unchanged") from None
+    try:
+        tt, x, y, angle, speed = (
+            np.array(c, dtype=np.float64) for c in (times, cols["x"], cols["y"], cols["angle"], cols["speed"])
+        )
+    except ValueError as e:
+        raise IrlsimError(f"recording {p}: a time or <vehicle> attribute is not a number ({e})") from None
+    n = len(x)
+    lanes = np.array(cols["lane"], dtype=object)
+    return Rows(
+        path=p,
+        id=np.array(cols["id"], dtype=object),
+        t=tt,
+        x=x,
+        y=y,
+        v=speed,
+        heading=np.asarray(wrap_angle(np.radians(90.0 - angle))),
+        lane=lanes if n and all(lanes) else None,
+        row=np.arange(1, n + 1),
+        fcd=True,
+    )
+
+
+def _read_columns(p: Path, suffix: str) -> Rows:
+    """A CSV or Parquet file with the columns ``COLUMNS`` (and ``lane``), through pyarrow."""
+    try:
+        if suffix == ".csv":
+            import pyarrow.csv as pacsv
+
+            opts = pacsv.ConvertOptions(column_types={"id": "string", "lane": "string"})
+            table = pacsv.read_csv(p, convert_options=opts)
+            first = 2  # the header is line 1
+        else:
+            import pyarrow.parquet as pq
+
+            table = pq.read_table(p)
+            first = 0
+    except Exception as e:  # pyarrow's own errors name the problem
+        msg = str(e).strip().splitlines()
+        raise IrlsimError(f"recording {p} cannot be read ({msg[0] if msg else type(e).__name__})") from None
+    missing = [c for c in COLUMNS if c not in table.column_names]
+    if missing:
+        raise IrlsimError(
+            f"recording {p} lacks the column(s) {', '.join(missing)}: give id, t [s], x, y [m], v [m/s], "
+            "heading [rad] (lane optional)"
+        )
+    try:
+        num = {
+            c: np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
+            for c in COLUMNS[1:]
+        }
+    except (ValueError, TypeError) as e:
+        raise IrlsimError(f"recording {p}: a column of t, x, y, v, heading is not numeric ({e})") from None
+    n = table.num_rows
+    lane = None
+    if "lane" in table.column_names:
+        lane = _text(table.column("lane"))
+    ids = _text(table.column("id"))
+    return Rows(
+        p, ids, num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False
+    )
+
+
+def _text(column: Any) -> np.ndarray:
+    """A pyarrow column as an object array of str (numbers as their text, nulls as '')."""
+    import pyarrow as pa
+
+    return np.asarray(column.cast(pa.string()).fill_null("").to_numpy(zero_copy_only=False), dtype=object)
+
+
+def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.ndarray]:
+    """Refuse, in one line, rows that are not a recording of vehicles over time; returns (the stable
+    order grouping the rows by vehicle, the group starts in it)."""
+    p, n = rows.path, len(rows.t)
+    if n == 0:
+        raise IrlsimError(f"recording {p} holds no rows: record at least one vehicle")
+    bad = np.flatnonzero(~np.isfinite(np.stack([rows.t, rows.x, rows.y, rows.v, rows.heading])).all(axis=0))
+    if len(bad):
+        raise IrlsimError(
+            f"{rows.where(bad[0])}: t, x, y, v and heading must be numbers: fix or drop the row"
+        )
+    if not rows.fcd:
+        deg = np.flatnonzero(np.abs(rows.heading) > 2 * math.pi + 1e-6)
+        if len(deg):
+            raise IrlsimError(
+                f"{rows.where(deg[0])}: heading {rows.heading[deg[0]]:g} is beyond 2 pi: headings are "
+                "radians (ENU, counter-clockwise from east), these look like degrees: convert them"
+            )
+    if (rows.v < 0).any():
+        i = int(np.flatnonzero(rows.v < 0)[0])
+        raise IrlsimError(
+            f"{rows.where(i)}: speed {rows.v[i]:g} is negative: give the speed's magnitude [m/s]"
+        )
+    order = np.argsort(rows.id, kind="stable")
+    ids = rows.id[order]
+    starts = np.flatnonzero(np.r_[True, ids[1:] != ids[:-1]])
+    t = rows.t[order]
+    same = np.r_[False, ids[1:] == ids[:-1]]  # row i continues the vehicle of row i - 1
+    dt = np.r_[np.inf, np.diff(t)]
+    back = np.flatnonzero(same & (dt <= 0))
+    if len(back):
+        i = back[0]
+        raise IrlsimError(
+            f"{rows.where(order[i])}: vehicle {ids[i]} at t = {t[i]:g} s after t = {t[i - 1]:g} s: time must "
+            "increase within each vehicle: sort the rows by time (and drop duplicates)"
+        )
+    gap = np.flatnonzero(same & (dt > max_gap))
+    if len(gap):
+        i = gap[0]
+        raise IrlsimError(
+            f"{rows.where(order[i])}: vehicle {ids[i]} has a gap of {dt[i]:g} s after t = {t[i - 1]:g} s, "
+            f"more than the {max_gap:g} s allowed: give each stretch its own vehicle id, or fill the gap"
+        )
+    _check_speed_units(rows, order, starts)
+    return order, starts
+
+
+def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
+    """Per vehicle, the mean recorded speed against the speed of its displacement: km/h is 3.6 times."""
+    x, y, t, v = rows.x[order], rows.y[order], rows.t[order], rows.v[order]
+    step = np.r_[0.0, np.hypot(np.diff(x), np.diff(y))]
+    step[starts] = 0.0
+    dist = np.add.reduceat(step, starts)
+    ends = np.r_[starts[1:], len(t)] - 1
+    dur = t[ends] - t[starts]
+    # the recorded speed integrated over time (trapezoids) against the distance
+    dtt = np.r_[0.0, np.diff(t)]
+    dtt[starts] = 0.0
+    vv = np.r_[0.0, 0.5 * (v[1:] + v[:-1])] * dtt
+    travelled = np.add.reduceat(vv, starts)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = travelled / dist
+        moving = (dur > 0) & (dist / np.where(dur > 0, dur, 1.0) > KMH_MIN_SPEED)
+    bad = np.flatnonzero(moving & (ratio > KMH_BAND[0]) & (ratio < KMH_BAND[1]))
+    if len(bad):
+        k = bad[0]
+        raise IrlsimError(
+            f"{rows.path}: vehicle {rows.id[order[starts[k]]]}: its speeds travel {ratio[k]:.2f} times the "
+            f"distance its positions do ({travelled[k]:.0f} m against {dist[k]:.0f} m): v looks like km/h, "
+            "give m/s (divide by 3.6)"
+        )
+
+
+def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None:
+    """Refuse a recording whose points lie off ``net`` (a sumolib network): more than ``FOREIGN_SHARE``
+    of them, another network's coordinates; else the first point farther than ``bound`` from every
+    lane. Lanes are sampled every metre into a grid of cells marked within ``bound`` of a lane."""
+    cell = 1.0
+    pts = _lane_points(net)
+    lo = pts.min(axis=0) - 2 * bound
+    hi = pts.max(axis=0) + 2 * bound
+    cell = max(cell, float(np.prod(hi - lo) / 2e7) ** 0.5)  # at most ~20 M cells
+    shape = np.ceil((hi - lo) / cell).astype(int) + 1
+    grid = np.zeros(shape, dtype=bool)
+    r = int(math.ceil(bound / cell))
+    ox, oy = np.meshgrid(np.arange(-r, r + 1), np.arange(-r, r + 1), indexing="ij")
+    disk = (ox**2 + oy**2) * cell * cell <= bound * bound
+    base = np.floor((pts - lo) / cell).astype(int)
+    for dx, dy in zip(ox[disk], oy[disk], strict=True):  # over the disk's cells, not the points
+        grid[np.clip(base[:, 0] + dx, 0, shape[0] - 1), np.clip(base[:, 1] + dy, 0, shape[1] - 1)] = True
+    q = np.floor((np.stack([rows.x, rows.y], axis=1) - lo) / cell).astype(int)
+    inside = (q >= 0).all(axis=1) & (q < shape).all(axis=1)
+    on = np.zeros(len(q), dtype=bool)
+    on[inside] = grid[q[inside, 0], q[inside, 1]]
+    off = np.flatnonzero(~on)
+    if not len(off):
+        return
+    if len(off) > FOREIGN_SHARE * len(on):
+        raise IrlsimError(
+            f"recording {rows.path}: {len(off) / len(on):.0%} of its points lie off this network (x "
+            f"{rows.x.min():.0f}..{rows.x.max():.0f}, y {rows.y.min():.0f}..{rows.y.max():.0f} m against the "
+            f"network's x {lo[0] + 2 * bound:.0f}..{hi[0] - 2 * bound:.0f}, y {lo[1] + 2 * bound:.0f}.."
+            f"{hi[1] - 2 * bound:.0f} m): another network's coordinates: give the scenario it was recorded on"
+        )
+    i = off[0]
+    raise IrlsimError(
+        f"{rows.where(i)}: vehicle {rows.id[i]} at t = {rows.t[i]:g} s, ({rows.x[i]:.1f}, {rows.y[i]:.1f}), "
+        f"is off the network (over {bound:g} m from every lane): drop the vehicle or fix its coordinates"
+    )
+
+
+def _lane_points(net: Any) -> np.ndarray:
+    """[P, 2] points every metre or closer along every lane of the network, internal lanes included."""
+    out = []
+    for edge in net.getEdges(withInternal=True):
+        for lane in edge.getLanes():
+            sh = np.asarray(lane.getShape(), dtype=np.float64)[:, :2]
+            seg = np.diff(sh, axis=0)
+            n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1])).astype(int), 1)
+            f = np.concatenate([np.arange(k) / k for k in n])  # fractions along each segment
+            out.append(np.repeat(sh[:-1], n, axis=0) + np.repeat(seg, n, axis=0) * f[:, None])
+            out.append(sh[-1:])
+    return np.concatenate(out)
+
+
+def resample(rows: Rows, order: np.ndarray, starts: np.ndarray, step: float, sha: str) -> Recording:
+    """Each vehicle at the times ``k * step`` inside its recorded span, by linear interpolation (the
+    heading unwrapped, then wrapped); a vehicle shorter than one step keeps no row and is left out."""
+    bounds = np.r_[starts, len(order)]
+    ids, start, t0s, parts, edges = [], [0], [], [], []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # per vehicle, not per row
+        idx = order[a:b]
+        t = rows.t[idx]
+        k0, k1 = math.ceil(t[0] / step - 1e-6), math.floor(t[-1] / step + 1e-6)
+        if k1 < k0:
+            continue
+        tq = np.arange(k0, k1 + 1) * step
+        head = np.unwrap(rows.heading[idx])
+        cols = [np.interp(tq, t, c[idx]) for c in (rows.x, rows.y, rows.v)]
+        parts.append(np.stack([*cols, np.asarray(wrap_angle(np.interp(tq, t, head)))]))
+        ids.append(str(rows.id[idx[0]]))
+        start.append(start[-1] + len(tq))
+        t0s.append(k0 * step)
+        edges.append(_edges_of(rows.lane[idx]) if rows.lane is not None else ())
+    data = np.concatenate(parts, axis=1) if parts else np.zeros((4, 0))
+    return Recording(
+        path=rows.path,
+        sha256=sha,
+        step=step,
+        ids=tuple(ids),
+        start=np.array(start),
+        t0=np.array(t0s),
+        x=data[0],
+        y=data[1],
+        v=data[2],
+        heading=data[3],
+        edges=tuple(edges),
+    )
+
+
+def _edges_of(lanes: np.ndarray) -> tuple[str, ...]:
+    """The edges of a vehicle's recorded lanes in the order driven, internal (junction) ones left out and
+    consecutive repeats merged."""
+    names = [str(x).rsplit("_", 1)[0] for x in lanes if x and not str(x).startswith(":")]
+    return tuple(e for i, e in enumerate(names) if i == 0 or names[i - 1] != e)
+
+
+def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX_GAP) -> Recording:
+    """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network)."""
+    rows = read_rows(path)
+    order, starts = check_rows(rows, max_gap)
+    check_on_network(rows, net)
+    if rows.lane is not None:
+        known = {ln.getID() for e in net.getEdges(withInternal=True) for ln in e.getLanes()}
+        unknown = sorted(set(rows.lane.tolist()) - known)
+        if unknown:
+            raise IrlsimError(
+                f"recording {rows.path}: lane {unknown[0]} is not a lane of this network: give the scenario "
+                "it was recorded on (or drop the lane column)"
+            )
+    sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    return resample(rows, order, starts, step, sha)
