@@ -39,6 +39,7 @@ def test_quickstart_block_is_the_example_file():
 
 
 def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    from irlsim.road.scenario import scenario_identity
     from pipelines.commands import main
 
     shutil.copytree(ROOT / "configs", tmp_path / "configs")
@@ -56,7 +57,10 @@ def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     assert "route: 3 edges, open" in out and "lanes_per_stretch" in out
     assert (tmp_path / "myroad.png").is_file()
-    assert '"name": "examples/myroad"' in (tmp_path / "data" / "myroad" / "manifest.json").read_text()
+    # a user's road is named by its content, never its path (irlsim.road.scenario.scenario_identity)
+    road = scenario_identity("examples/myroad")
+    assert road.startswith("myroad@") and "examples/myroad" not in road
+    assert f'"name": "{road}"' in (tmp_path / "data" / "myroad" / "manifest.json").read_text()
     drive = (tmp_path / "runs" / "myroad" / "drive" / "drive.json").read_text()
     assert '"scenario": "examples/myroad"' in drive and "PACNN+S" in drive
 
