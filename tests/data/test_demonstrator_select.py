@@ -150,3 +150,9 @@ def test_breakdown_per_demonstrator(tiny_dataset, idm, idm_runs, tmp_path, capsy
     assert main([*base, "--out", str(only), "--demonstrator-select", "sumo"]) == 0
     lirl = next(r for r in json.loads((only / "results.json").read_text())["rows"] if r["model"] == "LIRL")
     assert "demonstrators" not in lirl and lirl["cycles"] <= 30
+
+
+def test_bench_demonstrator_goes_with_collect(tmp_path, capsys):
+    argv = ["bench", "--demonstrator", "configs/collect/sumo_idm.toml", "--out", str(tmp_path / "b")]
+    assert "--demonstrator goes with --collect" in refused(capsys, argv)
+    assert not (tmp_path / "b").exists()
