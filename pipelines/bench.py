@@ -60,6 +60,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="planning cycles per timed collection episode (default 150)",
     )
     parser.add_argument(
+        "--demonstrator",
+        type=Path,
+        default=None,
+        metavar="COLLECT_CONFIG",
+        help="--collect: time collection with the [demonstrator] of this collect config, on its scenario "
+        "(e.g. configs/collect/sumo_idm.toml; default: the expert)",
+    )
+    parser.add_argument(
         "--seed", type=int_in(0, MAX_SEED), default=0, help="seed of the synthetic traffic (default 0)"
     )
     _train_arguments(parser)
@@ -161,6 +169,8 @@ def run(args: argparse.Namespace) -> int:
     sections = tuple(name for name in SECTIONS if getattr(args, name, False))
     if args.quick and not args.growth:
         raise IrlsimError("--quick goes with --growth: add --growth, or drop --quick")
+    if args.demonstrator is not None and "collect" not in sections:
+        raise IrlsimError("--demonstrator goes with --collect: add --collect, or drop --demonstrator")
     if args.growth:
         if sections:
             flags = ", ".join(f"--{s}" for s in sections)
@@ -176,7 +186,14 @@ def run(args: argparse.Namespace) -> int:
             return 0
     run_benchmarks(
         BenchRun(
-            args.out, sections, args.cycles, args.env_steps, args.collect_cycles, args.seed, args.scenario
+            args.out,
+            sections,
+            args.cycles,
+            args.env_steps,
+            args.collect_cycles,
+            args.seed,
+            args.scenario,
+            args.demonstrator,
         )
     )
     return 0

@@ -56,6 +56,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "trained on any selection of the dataset's scenarios are accepted",
     )
     p.add_argument(
+        "--demonstrator-select",
+        default=None,
+        metavar="A,B",
+        help="evaluate on the folders of these demonstrators only (an identity as irlsim data "
+        "info names it, or a kind: expert, sumo, recording); models trained on any selection are accepted",
+    )
+    p.add_argument(
         "--held-out",
         action="store_true",
         help="the models were trained on other data (a road they never saw): evaluate them on --data "
@@ -78,6 +85,7 @@ def request(args: argparse.Namespace) -> EvaluateRun:
         args.device,
         args.precision,
         parse_selection(args.scenario_select),
+        parse_selection(args.demonstrator_select, "--demonstrator-select", "demonstrators"),
         args.held_out,
     )
 

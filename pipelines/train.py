@@ -53,6 +53,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="train on the episodes of these scenarios only (a dataset over several scenarios; the "
         "checkpoint records the selection: resuming needs the same one)",
     )
+    p.add_argument(
+        "--demonstrator-select",
+        default=None,
+        metavar="A,B",
+        help="train on the folders of these demonstrators only (identities as irlsim data info "
+        "names them, e.g. expert, or a kind: expert, sumo, recording; the checkpoint records the "
+        "selection)",
+    )
     devices.add_arguments(p, "training")
 
 
@@ -67,7 +75,8 @@ def request(args: argparse.Namespace) -> TrainRun:
     else:
         cfg = load_config(tc.Stage2Config, args.config, overrides)
     scenarios = parse_selection(args.scenario_select)
-    return TrainRun(cfg, tuple(args.data), args.out, args.base, args.device, args.precision, scenarios)
+    who = parse_selection(args.demonstrator_select, "--demonstrator-select", "demonstrators")
+    return TrainRun(cfg, tuple(args.data), args.out, args.base, args.device, args.precision, scenarios, who)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -10,40 +10,67 @@ import statistics
 import tempfile
 import time
 from functools import partial
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
+from irlsim.data.demonstrator import EXPERT, identity, resolve
 from irlsim.executor import Job, run_jobs
 from irlsim.road.network import build_net
+from irlsim.road.scenario import load_scenario
 
 #: the paper's scale: one hour of driving
 PAPER_TRAIN_CYCLES = 17_000
 
 
-def collect_one(args: tuple[str, int, int, int]) -> dict[str, Any]:
-    out, seed, cycles, n_policies = args
+def collect_one(args: tuple[Any, ...]) -> dict[str, Any]:
+    out, seed, cycles, n_policies, *who = args
     cfg = load_config(
         CollectConfig,
         None,
         {"max_cycles": cycles, "planner.n_policies": n_policies, "scenario.n_vehicles": 15},
     )
+    if who:  # a demonstrator (resolved) and its scenario: episode ``seed`` is the seed-th ego of a recording
+        cfg = dataclasses.replace(
+            cfg, demonstrator=who[0], scenario=dataclasses.replace(cfg.scenario, name=who[1])
+        )
     return collect_episode(EpisodeJob(out, "train", seed, seed, cfg))
 
 
-def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> dict[str, Any]:
+def bench_demonstrator(config: Path | None, episodes: int) -> tuple[tuple[Any, ...], str]:
+    """What ``collect_one`` gets beyond its sizes: () for the expert, else the ``[demonstrator]`` of the
+    collect config ``config`` resolved (checked, one line) for ``episodes`` episodes and its scenario's
+    name; with the demonstrator's identity (:func:`irlsim.data.demonstrator.identity`)."""
+    if config is None:
+        return (), EXPERT
+    cfg = load_config(CollectConfig, config, {})
+    if cfg.demonstrator.kind == EXPERT:
+        return (), EXPERT
+    name = cfg.scenario_names[0]
+    net = load_scenario(name).net_file
+    demo, record = resolve(cfg.demonstrator, net, (name,), cfg.scenario.step, episodes)
+    return (demo, name), identity(record)
+
+
+def bench_collect(
+    cycles: int = 150, n_policies: int = 2500, seed: int = 0, demonstrator: Path | None = None
+) -> dict[str, Any]:
     """Planning cycles per second per worker, end to end (SUMO + planner + demonstrations + Parquet).
 
     One episode of ``cycles`` cycles in this process, then two at once in two spawned workers; the
     wall time of the paper config (17,000 train cycles) with 2 workers is extrapolated from the latter.
+    ``demonstrator``: a collect config whose ``[demonstrator]`` (on its scenario) drives instead of the
+    expert (a recording's episodes ``seed`` to ``seed + 2`` are its egos of those positions).
     """
     build_net()
+    who, ident = bench_demonstrator(demonstrator, seed + 3)
     with tempfile.TemporaryDirectory() as tmp:
-        one = collect_one((tmp + "/one", seed, cycles, n_policies))
+        one = collect_one((tmp + "/one", seed, cycles, n_policies, *who))
         t0 = time.perf_counter()
-        jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies)) for i in (1, 2)]
+        jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies, *who)) for i in (1, 2)]
         # as irlsim collect runs its episodes: the local executor's spawned single-threaded workers
         done = run_jobs(collect_one, jobs, executor="local", workers=2)
         if done.failed:
@@ -54,6 +81,7 @@ def bench_collect(cycles: int = 150, n_policies: int = 2500, seed: int = 0) -> d
     per_worker = [r["collect/cycles_per_s"] for r in two]
     rate2 = total2 / wall2  # includes the workers' start-up
     return {
+        "demonstrator": ident,
         "n_policies": n_policies,
         "vehicles": 15,
         "cycles_per_episode": cycles,

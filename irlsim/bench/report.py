@@ -44,6 +44,8 @@ class BenchRun:
     """seed of the synthetic traffic"""
     scenario: str = DEFAULT_SCENARIO
     """the road of the planner section (a shipped scenario or a scenario.toml path)"""
+    demonstrator: Path | None = None
+    """the collect section: a collect config whose ``[demonstrator]`` drives (None: the expert)"""
 
 
 #: docs/design/performance.md targets, per section: (metric key, comparison, value, unit)
@@ -60,7 +62,9 @@ def _planner(run: BenchRun) -> dict[str, Any]:
 
 
 def _collect(run: BenchRun) -> dict[str, Any]:
-    return run_collect(cycles=run.collect_cycles, n_policies=2500, seed=run.seed)
+    return run_collect(
+        cycles=run.collect_cycles, n_policies=2500, seed=run.seed, demonstrator=run.demonstrator
+    )
 
 
 def _infer(run: BenchRun) -> dict[str, Any]:

@@ -40,6 +40,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from irlsim.data.by_demonstrator import (
+    check_demonstrators,
+    dataset_demonstrator,
+    demonstrator_selection_identity,
+    known_demonstrators,
+)
 from irlsim.data.demonstrator import EXPERT, describe
 from irlsim.data.npy import RowConcat
 from irlsim.data.prune import prune_caches
@@ -120,6 +126,11 @@ class AggregateDataset:
         parts = [d.scenario_of_cycle(split) for _, d in self._parts(split)]
         return np.concatenate(parts) if parts else np.asarray([], dtype=str)
 
+    def demonstrator_of_cycle(self, split: str) -> np.ndarray:
+        """[C] the demonstrator's identity of every cycle of ``split``, rows as ``split_tensors``."""
+        parts = [d.demonstrator_of_cycle(split) for _, d in self._parts(split)]
+        return np.concatenate(parts) if parts else np.asarray([], dtype=str)
+
     def _seeds(self, split: str) -> list[int]:
         """Every folder's episode seeds of ``split``, in folder order."""
         seeds = ((d.manifest.get("seeds") or {}).get(split) or () for d in self.datasets)
@@ -188,11 +199,38 @@ def _rows(name: str, parts: list[tuple[int, SplitTensors]]) -> Any:
 
 
 def open_datasets(
-    paths: list[str | Path] | tuple[str | Path, ...], scenarios: tuple[str, ...] | None = None
+    paths: list[str | Path] | tuple[str | Path, ...],
+    scenarios: tuple[str, ...] | None = None,
+    demonstrators: tuple[str, ...] | None = None,
 ) -> Dataset | AggregateDataset:
     """One dataset folder (a :class:`Dataset`, memory-mapped) or several (an :class:`AggregateDataset`).
     The same folder twice is refused (its cycles would count twice). ``scenarios``: only the episodes of
-    these scenarios (``--scenario-select``; a name no folder has is refused in one line)."""
+    these scenarios (``--scenario-select``; a name no folder has is refused in one line);
+    ``demonstrators``: only the folders of these demonstrators (``--demonstrator-select``, see
+    :mod:`irlsim.data.by_demonstrator`; ``whole`` then holds the data unselected)."""
+    whole = _open(paths, scenarios)
+    if demonstrators is None:
+        return whole
+    parts = whole.datasets if isinstance(whole, AggregateDataset) else [whole]
+    where = ", ".join(map(str, paths))
+    chosen = check_demonstrators(where, known_demonstrators(parts), demonstrators)
+    keep = [Dataset(d.path, d.manifest, d.selection) for d in parts if dataset_demonstrator(d) in chosen]
+    selected = keep[0] if len(keep) == 1 else AggregateDataset(keep)
+    selected.identity = demonstrator_selection_identity(whole_identity(whole), chosen)
+    selected.legacy_identities = ()
+    setattr(selected, "whole", whole)  # noqa: B010 (an attribute of a selection alone)
+    return selected
+
+
+def whole_identity(dataset: Dataset | AggregateDataset) -> str:
+    """The identity a checkpoint records of ``dataset`` (its own, else its manifest's)."""
+    own = getattr(dataset, "identity", None)
+    return own if isinstance(own, str) else manifest_identity(dataset.manifest)
+
+
+def _open(
+    paths: list[str | Path] | tuple[str | Path, ...], scenarios: tuple[str, ...] | None
+) -> Dataset | AggregateDataset:
     resolved = [Path(p).resolve() for p in paths]
     if not resolved:
         raise IrlsimError("no dataset given: pass --data FOLDER [FOLDER ...]")
@@ -218,16 +256,21 @@ def remove_obsolete_caches(dataset: Dataset | AggregateDataset) -> int:
 
 
 def any_selection_identities(dataset: Dataset | AggregateDataset) -> tuple[str, ...]:
-    """The identities of the dataset(s) read whole or for any selection of their scenarios: a model
-    trained on any of them is evaluated on ``dataset`` (``irlsim evaluate``)."""
+    """The identities of the dataset(s) read whole or for any selection of their scenarios and of their
+    demonstrators: a model trained on any of them is evaluated on ``dataset`` (``irlsim evaluate``; a
+    selection of demonstrators: on the whole data it was selected from)."""
+    dataset = getattr(dataset, "whole", dataset)
     parts = dataset.datasets if isinstance(dataset, AggregateDataset) else [dataset]
     whole = [manifest_identity(d.manifest) for d in parts]
     options = [whole] + [
         [selection_identity(d.manifest, chosen) for d in parts] for chosen in selections(dataset.scenarios)
     ]
     if isinstance(dataset, AggregateDataset):
-        return tuple(aggregate_identity(ids) for ids in options)
-    return tuple(ids[0] for ids in options)
+        out = [aggregate_identity(ids) for ids in options]
+    else:
+        out = [ids[0] for ids in options]
+    who = selections(known_demonstrators(parts))
+    return tuple([*out, *(demonstrator_selection_identity(base, c) for base in out for c in who)])
 
 
 def overlapping_identities(dataset: Dataset | AggregateDataset) -> set[str]:

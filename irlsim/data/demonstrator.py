@@ -15,6 +15,7 @@ the same rules and distances whoever drives).
 from __future__ import annotations
 
 import hashlib
+import json
 import math
 import tempfile
 from dataclasses import dataclass, field, replace
@@ -208,6 +209,40 @@ def describe(record: dict[str, Any] | None) -> str:
     return f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}" + (
         f" {{{text}}}" if text else ""
     )
+
+
+#: a SUMO demonstrator's identity longer than this is its models and a digest of its attributes
+MAX_IDENTITY = 64
+
+
+def identity(record: dict[str, Any] | None) -> str:
+    """The one identity string of a recorded demonstrator (a manifest's ``demonstrator``; None or no
+    record: the expert), which ``--demonstrator-select`` takes and breakdowns name: ``expert``,
+    ``sumo:IDM/LC2013{accel=2,tau=1.5}`` (attributes sorted; beyond ``MAX_IDENTITY`` characters
+    ``sumo:IDM/LC2013#<sha256 prefix of the attributes>``), ``recording:<file's sha256 prefix>``. Every
+    episode of a dataset is its manifest's demonstrator."""
+    rec = record or {}
+    kind = rec.get("kind", EXPERT)
+    if kind == EXPERT:
+        return EXPERT
+    if kind == RECORDING:
+        return f"{RECORDING}:{str(rec.get('sha256'))[:12]}"
+    models = f"{SUMO}:{rec.get('car_follow_model')}/{rec.get('lane_change_model')}"
+    params = rec.get("params") or {}
+    text = models + "{" + ",".join(f"{k}={_short(v)}" for k, v in sorted(params.items())) + "}"
+    if len(text) <= MAX_IDENTITY:
+        return text
+    digest = hashlib.sha256(json.dumps(params, sort_keys=True, default=str).encode()).hexdigest()
+    return f"{models}#{digest[:12]}"
+
+
+def identity_kind(ident: str) -> str:
+    """The kind of a demonstrator's identity ('expert', 'sumo', 'recording')."""
+    return ident.split(":", 1)[0]
+
+
+def _short(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 class SumoDemonstrator:

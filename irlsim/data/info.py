@@ -12,6 +12,8 @@ from typing import Any
 import numpy as np
 
 from irlsim import FEATURE_NAMES, N_FEATURES
+from irlsim.data.aggregate import AggregateDataset, open_datasets
+from irlsim.data.by_demonstrator import dataset_demonstrator
 from irlsim.data.cache import CACHE_DIR
 from irlsim.data.demonstrator import describe
 from irlsim.data.reader import fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
@@ -127,7 +129,59 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
         **roads,
         "demonstrator": describe(ds.manifest.get("demonstrator")),
         "style": pool_styles(_episode_styles(ds)),
+        "demonstrators": demonstrator_breakdown([ds]),
     }
+
+
+def demonstrator_breakdown(parts: list[Any]) -> dict[str, Any]:
+    """{identity: {'name', 'episodes' {split: n}, 'cycles', 'style'}} of the folders ``parts`` (each the
+    data of one demonstrator, :mod:`irlsim.data.by_demonstrator`), in folder order; a demonstrator of
+    several folders pools them."""
+    out: dict[str, Any] = {}
+    styles: dict[str, list[dict[str, Any]]] = {}
+    for d in parts:
+        ident = dataset_demonstrator(d)
+        entry = out.setdefault(
+            ident, {"name": describe(d.manifest.get("demonstrator")), "episodes": {}, "cycles": 0}
+        )
+        for split in d.splits:
+            entry["episodes"][split] = entry["episodes"].get(split, 0) + len(d.episodes(split))
+            entry["cycles"] += int(d.read_cycles_table(split).num_rows)
+        styles.setdefault(ident, []).extend(_episode_styles(d))
+    for ident, entry in out.items():
+        entry["style"] = pool_styles(styles[ident])
+    return out
+
+
+def aggregate_info(paths: list[Path]) -> dict[str, Any]:
+    """The summary of folders read as one (``irlsim data info A B``): each folder's path and demonstrator
+    and the breakdown per demonstrator (:func:`demonstrator_breakdown`); refused in one line as
+    ``irlsim train --data A B`` refuses them (a folder twice, another planner)."""
+    agg = open_datasets(list(paths))
+    parts = agg.datasets if isinstance(agg, AggregateDataset) else [agg]
+    return {
+        "paths": [str(d.path) for d in parts],
+        "folders": [dataset_demonstrator(d) for d in parts],
+        "demonstrators": demonstrator_breakdown(parts),
+    }
+
+
+def format_demonstrators(info: dict[str, Any]) -> str:
+    """The breakdown per demonstrator as text: identity, name, episodes per split, cycles, style."""
+    lines = []
+    for ident, e in info["demonstrators"].items():
+        eps = ", ".join(f"{s} {n}" for s, n in e["episodes"].items())
+        lines.append(f"{ident} ({e['name']}): episodes {eps}; {e['cycles']} cycles")
+        lines.append(format_style(e["style"] or {}))
+    return "\n".join(lines)
+
+
+def format_aggregate(info: dict[str, Any]) -> str:
+    """``aggregate_info`` as a plain-text report."""
+    lines = ["datasets read as one (in folder order):"]
+    lines += [f"  {p}: {who}" for p, who in zip(info["paths"], info["folders"], strict=True)]
+    lines += ["", "per demonstrator:", format_demonstrators(info)]
+    return "\n".join(lines)
 
 
 def _episode_styles(ds: Any) -> list[dict[str, Any]]:
@@ -169,6 +223,8 @@ def format_info(info: dict[str, Any]) -> str:
         lines += ["", "scenarios (episodes): " + "; ".join(per)]
     if "demonstrator" in info:
         lines += ["", f"demonstrator: {info['demonstrator']}", format_style(info.get("style") or {})]
+    if "demonstrators" in info:
+        lines += ["", "per demonstrator:", format_demonstrators(info)]
     lines += [
         "",
         "distances in m; random = mean distance of a uniformly random policy (cycles with a demo)",

@@ -175,6 +175,13 @@ class Dataset:
         names = [by_scenario.episode_scenario(self.manifest, split, e) for e in eps]
         return np.repeat(np.asarray(names, dtype=str), rows)
 
+    def demonstrator_of_cycle(self, split: str) -> np.ndarray:
+        """[C] the demonstrator's identity (:func:`irlsim.data.demonstrator.identity`) of every cycle of
+        ``split``: a folder is the data of its manifest's one demonstrator."""
+        from irlsim.data.by_demonstrator import dataset_demonstrator
+
+        return np.full(len(self.scenario_of_cycle(split)), dataset_demonstrator(self))
+
     @property
     def splits(self) -> list[str]:
         return list(self.manifest["splits"])

@@ -59,13 +59,15 @@ def by_identity(d: dict[str, Any]) -> dict[str, Any]:
     return d
 
 
-def parse_selection(text: str | None, option: str = "--scenario-select") -> tuple[str, ...] | None:
+def parse_selection(
+    text: str | None, option: str = "--scenario-select", what: str = "scenario names"
+) -> tuple[str, ...] | None:
     """``A,B`` -> ('A', 'B'); None stays None; an empty name is one line naming the option."""
     if text is None:
         return None
     names = tuple(n.strip() for n in text.split(","))
     if not all(names):
-        raise IrlsimError(f"{option} {text!r} has an empty name: give scenario names separated by commas")
+        raise IrlsimError(f"{option} {text!r} has an empty name: give {what} separated by commas")
     return names
 
 

@@ -267,6 +267,11 @@ def cycle_context(dataset: Any, split: str, data: Any) -> CycleContext | None:
     if any(records_scenarios(d.manifest) for d in parts):
         scenario = np.asarray(dataset.scenario_of_cycle(split))[: data.features.shape[0]]
         ctx = dataclasses.replace(ctx, scenario=scenario)
+    # data of several demonstrators (an aggregate of their folders): a breakdown by demonstrator
+    if hasattr(dataset, "demonstrator_of_cycle"):
+        who = np.asarray(dataset.demonstrator_of_cycle(split))[: data.features.shape[0]]
+        if len(set(who.tolist())) > 1:
+            ctx = dataclasses.replace(ctx, demonstrator=who)
     return ctx
 
 

@@ -33,6 +33,7 @@ class CycleContext:
     horizon: float  # [s] planning horizon (control points at horizon * k / K)
     names: tuple[str, ...] = ()  # situation code -> name (irlsim.data.situations.SITUATION_NAMES)
     scenario: np.ndarray | None = None  # [C] scenario names; None: no breakdown by scenario
+    demonstrator: np.ndarray | None = None  # [C] demonstrator identities; None: no breakdown by them
 
     @staticmethod
     def from_cycles(cycles: Any, split: Any, horizon: float, names: tuple[str, ...]) -> CycleContext:
@@ -136,6 +137,8 @@ def row_breakdown(
     }
     if ctx.scenario is not None:
         out["scenarios"] = per_scenario(metrics, ctx.scenario)
+    if ctx.demonstrator is not None:
+        out["demonstrators"] = per_scenario(metrics, ctx.demonstrator)
     return out
 
 
@@ -143,23 +146,25 @@ def _f(v: Any, digits: int = 3) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
 
 
-def _scenario_lines(rows: list[dict[str, Any]]) -> list[str]:
-    """The per-scenario table (Table I by scenario) of rows that carry a 'scenarios' entry."""
-    rows = [r for r in rows if "scenarios" in r]
+def _scenario_lines(rows: list[dict[str, Any]], key: str = "scenarios", what: str = "scenario") -> list[str]:
+    """The per-scenario table (Table I by scenario) of rows that carry a ``key`` entry (per
+    demonstrator: 'demonstrators', 'demonstrator')."""
+    rows = [r for r in rows if key in r]
     if not rows:
         return []
-    counts = rows[0]["scenarios"]
+    counts = rows[0][key]
     head = " | ".join(f"{n} ({counts[n]['cycles']})" for n in counts)
-    lines = ["## OPD / ED per scenario [m]", "", f"| model | {head} |", "|---|" + "---|" * len(counts)]
+    lines = [f"## OPD / ED per {what} [m]", "", f"| model | {head} |", "|---|" + "---|" * len(counts)]
     for r in rows:
-        s = r["scenarios"]
+        s = r[key]
         lines.append(
             f"| {r['model']} | " + " | ".join(f"{_f(s[n]['opd'])} / {_f(s[n]['ed'])}" for n in counts) + " |"
         )
     return [
         *lines,
         "",
-        "OPD / ED per scenario the cycles were collected on (cycles with a demonstration in brackets).",
+        f"OPD / ED per {what} the cycles were collected {'on' if what == 'scenario' else 'with'} (cycles "
+        "with a demonstration in brackets).",
         "",
     ]
 
@@ -188,6 +193,7 @@ def breakdown_markdown(rows: list[dict[str, Any]]) -> str:
         "OPD / ED per situation label (irlsim.data.situations; cycles with a demonstration in brackets).",
         "",
         *_scenario_lines(rows),
+        *_scenario_lines(rows, "demonstrators", "demonstrator"),
         "## Reward stability",
         "",
         "| model | theta change | theta change at switches | plan change [m] | plan change at switches [m] |",

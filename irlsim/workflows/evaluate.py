@@ -51,6 +51,8 @@ class EvaluateRun:
     precision: str = "fp32"
     scenarios: tuple[str, ...] | None = None
     """evaluate on the episodes of these scenarios only (``--scenario-select``); None: all"""
+    demonstrators: tuple[str, ...] | None = None
+    """evaluate on the folders of these demonstrators only (``--demonstrator-select``); None: all"""
     held_out: bool = False
     """the models were trained on other data (``--held-out``): Table I of a reward on a road or dataset
     it never saw (each model keeps its own feature normalisation); False: a model trained on other data
@@ -70,7 +72,7 @@ def evaluate_runs(run: EvaluateRun) -> Path:
     check_output_dir(out, "--out")
     if not run.runs.is_dir():
         raise IrlsimError(f"runs folder {run.runs} not found: train first with 'irlsim train --stage 1'")
-    dataset = open_datasets(list(run.data), run.scenarios)
+    dataset = open_datasets(list(run.data), run.scenarios, run.demonstrators)
     trained = _trained_on(run.runs)
     own = overlapping_identities(dataset)
     mine = [path for path, ident in trained.items() if ident in own or _folders_trained_on(path) & own]

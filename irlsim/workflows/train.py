@@ -53,6 +53,8 @@ class TrainRun:
     """fp32 or bf16 (autocast forward passes)"""
     scenarios: tuple[str, ...] | None = None
     """train on the episodes of these scenarios only (``--scenario-select``); None: all"""
+    demonstrators: tuple[str, ...] | None = None
+    """train on the folders of these demonstrators only (``--demonstrator-select``); None: all"""
 
     @property
     def stage(self) -> int:
@@ -93,7 +95,7 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
         hint = "pass --base" if run.base is not None else f"run 'irlsim train --stage 1 --out {run.out}'"
         raise IrlsimError(f"stage 2 needs the stage-1 folder {base}, which does not exist: {hint} first")
     data = list(run.data)
-    dataset = open_datasets(tuple(data), run.scenarios)
+    dataset = open_datasets(tuple(data), run.scenarios, run.demonstrators)
     check_trainable(dataset, cfg)  # empty splits, sizes beyond the memory: before anything is written
     check_output_dir(run.out, "--out", CHECKPOINT_BYTES * len(cfg.models))
     remove_obsolete_caches(dataset)  # the inputs are checked: the work starts
@@ -119,6 +121,7 @@ def _train(run: TrainRun) -> dict[str, dict[str, Any]]:
                     "data": str(data[0]) if len(data) == 1 else [str(p) for p in data],
                     "dataset": dataset_identity(dataset),
                     **({"scenarios": list(run.scenarios)} if run.scenarios is not None else {}),
+                    **({"demonstrators": list(run.demonstrators)} if run.demonstrators is not None else {}),
                     **extra,
                     "models": summary,
                 },
