@@ -295,7 +295,7 @@ class Simulation:
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
         self._read_signals()
-        violations = self.yields.read(api, EGO, state.v)
+        violations = self.yields.read(api, EGO, state.v, state.s)
         if bookkeeping:
             self.episode.update(
                 state,

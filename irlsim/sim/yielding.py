@@ -33,6 +33,12 @@ from irlsim.sim.config import ScenarioConfig
 #: [m] how far ahead along its route the ego asks SUMO for junction foes (beyond the planner's stop
 #: reach of a yield line at city speeds)
 YIELD_LOOKAHEAD = 60.0
+#: [m] how far past a yield line (through its junction) SUMO is still asked, and how far beyond the line
+#: it looks: the conflict areas of generated junctions end within it. SUMO is asked only from
+#: YIELD_LOOKAHEAD before a yield line to YIELD_PAST beyond it, and no further ahead than YIELD_PAST past
+#: the line: libsumo 1.28's getJunctionFoes crashed the process (SIGSEGV) when the ego reached some
+#: junctions where a lane widens into two (netgenerate's spider networks), none of them a yield point
+YIELD_PAST = 30.0
 #: [s] SUMO's jmTimegapMinor default: the gap a minor-road vehicle keeps ahead of a prioritised one
 YIELD_GAP = 1.0
 #: [m/s^2] the ego's acceleration from where it is when judging whether it would clear in time (below
@@ -71,21 +77,34 @@ class YieldWatch:
 
     def __init__(self, road: Road, cfg: ScenarioConfig):
         self.nodes = tuple(p.node for p in road.yield_points)
+        self.s = np.array([p.s for p in road.yield_points], dtype=np.float64)  # [m] their route positions
+        self.lap = float(road.lap_length)
         self.ego_length = float(cfg.ego_length)
         self.v_max = min(float(cfg.ego_target_speed), road.max_speed_limit)  # [m/s] the ego's top speed
         self.binding = np.zeros(len(self.nodes), dtype=bool)
         self._ego_dist: dict[tuple[str, str], float] = {}  # (node, foe) -> ego's distance last step
         self._violated: set[str] = set()  # nodes violated in the current passage
 
-    def read(self, api: Any, ego: str, ego_v: float) -> int:
-        """Ask SUMO for the ego's junction foes; set ``binding``; return the new violations this step.
-        On a road without yield points SUMO is not asked (its episodes keep their bytes)."""
+    def reach(self, ego_s: float) -> float:
+        """[m] how far ahead of the ego (route position ``ego_s``) SUMO is asked for junction foes: up to
+        YIELD_PAST beyond the nearest yield line within reach (YIELD_LOOKAHEAD before it to YIELD_PAST
+        past it), at most YIELD_LOOKAHEAD; 0 where none is (SUMO is not asked)."""
+        ahead = (self.s - ego_s + self.lap / 2) % self.lap - self.lap / 2  # [m] wrapped on a loop
+        live = ahead[(ahead <= YIELD_LOOKAHEAD) & (ahead >= -YIELD_PAST)]
+        return float(min(YIELD_LOOKAHEAD, live.min() + YIELD_PAST)) if len(live) else 0.0
+
+    def read(self, api: Any, ego: str, ego_v: float, ego_s: float) -> int:
+        """Ask SUMO for the ego's junction foes near a yield point; set ``binding``; return the new
+        violations this step. On a road without yield points, and away from them, SUMO is not asked
+        (those episodes keep their bytes)."""
         if not self.nodes:
             return 0
-        try:
-            foes = api.vehicle.getJunctionFoes(ego, YIELD_LOOKAHEAD)
-        except Exception:  # the ego has left the simulation (SUMO's driver at its route's end)
-            foes = ()
+        foes: Any = ()
+        if (reach := self.reach(ego_s)) > 0.0:
+            try:
+                foes = api.vehicle.getJunctionFoes(ego, reach)
+            except Exception:  # the ego has left the simulation (SUMO's driver at its route's end)
+                foes = ()
         mine = [f for f in foes if f[7] and junction_of(f[5]) in self.nodes]
         self.binding = np.zeros(len(self.nodes), dtype=bool)
         if not mine:

@@ -98,6 +98,21 @@ def _drive(road, seed: int = 0):
         return res.stats, sim.odometry_arrays()
 
 
+def test_sumo_is_asked_only_near_a_yield_line():
+    """reach: YIELD_PAST beyond the nearest line within [line - YIELD_LOOKAHEAD, line + YIELD_PAST],
+    capped at YIELD_LOOKAHEAD, wrapped on a loop; 0 (not asked) elsewhere."""
+    w = object.__new__(yielding.YieldWatch)
+    w.s, w.lap = np.array([100.0, 990.0]), 1000.0
+    look, past = yielding.YIELD_LOOKAHEAD, yielding.YIELD_PAST
+    assert w.reach(100.0 - look - 1.0) == 0.0  # too far before the first line
+    assert w.reach(100.0 - look) == look  # at the edge of reach: capped
+    assert w.reach(100.0 - 10.0) == pytest.approx(10.0 + past)
+    assert w.reach(100.0 + past - 1.0) == pytest.approx(1.0)  # leaving the junction
+    assert w.reach(100.0 + past + 1.0) == 0.0
+    assert w.reach(985.0) == pytest.approx(5.0 + past)  # the second line
+    assert w.reach(5.0) == pytest.approx(past - 15.0)  # 15 m past the second, across the lap's seam
+
+
 def test_the_ego_waits_for_the_platoon_then_turns(tmp_path):
     road = t_junction(tmp_path, '["sj", "je"]', demand=True)
     st, od = _drive(road)
