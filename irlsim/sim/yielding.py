@@ -121,7 +121,10 @@ class YieldWatch:
         before = np.array(
             [self._ego_dist.get((self.nodes[k], f[0]), np.inf) for k, f in zip(node, mine, strict=True)]
         )
-        entering = (ego_d <= 0.0) & (before > 0.0) & (ego_x > -self.ego_length)
+        # entering the conflict area while a foe SUMO already listed the step before was due: a foe SUMO
+        # lists first when the ego is already inside (it just changed into, or was inserted on, its lane)
+        # is none the ego could have yielded to
+        entering = (ego_d <= 0.0) & np.isfinite(before) & (before > 0.0) & (ego_x > -self.ego_length)
         bad = entering & too_soon
         live = {self.nodes[k] for k in node}
         self._violated &= live
