@@ -10,6 +10,7 @@ planner's ``n_policies`` check of collection.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from typing import Any
 
@@ -90,6 +91,9 @@ def check_trainable(dataset: TrainingData, cfg: Any) -> None:
     if not isinstance(n_policies, int):
         return  # an in-memory dataset: its arrays are already allocated
     batch = max(int(cfg.batch_size), int(cfg.eval_batch))
+    cycles = largest_split_cycles(manifest)
+    if cycles:  # a batch never holds more cycles than a split has
+        batch = min(batch, cycles)
     for name in cfg.models:
         try:
             need = training_bytes(name, cfg.model, n_policies, int(k), batch)
@@ -97,9 +101,36 @@ def check_trainable(dataset: TrainingData, cfg: Any) -> None:
             raise IrlsimError(
                 f"config: [model] sizes cannot build {name} ({exc}): use smaller sizes"
             ) from None
-        size = ", ".join(f"{f}={getattr(cfg.model, f)}" for f in ("hidden_channels", "latent", "fc_hidden"))
+        field = largest_field(name, cfg.model, n_policies, int(k), batch, need)
         require_memory(
-            f"training {name} ([model] {size}; {n_policies} policies x {batch} cycles per batch)",
+            f"training {name} ([model] {field}={getattr(cfg.model, field)} makes it this large; "
+            f"{n_policies} policies x {batch} cycles per batch)",
             need,
-            "use smaller [model] sizes, a smaller batch_size / eval_batch, or fewer policies per cycle",
+            f"lower [model] {field} (default {getattr(ModelConfig(), field)}), a smaller batch_size / "
+            "eval_batch, or fewer policies per cycle",
         )
+
+
+def largest_split_cycles(manifest: Mapping[str, Any]) -> int:
+    """The most planning cycles of a split the manifest counts (0 where it counts none)."""
+    counts = manifest.get("counts") or {}
+    return max((int(c.get("cycles") or 0) for c in counts.values() if isinstance(c, Mapping)), default=0)
+
+
+def largest_field(name: str, model: ModelConfig, n_policies: int, k: int, batch: int, need: int) -> str:
+    """The [model] field whose value, set back to its default alone, lowers the memory ``need`` of model
+    ``name`` the most: the one that makes it large (the first size field where none lowers it)."""
+    default = ModelConfig()
+    best, best_need = "hidden_channels", need
+    for f in dataclasses.fields(ModelConfig):
+        value = getattr(default, f.name)
+        if not isinstance(value, int) or getattr(model, f.name) == value:
+            continue
+        try:
+            smaller: ModelConfig = dataclasses.replace(model, **{f.name: value})  # type: ignore[arg-type]
+            trial = training_bytes(name, smaller, n_policies, k, batch)
+        except (RuntimeError, ValueError, OverflowError):
+            continue
+        if trial < best_need:
+            best, best_need = f.name, trial
+    return best

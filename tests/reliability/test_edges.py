@@ -74,7 +74,9 @@ def _train(tmp_path, data, *sets: str) -> int:
 @pytest.mark.parametrize(
     "setting, needle",
     [
-        ("model.hidden_channels=100000000", "training PACNN+S ([model] hidden_channels=100000000"),
+        ("model.hidden_channels=100000000", "training PACNN+S ([model] hidden_channels=100000000 makes it"),
+        # the field that makes it large is named, not the first of the sizes
+        ("model.head_hidden=300000000", "[model] head_hidden=300000000 makes it this large"),
         ("threads=100000", "threads must be in 1..1024"),
     ],
 )
@@ -85,6 +87,18 @@ def test_sizes_beyond_the_machine_are_one_line_before_any_work(
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and needle in err[0], err
     assert not (tmp_path / "runs").exists()
+
+
+def test_the_memory_estimate_counts_no_more_cycles_than_a_split_has(tiny_dataset, tmp_path, capsys):
+    """batch_size far beyond the data: the estimate uses the largest split's cycles (a batch never holds
+    more), so training runs instead of being refused for memory it would never take."""
+    from irlsim.train.preflight import largest_split_cycles
+
+    counts = {"counts": {"train": {"cycles": 240}, "validation": {"cycles": 60}, "test": {}}}
+    assert largest_split_cycles(counts) == 240 and largest_split_cycles({}) == 0
+    assert _train(tmp_path, tiny_dataset, "batch_size=100000000", "eval_batch=100000000") == 0, (
+        capsys.readouterr().err
+    )
 
 
 @pytest.fixture(scope="module")
