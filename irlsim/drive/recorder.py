@@ -15,9 +15,10 @@ from typing import Any
 import numpy as np
 
 from irlsim.drive import scorecard as sc
+from irlsim.rollout.runner import StepListener
 
 
-class ScorecardObserver:
+class ScorecardObserver(StepListener):
     """Per-step recorder of what the scorecard needs (see the module docstring)."""
 
     def __init__(self) -> None:
@@ -28,22 +29,12 @@ class ScorecardObserver:
         self._cycle_start = 0
 
     # ------------------------------------------------------------------ observer protocol
-    def on_reset(self, sim: Any, obs: Any = None) -> None:
+    def start(self, sim: Any) -> None:
         self.sim = sim
         self.ego, self.vehicles, self.exempt = [], [], []
         self._cycle_start = 0
-        if self._on_step not in sim.step_listeners:
-            sim.step_listeners.append(self._on_step)
-        self._on_step(sim)  # the reset state (odometry[0])
 
-    def on_cycle(self, sim: Any, cycle: Any = None) -> None:
-        pass
-
-    def on_end(self, sim: Any, result: Any = None) -> None:
-        if self._on_step in sim.step_listeners:
-            sim.step_listeners.remove(self._on_step)
-
-    def _on_step(self, sim: Any) -> None:
+    def on_step(self, sim: Any) -> None:
         e, veh = sim.ego, sim.vehicles
         self.ego.append((e.t, e.x, e.y, e.yaw, e.v, e.s, e.d))
         self.vehicles.append(

@@ -128,6 +128,28 @@ class ObserverBase:
         pass
 
 
+class StepListener(ObserverBase):
+    """An observer of every simulation step, not only every cycle: from an episode's reset to its end
+    ``on_step(sim)`` is one of the simulation's ``step_listeners`` (called once at the reset state too);
+    ``start(sim)`` clears what the last episode recorded."""
+
+    def start(self, sim: Simulation) -> None:
+        pass
+
+    def on_step(self, sim: Simulation) -> None:
+        raise NotImplementedError
+
+    def on_reset(self, sim: Simulation, obs: Observation | None = None) -> None:
+        self.start(sim)
+        if self.on_step not in sim.step_listeners:
+            sim.step_listeners.append(self.on_step)
+        self.on_step(sim)  # the reset state (odometry[0])
+
+    def on_end(self, sim: Simulation, result: EpisodeResult | None = None) -> None:
+        if self.on_step in sim.step_listeners:
+            sim.step_listeners.remove(self.on_step)
+
+
 @dataclass
 class EpisodeResult:
     """How an episode ended: the simulator's figures (``sim/...`` keys, ``end_reason``, ``seed``) plus

@@ -31,6 +31,8 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.rollout.runner import StepListener
+
 #: [m] a leader farther ahead than this is not being followed
 FOLLOW_RANGE = 100.0
 #: [m/s] below this speed time headway is not defined (a queue standing still)
@@ -156,27 +158,17 @@ def format_style(record: dict[str, Any]) -> str:
     )
 
 
-class StyleObserver:
+class StyleObserver(StepListener):
     """The per-step recording of :func:`style_summary` (an episode runner observer that registers on
     the simulation's per-step listeners, like the scorecard's); :meth:`summary` after the episode."""
 
     def __init__(self) -> None:
         self.rows: list[tuple[float, float, float, int, float]] = []
 
-    def on_reset(self, sim: Any, obs: Any = None) -> None:
+    def start(self, sim: Any) -> None:
         self.rows = []
-        if self._on_step not in sim.step_listeners:
-            sim.step_listeners.append(self._on_step)
-        self._on_step(sim)
 
-    def on_cycle(self, sim: Any, cycle: Any = None) -> None:
-        pass
-
-    def on_end(self, sim: Any, result: Any = None) -> None:
-        if self._on_step in sim.step_listeners:
-            sim.step_listeners.remove(self._on_step)
-
-    def _on_step(self, sim: Any) -> None:
+    def on_step(self, sim: Any) -> None:
         e, veh = sim.ego, sim.vehicles
         gap = float("nan")
         if veh.count:  # the leader in the ego's lane: vectorised over the vehicles
