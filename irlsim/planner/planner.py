@@ -134,7 +134,7 @@ class Planner:
             ego.v, ego.a, stop_distances(obs, cfg, road), None if cfg_c is cfg else v_cap
         )
         lanes = lane_window(road, ego.s, lon.s) if road.lanes_vary else None
-        targets = None if lanes is None else road.lane_centres[lanes[0][-1] : lanes[1][-1] + 1]
+        targets = None if lanes is None else lane_targets(road, lanes, ego.d)
         lat = concat_lat(
             self.sampler.lat_bank(ego.d, ego.d_dot, ego.d_ddot, targets),
             self.sampler.exit_bank(ego.d, ego.d_dot, ego.d_ddot, ego.s, lon),
@@ -186,9 +186,12 @@ class Planner:
         feats[:, CROSS_COLS] += f_x[sel]
         feats[:, 14] = veh.proximity[sel]
         np.maximum(feats, 0.0, out=feats)
-        offroad_j = self._offroad(lat, lon, ego.s, lanes)
+        if lanes is None:
+            offroad = self._offroad(lat, lon, ego.s, None)[cj]
+        else:  # where lanes end or begin, the lanes that exist where each lon profile is
+            offroad = self._offroad_pairs(lat, lon, ego.s, pairs)[sel]
         exit_j = (lat.bound_lon >= 0) & (lat.d.min(axis=1) < -road.half_road)
-        labels = np.stack([veh.collision[sel], offroad_j[cj], exit_j[cj]], axis=1)
+        labels = np.stack([veh.collision[sel], offroad, exit_j[cj]], axis=1)
 
         # ---- control points and actions [N, K, .]; the yaw at the K columns only
         cols = self.cp_cols
@@ -303,6 +306,24 @@ class Planner:
         right = (lat.d - cfg.ego_width / 2 < right_edge - 0.2).any(axis=1)
         return left | right
 
+    def _offroad_pairs(self, lat: LatBank, lon: LonBank, s_ego: float, pairs: Pairs) -> np.ndarray:
+        """[C] bool over the candidate pairs where lanes are added or dropped: the ego's body beyond the
+        lanes that exist where the pair's lon profile is at some step (a policy that stands in a lane
+        before it ends stays on the road; one that drives on in it past its end does not)."""
+        cfg, road = self.cfg, self.road
+        half_w = road.lane_width / 2
+        lo, hi = road.lane_bounds(s_ego + lon.s)  # [L, T]
+        right = road.lane_center(lo) - half_w - 0.2 + cfg.ego_width / 2  # the body's centre limits
+        left = road.lane_center(hi) + half_w + 0.2 - cfg.ego_width / 2
+        d = lat.d[pairs.free]
+        grid = ((d[:, None, :] < right[None]) | (d[:, None, :] > left[None])).any(axis=2).ravel()
+        if pairs.all_free:
+            return grid
+        jb, lb = pairs.bound_j, pairs.bound_l
+        edge = road.drivable_right_edge(s_ego + lon.s[lb]) + cfg.ego_width / 2 - 0.2
+        tail = ((lat.d[jb] < edge) | (lat.d[jb] > left[lb])).any(axis=1)
+        return np.concatenate([grid, tail])
+
     def trajectory(self, i: int) -> Trajectory:
         """Policy ``i`` of the last PolicySet as a :class:`Trajectory` (what a driver returns)."""
         if self.last is None:
@@ -346,6 +367,16 @@ def lane_window(road: Road, s_ego: float, lon_s: np.ndarray) -> tuple[np.ndarray
     lo, hi = np.maximum(lo_n, lo_f), np.minimum(hi_n, hi_f)
     none = lo > hi
     return np.where(none, lo_f, lo), np.where(none, hi_f, hi)
+
+
+def lane_targets(road: Road, lanes: tuple[np.ndarray, np.ndarray], d0: float) -> np.ndarray:
+    """Lane centres [m] the lateral profiles may end in where lanes are added or dropped: those of
+    :func:`lane_window` at the horizon, and the ego's own lane, so that a policy may stay and stand in it
+    where it does not go on (behind a queue before a junction) instead of every one changing lanes."""
+    own = road.lane_of_d(np.array([d0]))[0]
+    own = int(np.clip(own, lanes[0][0], lanes[1][0]))
+    ids = np.union1d(np.arange(lanes[0][-1], lanes[1][-1] + 1), [own])
+    return road.lane_centres[ids]
 
 
 def lane_edges(road: Road, lanes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:

@@ -42,6 +42,7 @@ from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim.collision import collision_line
 from irlsim.sim.config import scenario_config
 from irlsim.sim.simulation import Simulation
+from irlsim.sim.start import check_start
 from irlsim.utils import atomic_write_text, owned_output, progress, seed_everything, write_json
 from irlsim.workflows.sweep_report import write_report
 
@@ -306,11 +307,13 @@ def crash_line(e: BaseException) -> str:
 
 
 def _load_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for worker processes
-    """Load one route's road as ``irlsim scenario show`` does: loaded, refused or crash (never raises)."""
+    """Load one route's road as ``irlsim scenario show`` does, and check that it leaves the ego a start
+    as every command that drives does before any work: loaded, refused or crash (never raises)."""
     sf = read_scenario_file(Path(task.scenario))
     edges = tuple(sf.route.edges)
     try:
         road = load_road(scenario=task.scenario)
+        check_start(road, scenario_config(task.scenario))
     except IrlsimError as e:
         return _base_record(task.network, task.index, task.seed, edges, 0.0, task.scenario, "refused", str(e))
     except Exception as e:  # a defect of the road layer: recorded, never a refusal

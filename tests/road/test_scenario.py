@@ -293,8 +293,10 @@ def test_an_on_ramp_adds_a_lane_on_the_right(tmp_path):
 
 
 def test_planner_sends_no_policy_into_a_lane_that_ends(tmp_path):
-    """30 m before the drop at 15 m/s every policy ends in lanes 1-2; those that stay in lane 0 past
-    its end are labelled off the road, and the expert does not choose one."""
+    """30 m before the drop at 15 m/s: a policy in lane 0 at any step past its end is labelled off the
+    road; policies that stay in lane 0 and stand before its end are offered and not labelled (so the ego
+    can wait in its lane behind a queue in the lane it needs); the expert, with the road free, changes
+    lanes and does not choose a policy off the road."""
     from irlsim.planner.config import PlannerConfig
     from irlsim.planner.expert import ExpertDriver
     from tests.planner.conftest import make_obs
@@ -304,14 +306,15 @@ def test_planner_sends_no_policy_into_a_lane_that_ends(tmp_path):
     driver = ExpertDriver(road, PlannerConfig())
     obs = make_obs(road, b - 30.0, float(road.lane_center(0)), 15.0)
     ps = driver.planner.plan(obs)
-    final = road.lane_of_d(ps.d[:, -1])
-    assert final.min() >= 1
-    in_lane0 = (ps.d[:, :] < -1.6).all(axis=1)
-    assert not in_lane0.any()
     offroad = ps.labels[:, 1]
-    assert offroad.any() and not offroad.all()
+    in_lane0_past_end = ((ps.d < -1.6) & (ps.s > b + 5.0)).any(axis=1)  # the junction: ~3 m
+    assert in_lane0_past_end.any()
+    assert offroad[in_lane0_past_end].all()
+    stays = (ps.d < -1.6).all(axis=1) & (ps.s[:, -1] < b - 1.0)
+    assert stays.any() and not offroad[stays].any()
     idx = driver.select(ps, obs)
     assert not offroad[idx]
+    assert road.lane_of_d(ps.d[idx, -1:])[0] >= 1
 
 
 def crossing(tmp_path: Path, b_type: str, minor_route: bool) -> Path:
