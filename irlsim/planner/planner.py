@@ -26,7 +26,7 @@ from irlsim.planner.features import (
 from irlsim.planner.policy_set import LazyWorld, PolicySet
 from irlsim.planner.sampler import LatBank, LonBank, Sampler, concat_lat, select_pairs, stop_distances
 from irlsim.road import Road, wrap_angle
-from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.types import Observation, Trajectory, VehicleStates
 
 F32 = np.float32
 
@@ -161,7 +161,8 @@ class Planner:
         f_lon, series = lon_features(lon, kappa, ctx, cfg_c, self.w)
         f_lat = lat_features(lat, lon, series, road, ctx, cfg, self.w)
         f_x = cross_features(lat, lon, series, ctx, self.w, pairs, cfg.yaw_speed_floor)
-        veh = vehicle_terms(lat, lon, obs.vehicles, ctx, cfg, self.w, self._stop_lines, pairs)
+        boxes = route_frame_boxes(road, obs.vehicles)
+        veh = vehicle_terms(lat, lon, boxes, ctx, cfg, self.w, self._stop_lines, pairs)
 
         cj, cl = pairs.lat_idx(), pairs.lon_idx()
         feasible = self._feasible(lat, lon, kappa, pairs)
@@ -367,6 +368,37 @@ def lane_window(road: Road, s_ego: float, lon_s: np.ndarray) -> tuple[np.ndarray
     lo, hi = np.maximum(lo_n, lo_f), np.minimum(hi_n, hi_f)
     none = lo > hi
     return np.where(none, lo_f, lo), np.where(none, hi_f, hi)
+
+
+#: [rad] a vehicle turned further than this to the route (turning, crossing, standing on another approach
+#: to a junction) is seen as its rotated box's extent in the route frame; below it, as its own box (on the
+#: oval no vehicle turns further than 3 degrees: measured over three 200 s drives, so its bytes are kept)
+BOX_TURN_MIN = 0.15
+
+
+def route_frame_boxes(road: Road, vehicles: VehicleStates) -> VehicleStates:
+    """``vehicles`` as the planner's collision and proximity terms see them, boxes aligned with the route
+    frame: a vehicle turned by theta > :data:`BOX_TURN_MIN` to the route's heading at its position gets the
+    extent of its rotated box (length L|cos| + W|sin|, width L|sin| + W|cos|) about the box's true centre,
+    so that a car standing at an angle beside a junction is not thinner, in the frame, than it is."""
+    if not vehicles.count:
+        return vehicles
+    theta = wrap_angle(vehicles.yaw - road.heading(vehicles.s))
+    turned = np.abs(theta) > BOX_TURN_MIN
+    if not turned.any():
+        return vehicles
+    c, sn = np.abs(np.cos(theta)), np.abs(np.sin(theta))
+    ln, wd = vehicles.length, vehicles.width
+    cs = vehicles.s - ln / 2 * np.cos(theta)  # the box's centre (s, d is the front bumper's)
+    cd = vehicles.d - ln / 2 * np.sin(theta)
+    length = np.where(turned, ln * c + wd * sn, ln)
+    return dataclasses.replace(
+        vehicles,
+        s=np.where(turned, (cs + length / 2) % road.lap_length, vehicles.s),
+        d=np.where(turned, cd, vehicles.d),
+        length=length,
+        width=np.where(turned, ln * sn + wd * c, wd),
+    )
 
 
 def lane_targets(road: Road, lanes: tuple[np.ndarray, np.ndarray], d0: float) -> np.ndarray:
