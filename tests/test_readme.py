@@ -1,8 +1,10 @@
 """The README's and the docs' commands run as written: the quickstart block is examples/reward_quickstart.py
 verbatim (tests/reward runs that file), the own-road walkthrough's commands go from an OpenStreetMap extract
-to a learned reward driving it (real netconvert, SUMO, Parquet and training), and every other ``irlsim``
-command in a code block of the README, the guide, the design, the results and the open questions names a
-command and options that exist, with values they accept (parsed, not run: most are hours of work)."""
+to a learned reward driving it (real netconvert, SUMO, Parquet and training), the own-driver
+walkthrough's from a recording to a learned reward driving where a car of it drove, and every other
+``irlsim`` command in a code block of the README, the guide, the design, the results and the open
+questions names a command and options that exist, with values they accept (parsed, not run: most are
+hours of work)."""
 
 from __future__ import annotations
 
@@ -63,6 +65,35 @@ def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
     assert f'"name": "{road}"' in (tmp_path / "data" / "myroad" / "manifest.json").read_text()
     drive = (tmp_path / "runs" / "myroad" / "drive" / "drive.json").read_text()
     assert '"scenario": "examples/myroad"' in drive and "PACNN+S" in drive
+
+
+def test_own_driver_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    import json
+
+    from pipelines.commands import main
+
+    shutil.copytree(ROOT / "configs", tmp_path / "configs")
+    shutil.copytree(ROOT / "examples" / "mydriver", tmp_path / "examples" / "mydriver")
+    monkeypatch.chdir(tmp_path)
+    lines = [ln.strip() for ln in block("own-driver").splitlines() if ln.strip()]
+    assert len(lines) == 4 and all(ln.startswith(".venv/bin/irlsim ") for ln in lines)
+    for line in lines:
+        argv = shlex.split(line)[1:]
+        assert main(argv) == 0, line
+    out = capsys.readouterr().out
+    # the recording demonstrated: its cars are the egos, their routes matched without a lane column
+    manifest = json.loads((tmp_path / "data" / "mydriver" / "manifest.json").read_text())
+    record = manifest["demonstrator"]
+    assert record["kind"] == "recording" and record["file"] == "examples/mydriver/recording.csv"
+    assert record["egos"] == ["car0", "car1", "car2", "car3"]
+    assert "demonstrator: recording examples/mydriver/recording.csv" in out
+    assert (tmp_path / "runs" / "mydriver" / "stage1" / "PACNN+S" / "checkpoint.pt").is_file()
+    # the learned reward drove the held-out car's recording, and the styles were compared
+    drive = json.loads((tmp_path / "runs" / "mydriver" / "drive" / "drive.json").read_text())
+    assert drive["config"]["recording"]["egos"] == ["car4"]
+    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S"]
+    styles = [ln for ln in out.splitlines() if ln.startswith(("style: ", "expert: style", "PACNN+S: style"))]
+    assert len(styles) >= 3 and "style distance: expert vs PACNN+S" in out
 
 
 def documented_commands(text: str) -> list[str]:

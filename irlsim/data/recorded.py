@@ -1,7 +1,8 @@
 """The recording demonstrator: recorded vehicles as demonstrators, each an ego in turn (log replay).
 
 For an ego vehicle of a recording (:mod:`irlsim.data.recording`): the route it drove (the scenario's
-route when every edge it recorded lies on it, else a :class:`~irlsim.road.Road` of its recorded edges),
+route when every edge it drove lies on it, else a :class:`~irlsim.road.Road` of its edges: its recorded
+lanes' edges, or without lanes the route its positions match, :mod:`irlsim.data.matching`),
 an episode on a :class:`~irlsim.sim.replay.ReplaySimulation` where the other recorded vehicles replay
 their motion (non-reactive) and the ego is placed every step at its recorded pose
 (:class:`RecordingDemonstrator`); every cycle the expert's planner samples its policy set at the ego's
@@ -82,6 +83,8 @@ def _without_demand(road: Road) -> Road:
 def ego_track(rec: Recording, vid: str, scenario_road: Road) -> EgoTrack | str:
     """Vehicle ``vid`` of ``rec`` as an ego, or why it cannot be one (a phrase)."""
     k = rec.ids.index(vid)
+    if rec.unrouted and rec.unrouted[k]:
+        return f"its positions match no connected route of the network ({rec.unrouted[k]})"
     road = scenario_road
     if rec.edges[k] and not set(rec.edges[k]) <= set(scenario_road.edges):
         try:

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.data.matching import lane_samples, match_routes
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
 
@@ -82,6 +83,8 @@ class Recording:
     v: np.ndarray
     heading: np.ndarray
     edges: tuple[tuple[str, ...], ...]
+    #: per vehicle, why its positions match no connected route ('' where they do; a recording without lanes)
+    unrouted: tuple[str, ...] = ()
 
     def track(self, vid: str) -> dict[str, np.ndarray]:
         """One vehicle's arrays t, x, y, v, heading at the step."""
@@ -275,7 +278,7 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
     of them, another network's coordinates; else the first point farther than ``bound`` from every
     lane. Lanes are sampled every metre into a grid of cells marked within ``bound`` of a lane."""
     cell = 1.0
-    pts = _lane_points(net)
+    pts = lane_samples(net).xy  # every metre or closer along every lane, internal lanes included
     lo = pts.min(axis=0) - 2 * bound
     hi = pts.max(axis=0) + 2 * bound
     cell = max(cell, float(np.prod(hi - lo) / 2e7) ** 0.5)  # at most ~20 M cells
@@ -308,26 +311,20 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
     )
 
 
-def _lane_points(net: Any) -> np.ndarray:
-    """[P, 2] points every metre or closer along every lane of the network, internal lanes included."""
-    out = []
-    for edge in net.getEdges(withInternal=True):
-        for lane in edge.getLanes():
-            sh = np.asarray(lane.getShape(), dtype=np.float64)[:, :2]
-            seg = np.diff(sh, axis=0)
-            n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1])).astype(int), 1)
-            f = np.concatenate([np.arange(k) / k for k in n])  # fractions along each segment
-            out.append(np.repeat(sh[:-1], n, axis=0) + np.repeat(seg, n, axis=0) * f[:, None])
-            out.append(sh[-1:])
-    return np.concatenate(out)
-
-
-def resample(rows: Rows, order: np.ndarray, starts: np.ndarray, step: float, sha: str) -> Recording:
+def resample(
+    rows: Rows,
+    order: np.ndarray,
+    starts: np.ndarray,
+    step: float,
+    sha: str,
+    routes: list[tuple[str, ...] | str] | None = None,
+) -> Recording:
     """Each vehicle at the times ``k * step`` inside its recorded span, by linear interpolation (the
-    heading unwrapped, then wrapped); a vehicle shorter than one step keeps no row and is left out."""
+    heading unwrapped, then wrapped); a vehicle shorter than one step keeps no row and is left out.
+    ``routes``: per vehicle its matched route or why none (a recording without lanes)."""
     bounds = np.r_[starts, len(order)]
-    ids, start, t0s, parts, edges = [], [0], [], [], []
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # per vehicle, not per row
+    ids, start, t0s, parts, edges, unrouted = [], [0], [], [], [], []
+    for g, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):  # per vehicle, not per row
         idx = order[a:b]
         t = rows.t[idx]
         k0, k1 = math.ceil(t[0] / step - 1e-6), math.floor(t[-1] / step + 1e-6)
@@ -340,7 +337,10 @@ def resample(rows: Rows, order: np.ndarray, starts: np.ndarray, step: float, sha
         ids.append(str(rows.id[idx[0]]))
         start.append(start[-1] + len(tq))
         t0s.append(k0 * step)
-        edges.append(_edges_of(rows.lane[idx]) if rows.lane is not None else ())
+        route = routes[g] if routes is not None else ()
+        matched = route if isinstance(route, tuple) else ()
+        edges.append(_edges_of(rows.lane[idx]) if rows.lane is not None else matched)
+        unrouted.append(route if isinstance(route, str) else "")
     data = np.concatenate(parts, axis=1) if parts else np.zeros((4, 0))
     return Recording(
         path=rows.path,
@@ -354,6 +354,7 @@ def resample(rows: Rows, order: np.ndarray, starts: np.ndarray, step: float, sha
         v=data[2],
         heading=data[3],
         edges=tuple(edges),
+        unrouted=tuple(unrouted),
     )
 
 
@@ -377,5 +378,9 @@ def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX
                 f"recording {rows.path}: lane {unknown[0]} is not a lane of this network: give the scenario "
                 "it was recorded on (or drop the lane column)"
             )
+    routes = None
+    if rows.lane is None:  # each vehicle's route from its positions
+        cols = {k: getattr(rows, k)[order] for k in ("t", "x", "y", "v", "heading")}
+        routes = match_routes(net, cols, np.r_[starts, len(order)], OFF_NETWORK_M)
     sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    return resample(rows, order, starts, step, sha)
+    return resample(rows, order, starts, step, sha, routes)
