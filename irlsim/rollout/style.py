@@ -26,6 +26,7 @@ drivings compared; a figure that does not vary, or is NaN for one of the two, is
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -134,7 +135,8 @@ def style_distances(records: Sequence[dict[str, Any]]) -> np.ndarray:
     diagonal, symmetric, unchanged when a figure is scaled (units) in every record."""
     n_lanes = max((len(r.get("style/lane_share", [])) for r in records), default=0)
     x = np.stack([style_vector(r, n_lanes) for r in records]) if records else np.zeros((0, 0))
-    with np.errstate(invalid="ignore"):
+    with warnings.catch_warnings():  # a figure NaN in every driving (no leader: no headway) has no spread
+        warnings.simplefilter("ignore", RuntimeWarning)
         spread = np.nanstd(x, axis=0) if len(x) else np.zeros(0)
     z = x / np.where(spread > 0, spread, np.nan)
     diff = z[:, None, :] - z[None, :, :]  # [n, n, F]
