@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.bench.planner import planner_observations
-from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
 
 #: timed repeats of each point at least (more while its time budget lasts)
 MIN_REPEATS = 5
@@ -255,9 +255,7 @@ def collect_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
     """Episodes per minute with each worker count: end to end (workers' start included), and after the
     start: with w workers, the episodes after the first w over the time from the w-th result to the
     last (each worker's first episode carries its start)."""
-    from irlsim.road.network import build_net
-
-    build_net()
+    load_scenario()  # the default road's network, built once before the workers read it
     rates, steady = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for w in sizes.workers:

@@ -53,7 +53,6 @@ from irlsim.executor import TIMED_OUT, check_executor, describe_failures, run_jo
 from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
-from irlsim.road.network import build_net
 from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario, scenario_identity
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
@@ -378,7 +377,8 @@ def _collect(
         recorded = _check_resumable(manifest_path, config, driver, roads, demonstrator)
         if "scenarios" not in json.loads(manifest_path.read_text()):
             roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
-    build_net()  # once, before the workers start (they only read it)
+    for name in cfg.scenario_names:  # each road's network built once, before the workers read it
+        load_scenario(name)
 
     jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
     total = sum(len(v) for v in seeds.values())

@@ -11,11 +11,13 @@ import pytest
 
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
-from irlsim.road.network import OVAL_DIR, SUMO_NET_DIR, VTYPES_PATH
+from irlsim.road.network import SUMO_NET_DIR, VTYPES_PATH
 from irlsim.road.scenario import load_scenario
 from irlsim.sim.config import ScenarioConfig
 from irlsim.sim.simulation import Simulation
 from pipelines.commands import main
+
+OVAL_DIR = SUMO_NET_DIR / "oval"
 
 OVAL_NET = OVAL_DIR / "oval.net.xml"
 

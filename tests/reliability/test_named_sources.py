@@ -10,9 +10,11 @@ import pytest
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.errors import IrlsimError
-from irlsim.road.network import OVAL_DIR
+from irlsim.road.network import SUMO_NET_DIR
 from irlsim.sim.config import ScenarioConfig, scenario_config
 from pipelines.commands import main
+
+OVAL_DIR = SUMO_NET_DIR / "oval"
 
 TINY = "configs/collect/tiny.toml"
 
