@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.bench.planner import planner_observations
-from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
+from irlsim.road.scenario import load_scenario, shipped_scenarios
 
 #: timed repeats of each point at least (more while its time budget lasts)
 MIN_REPEATS = 5
@@ -181,7 +181,7 @@ def straight_road(folder: Path, lanes: int) -> str:
 
 def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) -> list[Curve]:
     """The planner cycle against policies (15 vehicles), vehicles (2,500 policies) and lanes."""
-    road = f"the {scenario} road" if scenario == DEFAULT_SCENARIO else scenario
+    road = f"the {scenario} road" if scenario in shipped_scenarios() else scenario  # a name, or a path
     by_policies = []
     for n in sizes.policies:
         by_policies.append(_planner_ms(scenario, n, 15, sizes.point_s, seed))

@@ -55,6 +55,7 @@ from irlsim.utils import atomic_path
 
 SCENARIO_FILE = "scenario.toml"
 NETWORK_SOURCES = ("file", "netconvert", "osm", "sumo_tools", "netgenerate", "opendrive")
+#: the road of a config that names none
 DEFAULT_SCENARIO = "oval"
 
 
@@ -205,6 +206,13 @@ def _identity(path: str, mtime_ns: int, net_mtime_ns: int) -> str:
     return f"{scn.name}@{scn.digest().removeprefix('sha256:')[:16]}"
 
 
+def recorded_name(name: str) -> str | None:
+    """A ``[scenario] name`` as records keep it (a dataset's config and manifest, a drive table): the
+    default is left out (None), as a config that names no road, so the records of the default road keep
+    the bytes and hashes they had before scenarios existed; any other name as written."""
+    return None if name == DEFAULT_SCENARIO else name
+
+
 def read_scenario_file(path: Path) -> ScenarioFile:
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))
@@ -246,6 +254,14 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True, force
     )
 
 
+def build_command(spec: str | Path) -> str:
+    """The command that builds a scenario's network, quoted: 'irlsim net' builds the default road's;
+    any other is built as it is loaded ('irlsim scenario show <it>')."""
+    if str(spec) == DEFAULT_SCENARIO:
+        return "'irlsim net' (or 'make net')"
+    return f"'irlsim scenario show {spec}'"
+
+
 def network_advice(net_file: Path, scenario_file: Path | None) -> str:
     """What fixes a broken network, as it was made: the default scenario's is rebuilt by 'irlsim net
     --force' (the command that builds it); any other network irlsim built or unpacked from the
@@ -262,7 +278,7 @@ def network_advice(net_file: Path, scenario_file: Path | None) -> str:
     source = _source(scenario_file, spec)
     made = built_path(scenario_file)
     if net_file.resolve() == made.resolve() and made.resolve() != source.resolve():  # irlsim made it
-        if scenario_file.resolve() == scenario_path(DEFAULT_SCENARIO).resolve():
+        if scenario_file.resolve() == scenario_path(DEFAULT_SCENARIO).resolve():  # what 'irlsim net' builds
             return "rebuild it with 'irlsim net --force'"
         return f"delete it: it is made again from {source} ({where}); if it recurs, fix that"
     if net_file.resolve() != source.resolve():  # given instead of the scenario's (irlsim sim --net)

@@ -166,9 +166,9 @@ class ScenarioConfig:
 
 def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
     """A ``[scenario]`` table with the named scenario file's ``[defaults]`` beneath it (the table's own
-    keys win); the oval, and a table without a name, as they are."""
-    name = table.get("name")
-    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
+    keys win); a table without a name gets the default scenario's."""
+    name = table.get("name", DEFAULT_SCENARIO)
+    if not isinstance(name, str):  # not a name: its own line when the config is built
         return table
     defaults = load_scenario(name, build=False).defaults
     unknown = sorted(set(defaults) - {f for f in ScenarioConfig.__dataclass_fields__} - {"name"})
@@ -184,8 +184,8 @@ def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
 def defaults_source(table: dict[str, Any]) -> str | None:
     """The scenario file whose ``[defaults]`` :func:`with_scenario_defaults` puts beneath ``table``, as an
     error line names it (None: none, or a name that is no scenario: that has its own line)."""
-    name = table.get("name")
-    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
+    name = table.get("name", DEFAULT_SCENARIO)
+    if not isinstance(name, str):
         return None
     try:
         return f"scenario {scenario_path(name)} [defaults]"
