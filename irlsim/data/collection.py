@@ -45,7 +45,7 @@ from irlsim.road import Road, load_road
 from irlsim.road.scenario import recorded_name, scenario_identity
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
-from irlsim.sim.config import ScenarioConfig, defaults_source, with_scenario_defaults
+from irlsim.sim.config import EpisodeConfig, defaults_source, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
@@ -91,8 +91,8 @@ class CollectConfig:
     """0: the expert drives, its projected odometry is the demonstration; r >= 1: DAgger round r
     (``irlsim collect --driver``): a learned reward drives, the expert labels, and the episode seeds move
     to round r's window (see ``episodes``)"""
-    scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
-    """traffic, clocks and episode limits (irlsim.sim.config.ScenarioConfig)"""
+    scenario: EpisodeConfig = field(default_factory=EpisodeConfig)
+    """traffic, clocks and episode limits (irlsim.sim.config.EpisodeConfig)"""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
     demo: DemoConfig = field(default_factory=DemoConfig)

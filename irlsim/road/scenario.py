@@ -18,7 +18,7 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     # from = "a"
     # to = "c"
 
-    [defaults]               # optional: this road's episode settings (irlsim.sim.config.ScenarioConfig)
+    [defaults]               # optional: this road's episode settings (irlsim.sim.config.EpisodeConfig)
     n_vehicles = 8           #   e.g. the traffic, the ego's start; a collect config overrides them
 
     [traffic]                # optional: the scenario's own SUMO demand instead of irlsim's spawner
@@ -138,7 +138,7 @@ class ScenarioFile:
     checkpoints: tuple[CheckpointSpec, ...] = ()
     traffic: TrafficSpec = TrafficSpec()
     defaults: dict[str, Any] = field(default_factory=dict)
-    """this road's values of the episode settings (``ScenarioConfig`` fields: traffic, the ego's start,
+    """this road's values of the episode settings (``EpisodeConfig`` fields: traffic, the ego's start,
     limits); a collect config's ``[scenario]`` table and ``--set`` override them"""
 
 
@@ -156,7 +156,7 @@ class Scenario:
     description: str = ""
     demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
     warmup: float = 0.0  # [s] before the ego enters
-    defaults: dict[str, Any] = field(default_factory=dict)  # ScenarioConfig values of this road
+    defaults: dict[str, Any] = field(default_factory=dict)  # EpisodeConfig values of this road
 
     def digest(self) -> str:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
