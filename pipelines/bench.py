@@ -25,6 +25,7 @@ from typing import Any  # noqa: E402
 from irlsim.bench.report import SECTIONS, BenchRun, run_benchmarks  # noqa: E402
 from irlsim.config import MAX_SEED, int_in  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
+from irlsim.road.scenario import DEFAULT_SCENARIO  # noqa: E402
 
 HELP = "time the planner cycle, collection and inference (docs/design/performance.md); write JSON, Markdown"
 
@@ -73,8 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     _train_arguments(parser)
     parser.add_argument(
         "--scenario",
-        default="oval",
-        help="road of the planner section: a shipped scenario or a path (default oval)",
+        default=DEFAULT_SCENARIO,
+        help=f"road of the planner section: a shipped scenario or a path (default {DEFAULT_SCENARIO})",
     )
     parser.add_argument(
         "--growth",

@@ -12,7 +12,7 @@ from irlsim.config import float_in, int_in, load_config
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
 from irlsim.road import load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import MAX_SEED, Simulation
 from irlsim.utils import atomic_path, check_output_file
 from irlsim.viz.cycle import draw_cycle
@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
         if theta.shape != (len(FEATURE_NAMES),):
             raise IrlsimError(f"--theta needs {len(FEATURE_NAMES)} weights, got {theta.size}")
     overrides = {"laps": 3} if args.vehicles is None else {"laps": 3, "n_vehicles": args.vehicles}
-    cfg = load_config(ScenarioConfig, None, overrides)
+    cfg = load_config(EpisodeConfig, None, overrides)
     road = load_road()
     drv = make_expert_driver(road, cfg)
     with Simulation(road, cfg) as sim:

@@ -20,7 +20,7 @@ from irlsim.config import float_in, int_in, load_config, to_dict
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.rollout import EpisodeRunner, make_driver
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import MAX_SEED, Simulation
 from irlsim.utils import check_non_negative, check_output_file, write_json
 
@@ -48,7 +48,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--driver", default="simple", help="driver name (registered in irlsim.rollout.drivers.DRIVERS)"
     )
     parser.add_argument(
-        "--config", type=Path, default=None, help="TOML with ScenarioConfig fields (see irlsim/sim/config.py)"
+        "--config", type=Path, default=None, help="TOML with EpisodeConfig fields (see irlsim/sim/config.py)"
     )
     parser.add_argument(
         "--scenario",
@@ -67,7 +67,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _scenario(args: argparse.Namespace) -> ScenarioConfig:
+def _scenario(args: argparse.Namespace) -> EpisodeConfig:
 
     overrides: dict[str, Any] = {}
     if args.laps is not None:
@@ -78,7 +78,7 @@ def _scenario(args: argparse.Namespace) -> ScenarioConfig:
         overrides["max_time"] = args.max_time
     if args.scenario is not None:
         overrides["name"] = str(args.scenario)
-    return load_config(ScenarioConfig, args.config, overrides)
+    return load_config(EpisodeConfig, args.config, overrides)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -28,10 +28,10 @@ def road():
 
 @pytest.fixture(scope="session")
 def sim(road):
-    from irlsim.sim.config import ScenarioConfig
+    from irlsim.sim.config import EpisodeConfig
     from irlsim.sim.simulation import Simulation
 
-    s = Simulation(road, ScenarioConfig(laps=10, max_time=2000.0))
+    s = Simulation(road, EpisodeConfig(laps=10, max_time=2000.0))
     yield s
     s.close()
 

@@ -19,7 +19,6 @@ from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
 from irlsim.data.demonstrator import EXPERT, identity, resolve
 from irlsim.executor import Job, run_jobs
-from irlsim.road.network import build_net
 from irlsim.road.scenario import load_scenario
 
 #: the paper's scale: one hour of driving
@@ -65,7 +64,7 @@ def bench_collect(
     ``demonstrator``: a collect config whose ``[demonstrator]`` (on its scenario) drives instead of the
     expert (a recording's episodes ``seed`` to ``seed + 2`` are its egos of those positions).
     """
-    build_net()
+    load_scenario()  # the default road's network, built once before the workers read it
     who, ident = bench_demonstrator(demonstrator, seed + 3)
     with tempfile.TemporaryDirectory() as tmp:
         one = collect_one((tmp + "/one", seed, cycles, n_policies, *who))
@@ -204,7 +203,7 @@ def bench_env(steps: int = 200, n_policies: int = 500, n_envs: int = 2, seed: in
     ``steps`` vector steps (autoresets included)."""
     from gymnasium.vector import AsyncVectorEnv  # lazy: the optional extra 'gym'
 
-    build_net()
+    load_scenario()  # the default road's network, built once before the workers read it
     env = _make_env(n_policies)
     rng = np.random.default_rng(seed)
     env.reset(seed=seed)

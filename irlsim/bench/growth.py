@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.bench.planner import planner_observations
-from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.road.scenario import load_scenario, shipped_scenarios
 
 #: timed repeats of each point at least (more while its time budget lasts)
 MIN_REPEATS = 5
@@ -181,7 +181,7 @@ def straight_road(folder: Path, lanes: int) -> str:
 
 def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) -> list[Curve]:
     """The planner cycle against policies (15 vehicles), vehicles (2,500 policies) and lanes."""
-    road = f"the {scenario} road" if scenario == DEFAULT_SCENARIO else scenario
+    road = f"the {scenario} road" if scenario in shipped_scenarios() else scenario  # a name, or a path
     by_policies = []
     for n in sizes.policies:
         by_policies.append(_planner_ms(scenario, n, 15, sizes.point_s, seed))
@@ -255,9 +255,7 @@ def collect_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
     """Episodes per minute with each worker count: end to end (workers' start included), and after the
     start: with w workers, the episodes after the first w over the time from the w-th result to the
     last (each worker's first episode carries its start)."""
-    from irlsim.road.network import build_net
-
-    build_net()
+    load_scenario()  # the default road's network, built once before the workers read it
     rates, steady = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for w in sizes.workers:

@@ -15,7 +15,7 @@ import numpy as np
 from irlsim.bench.episodes import collect_one
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, run_jobs
-from irlsim.road.network import build_net
+from irlsim.road.scenario import load_scenario
 
 #: episodes of each timed collection (two per worker with 2 workers)
 EPISODES = 4
@@ -49,7 +49,7 @@ def bench_executors(cycles: int, n_policies: int, seed: int, workers: int = 2) -
     the clock: its start-up is reported apart), each end to end, workers' start included."""
     import ray  # lazy: the optional extra 'ray' (bench_scale checks it is there)
 
-    build_net()
+    load_scenario()  # the default road's network, built once before the workers read it
     out: dict[str, Any] = {"workers": workers, "n_policies": n_policies, "cycles_per_episode": cycles}
     with tempfile.TemporaryDirectory() as tmp:
         out["local"] = _timed_collection("local", workers, tmp + "/local", seed, cycles, n_policies, EPISODES)

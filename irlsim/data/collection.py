@@ -42,10 +42,10 @@ from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
-from irlsim.road.scenario import DEFAULT_SCENARIO, scenario_identity
+from irlsim.road.scenario import recorded_name, scenario_identity
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
-from irlsim.sim.config import ScenarioConfig, defaults_source, with_scenario_defaults
+from irlsim.sim.config import EpisodeConfig, defaults_source, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
@@ -91,8 +91,8 @@ class CollectConfig:
     """0: the expert drives, its projected odometry is the demonstration; r >= 1: DAgger round r
     (``irlsim collect --driver``): a learned reward drives, the expert labels, and the episode seeds move
     to round r's window (see ``episodes``)"""
-    scenario: ScenarioConfig = field(default_factory=ScenarioConfig)
-    """traffic, clocks and episode limits (irlsim.sim.config.ScenarioConfig)"""
+    scenario: EpisodeConfig = field(default_factory=EpisodeConfig)
+    """traffic, clocks and episode limits (irlsim.sim.config.EpisodeConfig)"""
     planner: PlannerConfig = field(default_factory=PlannerConfig)
     """policy sampling and features (irlsim.planner.config.PlannerConfig)"""
     demo: DemoConfig = field(default_factory=DemoConfig)
@@ -208,7 +208,7 @@ class CollectConfig:
         ``[scenario] name`` and ``[[scenarios]]`` may not both name the road, nor two entries one road
         spelled two ways (by :func:`~irlsim.road.scenario.scenario_identity`)."""
         require(
-            not self.scenarios or self.scenario.name == DEFAULT_SCENARIO,
+            not self.scenarios or recorded_name(self.scenario.name) is None,  # [scenario] names none
             f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
             "scenario in [[scenarios]] (and drop --scenario)",
         )
@@ -270,8 +270,8 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
     d = cfg if isinstance(cfg, dict) else by_identity(to_dict(cfg))
     scn = d.get("scenario")
-    if isinstance(scn, dict) and scn.get("name") == DEFAULT_SCENARIO:
-        # the default scenario is left out: a dataset of the oval keeps the bytes (and identity) of before
+    if isinstance(scn, dict) and "name" in scn and recorded_name(scn["name"]) is None:
+        # the default road is left out: its datasets keep the bytes (and identity) of before scenarios
         d = {**d, "scenario": {k: v for k, v in scn.items() if k != "name"}}
     # dagger_round 0, no [[scenarios]] and the expert as demonstrator are left out: a manifest keeps its
     # bytes (and identity) of before

@@ -33,7 +33,7 @@ from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
 from irlsim.rollout import Cycle, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation
 from irlsim.utils import progress, seed_everything
@@ -264,7 +264,7 @@ def drive_episode(
 
 def _simulation(
     cfg: CollectConfig, road: Road, laps: int, episode: int, reactive: bool
-) -> tuple[Road, ScenarioConfig, Simulation]:
+) -> tuple[Road, EpisodeConfig, Simulation]:
     """The episode's road, settings and simulation: the scenario's; on a recording (its egos resolved
     into ``cfg.demonstrator.ego``) ego number ``episode``'s route, start and time, the other vehicles
     replaying their recorded motion (non-reactive) or, ``reactive``, driven by SUMO from their first

@@ -41,7 +41,7 @@ from irlsim.planner.features import predicted_stop_distance
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.types import Observation, Trajectory
 
 #: the expert's hand-tuned weights, one per feature (FEATURE_NAMES order); V = -theta^T f
@@ -318,8 +318,8 @@ class ThetaDriver:
         return self.planner.trajectory(idx)
 
 
-def planner_config_for(scenario_cfg: ScenarioConfig) -> PlannerConfig:
-    """A PlannerConfig whose clocks, target speed and ego size match a ScenarioConfig."""
+def planner_config_for(scenario_cfg: EpisodeConfig) -> PlannerConfig:
+    """A PlannerConfig whose clocks, target speed and ego size match a EpisodeConfig."""
     return PlannerConfig(
         horizon=float(scenario_cfg.horizon),
         dt=float(scenario_cfg.step),
@@ -330,6 +330,6 @@ def planner_config_for(scenario_cfg: ScenarioConfig) -> PlannerConfig:
     )
 
 
-def make_expert_driver(road: Road, scenario_cfg: ScenarioConfig) -> ExpertDriver:
+def make_expert_driver(road: Road, scenario_cfg: EpisodeConfig) -> ExpertDriver:
     """Factory for the driver registry (:mod:`irlsim.rollout.drivers`)."""
     return ExpertDriver(road, planner_config_for(scenario_cfg))

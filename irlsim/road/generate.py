@@ -12,17 +12,13 @@ from netconvert's ``--sidewalks.guess`` (roads up to 50 km/h by its default) and
 
 from __future__ import annotations
 
-import os
-import subprocess
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from irlsim.errors import IrlsimError
-from irlsim.road.network import _netconvert_error, strip_header, sumo_binary, sumo_home
-from irlsim.utils import atomic_path
+from irlsim.road.network import build_net, is_stale
 
 KINDS = ("grid", "spider", "random")
 KIND_FLAGS = {"grid": "--grid", "spider": "--spider", "random": "--rand"}
@@ -104,23 +100,15 @@ def network_params(seed: int, index: int) -> NetworkParams:
 
 
 def build_network(params: NetworkParams, out_dir: Path) -> Path:
-    """netgenerate, then netconvert's guesses, into ``out_dir / params.file_name`` (atomically, without
-    the time-stamped header); one line when a tool fails."""
+    """netgenerate, then netconvert's guesses, into ``out_dir / params.file_name`` unless it is there
+    (drawn from the seed, it has no source it could be older than); one line when a tool fails."""
     target = out_dir / params.file_name
-    env = {**os.environ, "SUMO_HOME": sumo_home()}
+    if not is_stale(target, ()):
+        return target
+    subject = f"generated network {params.index} ({params.kind}, seed {params.seed})"
+    fix = "report it with the command's --seed"
     with tempfile.TemporaryDirectory(dir=out_dir, prefix=".generate.") as tmp_dir:
         raw = Path(tmp_dir) / "raw.net.xml"
-        _run([sumo_binary("netgenerate"), *params.netgenerate_args(), "-o", str(raw)], env, params)
-        with atomic_path(target) as tmp:
-            _run([sumo_binary("netconvert"), "-s", str(raw), *GUESS_OPTIONS, "-o", str(tmp)], env, params)
-            tmp.write_bytes(strip_header(tmp.read_bytes()))
-    return target
-
-
-def _run(cmd: list[str], env: dict[str, str], params: NetworkParams) -> None:
-    proc = subprocess.run(cmd, capture_output=True, text=True, env=env)
-    if proc.returncode != 0:
-        raise IrlsimError(
-            f"{Path(cmd[0]).name} failed on generated network {params.index} ({params.kind}, seed "
-            f"{params.seed}): {_netconvert_error(proc)}; report it with the command's --seed"
-        )
+        build_net("netgenerate", params.netgenerate_args(), raw, subject=subject, fix=fix, force=True)
+        guesses = ["-s", str(raw), *GUESS_OPTIONS]
+        return build_net("netconvert", guesses, target, subject=subject, fix=fix, force=True)

@@ -1082,17 +1082,12 @@ def load_road(
     """The :class:`Road` of a scenario (a shipped name or a path; default the default scenario, the
     oval): the route and checkpoints its file names, on its network or on ``net_file``; builds the
     scenario's network first when it is missing or stale (if ``build`` and no ``net_file``)."""
-    from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario
+    from irlsim.road.scenario import DEFAULT_SCENARIO, build_command, load_scenario
 
     spec = DEFAULT_SCENARIO if scenario is None else scenario
     scn = load_scenario(spec, build=build and net_file is None)
     p = scn.net_file if net_file is None else Path(net_file)
     if not p.is_file():
-        how = (
-            "'irlsim net' (or 'make net')"
-            if str(spec) == DEFAULT_SCENARIO
-            else f"'irlsim scenario show {spec}'"
-        )
-        raise IrlsimError(f"network {p} not found: run {how} to build it")
+        raise IrlsimError(f"network {p} not found: run {build_command(spec)} to build it")
     spath = scn.path.resolve()
     return _load_road_cached(str(p.resolve()), p.stat().st_mtime, str(spath), spath.stat().st_mtime)

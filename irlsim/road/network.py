@@ -1,4 +1,10 @@
-"""Building and locating SUMO networks: the shipped scenarios' folders, netconvert builds.
+"""Building and locating SUMO networks: the shipped scenarios' folder and the one network builder.
+
+Every network irlsim makes from sources (a scenario's netconvert, netgenerate, OpenStreetMap or
+OpenDRIVE source, a generated sweep network) is made by :func:`build_net`: a SUMO tool writes the
+``.net.xml`` under a temporary name, its time-stamped header is removed (the same sources give the same
+bytes) and it is renamed into place; it is made again only when :func:`is_stale` (missing, or older than
+a file it is made from).
 
 SUMO is located only when needed (never at import): binaries come from the ``eclipse-sumo`` wheel
 (``site-packages/sumo/bin``), found through ``sumolib.checkBinary`` with SUMO_HOME pointing at that wheel.
@@ -9,6 +15,7 @@ from __future__ import annotations
 import os
 import re
 import subprocess
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import sumo_net
@@ -17,10 +24,6 @@ from irlsim.utils import atomic_path
 
 #: the shipped scenarios, one folder each (the ``sumo_net`` package, installed beside irlsim)
 SUMO_NET_DIR = Path(sumo_net.__file__).resolve().parent
-#: the oval's plain-XML sources, in its scenario folder
-OVAL_DIR = SUMO_NET_DIR / "oval"
-NET_SOURCES = ("oval.nod.xml", "oval.edg.xml", "netconvert.cfg")
-NET_FILE = "oval.net.xml"
 #: irlsim's vehicle types (ego, background), shared by every scenario
 VTYPES_FILE = "vtypes.add.xml"
 VTYPES_PATH = SUMO_NET_DIR / VTYPES_FILE
@@ -54,60 +57,51 @@ def sumo_binary(name: str) -> str:
     return str(path)
 
 
-def net_path(net_dir: str | Path | None = None) -> Path:
-    return Path(net_dir or OVAL_DIR) / NET_FILE
+def config_sources(config: Path) -> tuple[Path, ...]:
+    """The files a SUMO configuration (netconvert's, netgenerate's) is built from: itself and every
+    existing file its values name (relative to it, several separated by commas)."""
+    text = config.read_text(errors="replace") if config.is_file() else ""
+    named = (n for v in re.findall(r'value="([^"]+)"', text) for n in re.split(r"[,\s]+", v) if n)
+    return (config, *(config.parent / n for n in named if (config.parent / n).is_file()))
 
 
-def _sources(d: Path, config: str) -> tuple[str, ...]:
-    """The files a netconvert build in ``d`` reads: the oval's, or a configuration and its inputs."""
-    if config == "netconvert.cfg" and all((d / s).is_file() for s in NET_SOURCES):
-        return NET_SOURCES
-    names = [config]
-    text = (d / config).read_text() if (d / config).is_file() else ""
-    names += [v for v in re.findall(r'value="([^"]+\.xml)"', text) if (d / v).is_file()]
-    return tuple(names)
-
-
-def net_is_stale(net_dir: str | Path | None = None, config: str = "netconvert.cfg") -> bool:
-    """True when the .net.xml is missing or older than any of its sources."""
-    d = Path(net_dir or OVAL_DIR)
-    target = d / _target_name(d, config)
+def is_stale(target: Path, sources: Iterable[Path]) -> bool:
+    """The one staleness rule of a network irlsim makes: it is missing, or older than a file it is made
+    from (none for a network drawn from a seed: made once)."""
     if not target.is_file():
         return True
     t = target.stat().st_mtime
-    return any((d / s).stat().st_mtime > t for s in _sources(d, config))
+    return any(s.stat().st_mtime > t for s in sources)
 
 
-def _target_name(d: Path, config: str) -> str:
-    return NET_FILE if (d / "oval.nod.xml").is_file() else f"{d.name}.net.xml"
-
-
-def build_net(net_dir: str | Path | None = None, force: bool = False, config: str = "netconvert.cfg") -> Path:
-    """Build the network of ``net_dir`` (default: the oval's folder) from its netconvert configuration,
-    if stale (or ``force``): ``oval.net.xml`` for the oval, ``<folder name>.net.xml`` for others.
-
-    The output is byte-identical across runs: netconvert's header comment (with a timestamp and the
-    absolute output path) is removed. The file is written under a temporary name, then renamed.
-    """
-    d = Path(net_dir or OVAL_DIR)
-    needed = NET_SOURCES if (d / "oval.nod.xml").is_file() or net_dir is None else (config,)
-    for s in needed:
-        if not (d / s).is_file():
-            raise IrlsimError(f"network source {d / s} is missing: restore it from git ('git checkout {s}')")
-    target = d / _target_name(d, config)
-    if not force and not net_is_stale(d, config):
+def build_net(
+    tool: str,
+    args: Sequence[str],
+    target: Path,
+    *,
+    subject: str,
+    fix: str,
+    sources: Sequence[Path] = (),
+    cwd: Path | None = None,
+    force: bool = False,
+) -> Path:
+    """The one network builder: SUMO's ``tool`` (``netconvert``, ``netgenerate``) run with ``args`` in
+    ``cwd`` writes ``target``, unless it is up to date with ``sources`` (:func:`is_stale`) and not
+    ``force``. The output is written under a temporary name without netconvert's header comment (a time
+    stamp and the output path), then renamed: byte-identical across builds, never half-written. A tool
+    that fails is one line: ``<tool> failed on <subject>: <its error line>; <fix>``."""
+    if not force and not is_stale(target, sources):
         return target
-    netconvert = sumo_binary("netconvert")
     with atomic_path(target) as tmp:
         proc = subprocess.run(
-            [netconvert, "-c", str(d / config), "-o", str(tmp)],
-            cwd=d,
+            [sumo_binary(tool), *args, "-o", str(tmp)],
+            cwd=cwd,
             capture_output=True,
             text=True,
             env={**os.environ, "SUMO_HOME": sumo_home()},
         )
         if proc.returncode != 0:
-            raise IrlsimError(f"netconvert failed on {d}: {_netconvert_error(proc)}; fix the XML sources")
+            raise IrlsimError(f"{tool} failed on {subject}: {_tool_error(proc)}; {fix}")
         tmp.write_bytes(strip_header(tmp.read_bytes()))
     return target
 
@@ -117,9 +111,9 @@ def strip_header(data: bytes) -> bytes:
     return _HEADER.sub(b"", data, count=1)
 
 
-def _netconvert_error(proc: subprocess.CompletedProcess[str]) -> str:
-    """The line that says what went wrong: netconvert's first 'Error:' line (its last line is only
-    'Quitting (on error).'), else its last line."""
+def _tool_error(proc: subprocess.CompletedProcess[str]) -> str:
+    """The line that says what went wrong: the tool's first 'Error:' line (netconvert's last line is
+    only 'Quitting (on error).'), else its last line."""
     lines = [ln.strip() for ln in (proc.stderr + "\n" + proc.stdout).splitlines() if ln.strip()]
     errors = [ln for ln in lines if ln.startswith("Error:")]
     return errors[0] if errors else (lines[-1] if lines else f"exit status {proc.returncode}, no output")

@@ -18,7 +18,7 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     # from = "a"
     # to = "c"
 
-    [defaults]               # optional: this road's episode settings (irlsim.sim.config.ScenarioConfig)
+    [defaults]               # optional: this road's episode settings (irlsim.sim.config.EpisodeConfig)
     n_vehicles = 8           #   e.g. the traffic, the ego's start; a collect config overrides them
 
     [traffic]                # optional: the scenario's own SUMO demand instead of irlsim's spawner
@@ -42,7 +42,6 @@ import gzip
 import hashlib
 import os
 import shutil
-import subprocess
 import tomllib
 import zlib
 from dataclasses import dataclass, field
@@ -51,11 +50,12 @@ from typing import Any
 
 from irlsim.config import from_dict
 from irlsim.errors import IrlsimError
-from irlsim.road.network import SUMO_NET_DIR, _netconvert_error, strip_header, sumo_binary, sumo_home
+from irlsim.road.network import SUMO_NET_DIR, build_net, config_sources, is_stale, sumo_home
 from irlsim.utils import atomic_path
 
 SCENARIO_FILE = "scenario.toml"
 NETWORK_SOURCES = ("file", "netconvert", "osm", "sumo_tools", "netgenerate", "opendrive")
+#: the road of a config that names none
 DEFAULT_SCENARIO = "oval"
 
 
@@ -138,7 +138,7 @@ class ScenarioFile:
     checkpoints: tuple[CheckpointSpec, ...] = ()
     traffic: TrafficSpec = TrafficSpec()
     defaults: dict[str, Any] = field(default_factory=dict)
-    """this road's values of the episode settings (``ScenarioConfig`` fields: traffic, the ego's start,
+    """this road's values of the episode settings (``EpisodeConfig`` fields: traffic, the ego's start,
     limits); a collect config's ``[scenario]`` table and ``--set`` override them"""
 
 
@@ -156,7 +156,7 @@ class Scenario:
     description: str = ""
     demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
     warmup: float = 0.0  # [s] before the ego enters
-    defaults: dict[str, Any] = field(default_factory=dict)  # ScenarioConfig values of this road
+    defaults: dict[str, Any] = field(default_factory=dict)  # EpisodeConfig values of this road
 
     def digest(self) -> str:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
@@ -206,6 +206,13 @@ def _identity(path: str, mtime_ns: int, net_mtime_ns: int) -> str:
     return f"{scn.name}@{scn.digest().removeprefix('sha256:')[:16]}"
 
 
+def recorded_name(name: str) -> str | None:
+    """A ``[scenario] name`` as records keep it (a dataset's config and manifest, a drive table): the
+    default is left out (None), as a config that names no road, so the records of the default road keep
+    the bytes and hashes they had before scenarios existed; any other name as written."""
+    return None if name == DEFAULT_SCENARIO else name
+
+
 def read_scenario_file(path: Path) -> ScenarioFile:
     try:
         data = tomllib.loads(path.read_bytes().decode("utf-8"))
@@ -226,11 +233,12 @@ def read_scenario_file(path: Path) -> ScenarioFile:
         raise IrlsimError(f"scenario {path}: needs [network] and [route] tables ({e})") from None
 
 
-def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Scenario:
-    """Load a scenario by shipped name or path; builds its network into the cache when needed."""
+def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True, force: bool = False) -> Scenario:
+    """Load a scenario by shipped name or path; builds its network into the cache when it is stale (or
+    ``force``: a network irlsim makes from the scenario's source is made again)."""
     path = scenario_path(spec)
     sf = read_scenario_file(path)
-    net_file = _network_file(path, sf.network, build)
+    net_file = _network_file(path, sf.network, build, force)
     return Scenario(
         name=sf.name or path.parent.name,
         path=path,
@@ -246,14 +254,19 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True) -> Sc
     )
 
 
-def network_advice(net_file: Path, scenario_file: Path | None) -> str:
-    """What fixes a broken network, as it was made: the oval's is rebuilt by 'irlsim net --force'; a
-    network irlsim built or unpacked from the scenario's [network] source is built again once deleted; a
-    network file of the scenario is the user's to fix; one of the eclipse-sumo wheel comes back with it."""
-    from irlsim.road.network import NET_FILE, OVAL_DIR
+def build_command(spec: str | Path) -> str:
+    """The command that builds a scenario's network, quoted: 'irlsim net' builds the default road's;
+    any other is built as it is loaded ('irlsim scenario show <it>')."""
+    if str(spec) == DEFAULT_SCENARIO:
+        return "'irlsim net' (or 'make net')"
+    return f"'irlsim scenario show {spec}'"
 
-    if net_file.resolve() == (OVAL_DIR / NET_FILE).resolve():
-        return "rebuild it with 'irlsim net --force'"
+
+def network_advice(net_file: Path, scenario_file: Path | None) -> str:
+    """What fixes a broken network, as it was made: the default scenario's is rebuilt by 'irlsim net
+    --force' (the command that builds it); any other network irlsim built or unpacked from the
+    scenario's [network] source is built again once deleted; a network file of the scenario is the
+    user's to fix; one of the eclipse-sumo wheel comes back with it."""
     try:
         spec = read_scenario_file(scenario_file).network if scenario_file is not None else None
     except IrlsimError:
@@ -262,15 +275,11 @@ def network_advice(net_file: Path, scenario_file: Path | None) -> str:
         return "fix or regenerate it"
     assert scenario_file is not None
     where = f"the [network] of {scenario_file}"
-    name = spec.file or spec.netconvert or spec.netgenerate or spec.opendrive or spec.osm
-    source = Path(sumo_home()) / "tools" / spec.sumo_tools if spec.sumo_tools else scenario_file.parent / name
-    if spec.netconvert:
-        made = scenario_file.parent / f"{scenario_file.parent.name}.net.xml"
-    elif source.suffix == ".gz":
-        made = cache_dir(scenario_file) / source.name.removesuffix(".gz")
-    else:
-        made = cache_dir(scenario_file) / (source.name.split(".")[0] + ".net.xml")
+    source = _source(scenario_file, spec)
+    made = built_path(scenario_file)
     if net_file.resolve() == made.resolve() and made.resolve() != source.resolve():  # irlsim made it
+        if scenario_file.resolve() == scenario_path(DEFAULT_SCENARIO).resolve():  # what 'irlsim net' builds
+            return "rebuild it with 'irlsim net --force'"
         return f"delete it: it is made again from {source} ({where}); if it recurs, fix that"
     if net_file.resolve() != source.resolve():  # given instead of the scenario's (irlsim sim --net)
         return "fix or regenerate it"
@@ -289,44 +298,51 @@ def _route_file(scenario: Path, name: str) -> Path:
     return p
 
 
-def _network_file(path: Path, spec: NetworkSpec, build: bool) -> Path:
-    base = path.parent
-    if spec.file or spec.sumo_tools:
-        net = (Path(sumo_home()) / "tools" / spec.sumo_tools) if spec.sumo_tools else base / spec.file
-        if not net.is_file():
-            raise IrlsimError(f"scenario {path}: network {net} not found: fix [network] or restore the file")
-        if net.suffix == ".gz":
-            return _gunzip_cached(net, path)
-        return net
-    if spec.netconvert:
-        from irlsim.road.network import build_net  # the oval's byte-identical build, any config
+def _source(scenario: Path, spec: NetworkSpec) -> Path:
+    """The file a scenario's network is read, unpacked or built from."""
+    if spec.sumo_tools:
+        return Path(sumo_home()) / "tools" / spec.sumo_tools
+    return scenario.parent / (spec.file or spec.netconvert or spec.netgenerate or spec.opendrive or spec.osm)
 
-        cfg = base / spec.netconvert
-        if not cfg.is_file():
-            raise IrlsimError(f"scenario {path}: netconvert configuration {cfg} not found")
-        return build_net(base, config=cfg.name, force=False) if build else base / f"{base.name}.net.xml"
-    if spec.netgenerate:
-        cfg = base / spec.netgenerate
-        return _built_cached(cfg, path, build, "netgenerate configuration", "netgenerate", ["-c", cfg.name])
-    if spec.opendrive:
-        xodr = base / spec.opendrive
-        return _built_cached(
-            xodr,
-            path,
-            build,
-            "OpenDRIVE map",
-            "netconvert",
-            ["--opendrive-files", xodr.name, "--no-warnings"],
-        )
-    osm = base / spec.osm
-    return _built_cached(
-        osm, path, build, "OpenStreetMap file", "netconvert", ["--osm-files", osm.name, *OSM_OPTIONS]
+
+def _network_file(path: Path, spec: NetworkSpec, build: bool, force: bool = False) -> Path:
+    source = _source(path, spec)
+    if spec.file or spec.sumo_tools:
+        if not source.is_file():
+            raise IrlsimError(
+                f"scenario {path}: network {source} not found: fix [network] or restore the file"
+            )
+        return _gunzip_cached(source, path) if source.suffix == ".gz" else source
+    tool, what, args, fix = _recipe(source, spec)
+    if not source.is_file():
+        raise IrlsimError(f"scenario {path}: {what} {source} not found: fix [network] or restore the file")
+    target = built_path(path)
+    if not build:
+        return target
+    sources = config_sources(source) if spec.netconvert or spec.netgenerate else (source,)
+    return build_net(
+        tool, args, target, subject=str(source), fix=fix, sources=sources, cwd=source.parent, force=force
     )
 
 
+def _recipe(source: Path, spec: NetworkSpec) -> tuple[str, str, list[str], str]:
+    """How a scenario's [network] source is built: the SUMO tool, what the source is, the tool's
+    arguments (relative to the source's folder, where it runs) and the fix of a failed build."""
+    if spec.netconvert:
+        return "netconvert", "netconvert configuration", ["-c", source.name], "fix the XML sources"
+    if spec.netgenerate:
+        what = "netgenerate configuration"
+        return "netgenerate", what, ["-c", source.name], f"fix the {what}"
+    if spec.opendrive:
+        what = "OpenDRIVE map"
+        return "netconvert", what, ["--opendrive-files", source.name, "--no-warnings"], f"fix the {what}"
+    what = "OpenStreetMap file"
+    return "netconvert", what, ["--osm-files", source.name, *OSM_OPTIONS], f"fix the {what}"
+
+
 def cache_dir(scenario: Path) -> Path:
-    """Where built networks of a scenario go: beside it when that folder is writable, else the user's
-    cache ($IRLSIM_CACHE or ~/.cache/irlsim)."""
+    """Where the networks irlsim makes for a scenario go (built from its source, or unpacked): beside it
+    when that folder is writable, else the user's cache ($IRLSIM_CACHE or ~/.cache/irlsim)."""
     base = scenario.parent
     if os.access(base, os.W_OK):
         return base
@@ -336,11 +352,18 @@ def cache_dir(scenario: Path) -> Path:
     return out
 
 
+def built_path(scenario: Path) -> Path:
+    """The one place of the network irlsim makes for a scenario, in :func:`cache_dir`: named after the
+    scenario, by its folder for a ``scenario.toml`` (the oval's: ``sumo_net/oval/oval.net.xml``)."""
+    name = scenario.parent.name if scenario.name == SCENARIO_FILE else scenario.stem
+    return cache_dir(scenario) / f"{name}.net.xml"
+
+
 def _gunzip_cached(net: Path, scenario: Path) -> Path:
-    """The compressed network unpacked into the cache (again when it is newer); one line naming it when it
-    is truncated or not gzip (nothing is left in the cache)."""
-    target = cache_dir(scenario) / net.name.removesuffix(".gz")
-    if not target.is_file() or target.stat().st_mtime < net.stat().st_mtime:
+    """The compressed network unpacked into the cache (again when it is stale); one line naming it when
+    it is truncated or not gzip (nothing is left in the cache)."""
+    target = built_path(scenario)
+    if is_stale(target, (net,)):
         try:
             with atomic_path(target) as tmp, gzip.open(net, "rb") as src, open(tmp, "wb") as dst:
                 shutil.copyfileobj(src, dst)
@@ -357,26 +380,3 @@ OSM_OPTIONS = (
     "--geometry.remove", "--ramps.guess", "--junctions.join", "--tls.guess-signals", "--tls.discard-simple",
     "--tls.join", "--remove-edges.isolated", "--keep-edges.by-vclass", "passenger", "--no-warnings",
 )  # fmt: skip
-
-
-def _built_cached(source: Path, scenario: Path, build: bool, what: str, tool: str, args: list[str]) -> Path:
-    """The network a SUMO ``tool`` (netgenerate, netconvert) builds from ``source`` into the cache, redone
-    when the source is newer; byte-identical builds (the header with its time stamp removed). The tool
-    runs in the source's folder: ``args`` name files relative to it."""
-    if not source.is_file():
-        raise IrlsimError(f"scenario {scenario}: {what} {source} not found")
-    target = cache_dir(scenario) / (source.name.split(".")[0] + ".net.xml")
-    if not build or (target.is_file() and target.stat().st_mtime >= source.stat().st_mtime):
-        return target
-    with atomic_path(target) as tmp:
-        proc = subprocess.run(
-            [sumo_binary(tool), *args, "-o", str(tmp)],
-            cwd=source.parent,
-            capture_output=True,
-            text=True,
-            env={**os.environ, "SUMO_HOME": sumo_home()},
-        )
-        if proc.returncode != 0:
-            raise IrlsimError(f"{tool} failed on {source}: {_netconvert_error(proc)}; fix the {what}")
-        tmp.write_bytes(strip_header(tmp.read_bytes()))
-    return target

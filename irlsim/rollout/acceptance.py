@@ -13,7 +13,7 @@ from typing import Any
 from irlsim.road import load_road
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
-from irlsim.sim.config import ScenarioConfig, scenario_config
+from irlsim.sim.config import EpisodeConfig, scenario_config
 from irlsim.sim.simulation import Simulation
 
 #: the bar (shares of all episodes' events)
@@ -68,7 +68,7 @@ def drive_seeds(
     scenario: str,
     driver: str,
     seeds: tuple[int, ...],
-    cfg: ScenarioConfig,
+    cfg: EpisodeConfig,
     on_episode: Callable[[], None] | None = None,
 ) -> dict[str, float]:
     """Sums over ``seeds`` of one driver's episodes on ``scenario`` (mean speed over all of them);
@@ -115,7 +115,7 @@ def drive_seeds(
 def check_scenario(
     scenario: str,
     seeds: tuple[int, ...],
-    cfg: ScenarioConfig | None = None,
+    cfg: EpisodeConfig | None = None,
     on_episode: Callable[[], None] | None = None,
 ) -> Acceptance:
     """The expert and SUMO's driver on ``seeds`` of ``scenario`` (a loop: 2 laps each); ``on_episode``

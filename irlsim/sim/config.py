@@ -1,4 +1,5 @@
-"""Scenario configuration: traffic, clocks, ego start and episode limits. SI units inside."""
+"""Episode settings (``EpisodeConfig``, a config's ``[scenario]`` table): the road it runs on, traffic,
+clocks, ego start and episode limits. SI units inside."""
 
 from __future__ import annotations
 
@@ -13,10 +14,13 @@ MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/design/scen
 
 
 @dataclass(frozen=True)
-class ScenarioConfig:
+class EpisodeConfig:
     """One SUMO episode: the scenario (road and route) it runs on, its traffic, clocks and ego start.
 
-    Load from TOML with ``irlsim.config.load_config(ScenarioConfig, path)`` (unknown keys are errors).
+    The ``[scenario]`` table of a config (the table keeps its name: configs and their hashes are
+    unchanged). Load from TOML with ``irlsim.config.load_config(EpisodeConfig, path)`` (unknown keys are
+    errors). A scenario itself (the road, its route, its ``[defaults]`` of these settings) is
+    :class:`irlsim.road.scenario.Scenario`.
     """
 
     name: str = DEFAULT_SCENARIO
@@ -164,19 +168,24 @@ class ScenarioConfig:
         return int(round(self.horizon / self.step))
 
 
+#: the old name of :class:`EpisodeConfig` (deprecated: it said "scenario", which is the road's file);
+#: kept so that code importing it still runs
+ScenarioConfig = EpisodeConfig
+
+
 def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
     """A ``[scenario]`` table with the named scenario file's ``[defaults]`` beneath it (the table's own
-    keys win); the oval, and a table without a name, as they are."""
-    name = table.get("name")
-    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
+    keys win); a table without a name gets the default scenario's."""
+    name = table.get("name", DEFAULT_SCENARIO)
+    if not isinstance(name, str):  # not a name: its own line when the config is built
         return table
     defaults = load_scenario(name, build=False).defaults
-    unknown = sorted(set(defaults) - {f for f in ScenarioConfig.__dataclass_fields__} - {"name"})
+    unknown = sorted(set(defaults) - {f for f in EpisodeConfig.__dataclass_fields__} - {"name"})
     if unknown or "name" in defaults:
         bad = unknown[0] if unknown else "name"
         raise IrlsimError(
             f"scenario {name}: [defaults] has '{bad}', which is not an episode setting (irlsim.sim.config."
-            "ScenarioConfig): fix the scenario file"
+            "EpisodeConfig): fix the scenario file"
         )
     return {**defaults, **table}
 
@@ -184,8 +193,8 @@ def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
 def defaults_source(table: dict[str, Any]) -> str | None:
     """The scenario file whose ``[defaults]`` :func:`with_scenario_defaults` puts beneath ``table``, as an
     error line names it (None: none, or a name that is no scenario: that has its own line)."""
-    name = table.get("name")
-    if not isinstance(name, str) or name == DEFAULT_SCENARIO:
+    name = table.get("name", DEFAULT_SCENARIO)
+    if not isinstance(name, str):
         return None
     try:
         return f"scenario {scenario_path(name)} [defaults]"
@@ -193,18 +202,18 @@ def defaults_source(table: dict[str, Any]) -> str | None:
         return None
 
 
-def scenario_config(name: str, **overrides: Any) -> ScenarioConfig:
+def scenario_config(name: str, **overrides: Any) -> EpisodeConfig:
     """The episode settings for scenario ``name``: its file's ``[defaults]``, then ``overrides``; a bad
     value of the ``[defaults]`` is one line naming the scenario file."""
     table = {**overrides, "name": name}
     try:
-        return from_dict(ScenarioConfig, with_scenario_defaults(table))
+        return from_dict(EpisodeConfig, with_scenario_defaults(table))
     except IrlsimError as e:
         source = defaults_source(table)
         if source is None or not str(e).startswith("config: "):
             raise
         try:
-            from_dict(ScenarioConfig, table)
+            from_dict(EpisodeConfig, table)
         except IrlsimError:
             raise e from None  # not the defaults' value
         raise IrlsimError(f"config: {source}: {str(e).removeprefix('config: ')}") from None

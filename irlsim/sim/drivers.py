@@ -13,7 +13,7 @@ from typing import Protocol
 import numpy as np
 
 from irlsim.road import Road, wrap_angle
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.types import EgoState, Observation, Trajectory
 
 
@@ -105,7 +105,7 @@ class SimpleDriver:
     def __init__(
         self,
         road: Road,
-        cfg: ScenarioConfig,
+        cfg: EpisodeConfig,
         *,
         a_max: float = 1.5,
         b_comf: float = 2.0,
@@ -194,7 +194,7 @@ class SumoDriver:
     against on a scenario. Its trajectory only marks the cycle ``by_sumo``; the simulation executes none
     of its states."""
 
-    def __init__(self, road: Road, cfg: ScenarioConfig):
+    def __init__(self, road: Road, cfg: EpisodeConfig):
         self.road = road
         self.n = cfg.horizon_steps + 1
         self.dt = cfg.step

@@ -7,12 +7,12 @@ from __future__ import annotations
 from dataclasses import replace
 
 from irlsim.road import load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import check_sumo_inputs
 from irlsim.sim.start import check_start
 
 
-def check_starts(scenario: ScenarioConfig, names: tuple[str, ...]) -> None:
+def check_starts(scenario: EpisodeConfig, names: tuple[str, ...]) -> None:
     """Every road ``names`` (scenario names) leaves the ego a start with the episode settings
     ``scenario``, and SUMO loads its files (network, vehicle types, demand): a one-line IrlsimError
     otherwise, before a command's work (collect, drive), not an episode's error retried in a worker."""

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.traffic import BG_TYPE
 from irlsim.sim.types import EgoState, Observation
@@ -76,7 +76,7 @@ class ReplaySimulation(Simulation):
     def __init__(
         self,
         road: Road,
-        cfg: ScenarioConfig,
+        cfg: EpisodeConfig,
         tracks: Tracks,
         t_begin: float,
         start: EgoState | None = None,

@@ -26,7 +26,7 @@ from irlsim.errors import IrlsimError
 from irlsim.road import Road, load_road, wrap_angle, yaw_to_sumo_angle
 from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import first_collision, obb_collide
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.inputs import check_inputs, probe, refusal, start_quietly
 from irlsim.sim.start import draw_start, start_scale
@@ -67,7 +67,7 @@ class Simulation:
     def __init__(
         self,
         road: Road | None = None,
-        cfg: ScenarioConfig | None = None,
+        cfg: EpisodeConfig | None = None,
         *,
         gui: bool = False,
         net_file: str | Path | None = None,
@@ -75,7 +75,7 @@ class Simulation:
         demo_vtype: dict[str, str] | None = None,
     ):
         self.road = road if road is not None else load_road(net_file)
-        self.cfg = cfg if cfg is not None else ScenarioConfig()
+        self.cfg = cfg if cfg is not None else EpisodeConfig()
         self.gui = gui
         self.vtypes_file = Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE
         self.marks = CourseMarks.from_road(self.road)

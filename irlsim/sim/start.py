@@ -14,7 +14,7 @@ import numpy as np
 
 from irlsim.errors import IrlsimError
 from irlsim.road import Road, junctions
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import VehicleStates
 
@@ -37,7 +37,7 @@ SIGNAL_START_DECEL = 3.0
 SIGNAL_START_MARGIN = 5.0
 
 
-def _start_ok(road: Road, cfg: ScenarioConfig, e: LoopEdges, s: np.ndarray, scale: float) -> np.ndarray:
+def _start_ok(road: Road, cfg: EpisodeConfig, e: LoopEdges, s: np.ndarray, scale: float) -> np.ndarray:
     """[C] bool: route positions ``s`` [C] where a random start may lie, at clearances x ``scale``."""
     lap = road.lap_length
     # stop lines, exits and the junctions where the route yields (SUMO refuses a start too close to one)
@@ -57,7 +57,7 @@ def _start_ok(road: Road, cfg: ScenarioConfig, e: LoopEdges, s: np.ndarray, scal
     return on_edge & clear & ~before_cp & room & ~before_signal
 
 
-def start_scale(road: Road, cfg: ScenarioConfig, e: LoopEdges) -> float:
+def start_scale(road: Road, cfg: EpisodeConfig, e: LoopEdges) -> float:
     """The factor on the start clearances (``ego_start_clearance``, ``ego_start_checkpoint_clearance``)
     and the room ahead of an open route's start: 1 where the route leaves a start at the configured
     values (every shipped scenario), else the first of START_SCALES that leaves at least MIN_START_SPAN
@@ -77,7 +77,7 @@ def start_scale(road: Road, cfg: ScenarioConfig, e: LoopEdges) -> float:
     )
 
 
-def check_start(road: Road, cfg: ScenarioConfig) -> float:
+def check_start(road: Road, cfg: EpisodeConfig) -> float:
     """:func:`start_scale` of ``road`` (a one-line IrlsimError where it leaves no start): what a command
     checks once before any work."""
     return start_scale(road, cfg, LoopEdges.from_road(road))
@@ -85,7 +85,7 @@ def check_start(road: Road, cfg: ScenarioConfig) -> float:
 
 def draw_start(
     road: Road,
-    cfg: ScenarioConfig,
+    cfg: EpisodeConfig,
     e: LoopEdges,
     seed: int,
     occupied: VehicleStates | None = None,

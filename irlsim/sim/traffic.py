@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road, junctions
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.types import VehicleStates
 
 BG_TYPE = "bg"
@@ -78,7 +78,7 @@ class BackgroundTraffic:
 
     api: Any
     road: Road
-    cfg: ScenarioConfig
+    cfg: EpisodeConfig
     rng: np.random.Generator
     route_laps: int
     edges: LoopEdges

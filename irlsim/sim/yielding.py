@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 
 #: [m] how far ahead along its route the ego asks SUMO for junction foes (beyond the planner's stop
 #: reach of a yield line at city speeds)
@@ -75,7 +75,7 @@ class YieldWatch:
     """The ego's right of way at a road's yield points, read from SUMO each step (:meth:`read`):
     ``binding`` per yield point, and the violations of the last step."""
 
-    def __init__(self, road: Road, cfg: ScenarioConfig):
+    def __init__(self, road: Road, cfg: EpisodeConfig):
         self.nodes = tuple(p.node for p in road.yield_points)
         self.s = np.array([p.s for p in road.yield_points], dtype=np.float64)  # [m] their route positions
         self.lap = float(road.lap_length)

@@ -53,8 +53,7 @@ from irlsim.executor import TIMED_OUT, check_executor, describe_failures, run_jo
 from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
-from irlsim.road.network import build_net
-from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario, scenario_identity
+from irlsim.road.scenario import load_scenario, recorded_name, scenario_identity
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
@@ -198,9 +197,9 @@ def collect_dataset(run: CollectRun) -> CollectResult:
 def scenario_records(cfg: CollectConfig) -> dict[str, Any]:
     """The manifest's record of the roads (refused in one line, before any work, for a scenario that
     does not load): ``scenarios`` {name: sha256 of its scenario file and network} for a dataset over
-    several scenarios or one other than the oval, and ``episode_scenarios`` {split: {episode: name}} for
-    several; nothing for the oval alone (its manifest keeps the bytes of before)."""
-    if not cfg.scenarios and cfg.scenario.name == DEFAULT_SCENARIO:
+    several scenarios or one named, and ``episode_scenarios`` {split: {episode: name}} for several;
+    nothing for the default road alone, which records leave out (``recorded_name``)."""
+    if not cfg.scenarios and recorded_name(cfg.scenario.name) is None:
         return {}
     # each road by its identity (a shipped name, or name@digest): no path, one road however spelled
     ident = {n: scenario_identity(n) for n in cfg.scenario_names}
@@ -378,7 +377,8 @@ def _collect(
         recorded = _check_resumable(manifest_path, config, driver, roads, demonstrator)
         if "scenarios" not in json.loads(manifest_path.read_text()):
             roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
-    build_net()  # once, before the workers start (they only read it)
+    for name in cfg.scenario_names:  # each road's network built once, before the workers read it
+        load_scenario(name)
 
     jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
     total = sum(len(v) for v in seeds.values())

@@ -29,7 +29,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
-from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.road.scenario import recorded_name
 from irlsim.rollout.style import format_style, pool_styles, style_distances
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
@@ -239,8 +239,8 @@ def _write_outputs(
                 "device": device,
                 "precision": run.precision,
             }
-            # the road, where it is not the oval (the oval's tables keep their bytes), and a recording
-            | ({"scenario": cfg.scenario.name} if cfg.scenario.name != DEFAULT_SCENARIO else {})
+            # the road, unless it is the default (left out of records), and a recording
+            | ({"scenario": name} if (name := recorded_name(cfg.scenario.name)) else {})
             | _recording_record(cfg, run),
             "summary": summaries,
             "episodes": episodes,

@@ -1,16 +1,17 @@
-"""Building the oval's SUMO network (``irlsim net``) and describing it."""
+"""Building the default scenario's SUMO network (``irlsim net``: the oval's) and describing it."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 from irlsim.road import load_road
-from irlsim.road.network import build_net
+from irlsim.road.scenario import load_scenario
 
 
 def build_network(force: bool = False) -> Path:
-    """Build ``sumo_net/oval.net.xml`` if stale (or ``force``), print its description; returns its path."""
-    path = build_net(force=force)
+    """Build the default scenario's network (``sumo_net/oval/oval.net.xml``) if stale (or ``force``),
+    print its description; returns its path."""
+    path = load_scenario(force=force).net_file
     road = load_road(path)
     print(f"network: {path}")
     for key, value in road.describe().items():

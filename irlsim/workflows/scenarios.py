@@ -135,8 +135,7 @@ def generate_networks(run: GenerateRun) -> list[Path]:
     with owned_output(run.out, "scenario generate"):
         params = [network_params(run.seed, i) for i in range(run.count)]
         for p in progress(params, desc="generate networks", unit="network"):
-            target = run.out / p.file_name
-            paths.append(target if target.is_file() else build_network(p, run.out))
+            paths.append(build_network(p, run.out))  # one already there is kept: resumed
         entries = [{**asdict(p), "file": p.file_name} for p in params]
         write_json(manifest, {"seed": run.seed, "count": run.count, "networks": entries})
     print(f"networks: {run.count} in {run.out} (parameters in {manifest})")

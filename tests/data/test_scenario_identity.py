@@ -14,10 +14,12 @@ import pytest
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig, config_hash, data_config, episode_record
 from irlsim.errors import IrlsimError
-from irlsim.road.network import OVAL_DIR, SUMO_NET_DIR
+from irlsim.road.network import SUMO_NET_DIR
 from irlsim.road.scenario import load_scenario, scenario_identity
 from irlsim.workflows.collect import scenario_records
 from pipelines.commands import main
+
+OVAL_DIR = SUMO_NET_DIR / "oval"
 
 TINY = "configs/collect/tiny.toml"
 

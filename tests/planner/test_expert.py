@@ -60,11 +60,11 @@ def test_theta_driver_executes_argmax_value(road):
 def _closed_loop(seed: int, laps: int) -> dict:
     from irlsim.config import load_config
     from irlsim.road import load_road
-    from irlsim.sim.config import ScenarioConfig
+    from irlsim.sim.config import EpisodeConfig
     from irlsim.sim.simulation import Simulation
 
     road = load_road()
-    cfg = load_config(ScenarioConfig, None, {"laps": laps, "n_vehicles": 15})
+    cfg = load_config(EpisodeConfig, None, {"laps": laps, "n_vehicles": 15})
     drv = make_expert_driver(road, cfg)
     with Simulation(road, cfg) as sim:
         obs = sim.reset(seed)

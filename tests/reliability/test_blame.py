@@ -11,11 +11,13 @@ import pytest
 
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
-from irlsim.road.network import OVAL_DIR, SUMO_NET_DIR, VTYPES_PATH
+from irlsim.road.network import SUMO_NET_DIR, VTYPES_PATH
 from irlsim.road.scenario import load_scenario
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from pipelines.commands import main
+
+OVAL_DIR = SUMO_NET_DIR / "oval"
 
 OVAL_NET = OVAL_DIR / "oval.net.xml"
 
@@ -23,7 +25,7 @@ OVAL_NET = OVAL_DIR / "oval.net.xml"
 def test_a_broken_vtypes_file_is_named_not_blamed_on_the_net(road, tmp_path):
     broken = tmp_path / "vtypes.add.xml"
     broken.write_text(VTYPES_PATH.read_text().replace("</additional>", ""))  # truncated: not XML
-    sim = Simulation(road, ScenarioConfig(n_vehicles=0), vtypes_file=broken)
+    sim = Simulation(road, EpisodeConfig(n_vehicles=0), vtypes_file=broken)
     with pytest.raises(IrlsimError) as e:
         sim.reset(1)
     msg = str(e.value)
@@ -40,7 +42,7 @@ def test_a_vtypes_file_that_lacks_a_type_irlsim_inserts_is_one_line(road, tmp_pa
     start = text.index(f'<vType id="{vtype}"')
     lacking = tmp_path / "vtypes.add.xml"
     lacking.write_text(text[:start] + text[text.index("/>", start) + 2 :])
-    sim = Simulation(road, ScenarioConfig(n_vehicles=0), vtypes_file=lacking)
+    sim = Simulation(road, EpisodeConfig(n_vehicles=0), vtypes_file=lacking)
     with pytest.raises(IrlsimError) as e:
         sim.reset(1)
     assert str(e.value) == (
@@ -73,7 +75,7 @@ def test_a_vtype_sumo_refuses_is_named_with_sumos_message(road, tmp_path, capfd)
     text = VTYPES_PATH.read_text()
     start = text.index('<vType id="ego"')
     bad.write_text(text[:start] + text[start:].replace('accel="3.0"', 'accel="fast"', 1))
-    sim = Simulation(road, ScenarioConfig(n_vehicles=0), vtypes_file=bad)
+    sim = Simulation(road, EpisodeConfig(n_vehicles=0), vtypes_file=bad)
     with pytest.raises(IrlsimError) as e:
         sim.reset(1)
     assert _one_line(e) == (
@@ -121,7 +123,7 @@ def test_a_broken_network_of_another_scenario_gets_advice_that_fits(road, tmp_pa
     bad.write_text(text[:start] + head + text[end:])
     junction = re.search(r'id="([^"]+)"', head).group(1)  # type: ignore[union-attr]
     scn = _user_scenario(tmp_path / "road", 'file = "bad.net.xml"')
-    sim = Simulation(load_road(scenario=scn), ScenarioConfig(n_vehicles=0))
+    sim = Simulation(load_road(scenario=scn), EpisodeConfig(n_vehicles=0))
     with pytest.raises(IrlsimError) as e:
         sim.reset(1)
     assert _one_line(e) == (

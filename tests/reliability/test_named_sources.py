@@ -10,9 +10,11 @@ import pytest
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.errors import IrlsimError
-from irlsim.road.network import OVAL_DIR
-from irlsim.sim.config import ScenarioConfig, scenario_config
+from irlsim.road.network import SUMO_NET_DIR
+from irlsim.sim.config import EpisodeConfig, scenario_config
 from pipelines.commands import main
+
+OVAL_DIR = SUMO_NET_DIR / "oval"
 
 TINY = "configs/collect/tiny.toml"
 
@@ -67,9 +69,9 @@ def test_a_scenarios_defaults_name_the_scenario_file(tmp_path, capsys):
     # a value of the config that overrides the bad default: the defaults are not used, it loads
     cfg = load_config(CollectConfig, TINY, {"scenario.name": str(scn), "scenario.spawn_distance": 90.0})
     assert cfg.scenario.spawn_distance == 90.0
-    # the same from the other ways in: ScenarioConfig (irlsim sim) and scenario_config (scenario check)
+    # the same from the other ways in: EpisodeConfig (irlsim sim) and scenario_config (scenario check)
     for load in (
-        lambda: load_config(ScenarioConfig, None, {"name": str(scn)}),
+        lambda: load_config(EpisodeConfig, None, {"name": str(scn)}),
         lambda: scenario_config(str(scn)),
     ):
         with pytest.raises(IrlsimError) as e:
@@ -89,3 +91,14 @@ def test_the_environment_names_its_argument():
     with pytest.raises(IrlsimError) as e:
         PlanningEnv(overrides={"planner.n_policies": -3})
     assert str(e.value) == "config: overrides['planner.n_policies']: planner.n_policies must be >= 1, got -3"
+
+
+def test_the_old_name_of_the_episode_settings_still_imports():
+    """``ScenarioConfig`` was renamed ``EpisodeConfig`` (a scenario is the road's file); code that imports
+    the old name gets the same class, so its configs load and hash as before."""
+    from irlsim.sim.config import EpisodeConfig
+    from irlsim.sim.config import ScenarioConfig as Old
+
+    assert Old is EpisodeConfig
+    assert isinstance(load_config(CollectConfig, TINY).scenario, Old)
+    assert Old(n_vehicles=3) == EpisodeConfig(n_vehicles=3)

@@ -1,4 +1,5 @@
-"""The SUMO network of the oval: topology, reproducible build, route-frame geometry, route distances."""
+"""The SUMO network of the oval: topology, reproducible build (the one network builder and its staleness
+rule), route-frame geometry, route distances."""
 
 from __future__ import annotations
 
@@ -8,8 +9,12 @@ import shutil
 import numpy as np
 import pytest
 
-from irlsim.road.network import NET_FILE, NET_SOURCES, OVAL_DIR, build_net, net_is_stale
+from irlsim.road.network import SUMO_NET_DIR, config_sources, is_stale
 from irlsim.road.scenario import load_scenario
+
+#: the oval's scenario folder and the files its network is built from
+OVAL_DIR = SUMO_NET_DIR / "oval"
+OVAL_FILES = ("scenario.toml", "netconvert.cfg", "oval.nod.xml", "oval.edg.xml")
 
 #: the oval's route, as its scenario file (sumo_net/oval/scenario.toml) writes it
 LOOP_EDGES = load_scenario("oval", build=False).edges
@@ -39,35 +44,47 @@ def test_two_allway_stops(road):
     assert len(road.stop_lines) == 2
 
 
-def test_build_is_byte_identical(tmp_path):
-    for s in NET_SOURCES:
-        shutil.copy(OVAL_DIR / s, tmp_path / s)
-    first = build_net(tmp_path, force=True).read_bytes()
-    second = build_net(tmp_path, force=True).read_bytes()
-    assert first == second
+def _oval_copy(folder):
+    """The oval's scenario folder without its network: what the builder starts from."""
+    folder.mkdir()
+    for s in OVAL_FILES:
+        shutil.copy(OVAL_DIR / s, folder / s)
+    return folder / "scenario.toml"
+
+
+def test_build_is_byte_identical(road, tmp_path):
+    """Built twice elsewhere, the oval's network has the shipped build's bytes, without the time stamp."""
+    scenario = _oval_copy(tmp_path / "oval")
+    first = load_scenario(scenario, force=True).net_file.read_bytes()
+    second = load_scenario(scenario, force=True).net_file.read_bytes()
+    assert first == second == road.net_file.read_bytes()
     assert b"generated on" not in first
 
 
 def test_net_is_rebuilt_when_missing_or_older_than_a_source(tmp_path):
-    for s in NET_SOURCES:
-        shutil.copy(OVAL_DIR / s, tmp_path / s)
-        os.utime(tmp_path / s, (1_000_000.0, 1_000_000.0))
-    net = tmp_path / NET_FILE
-    assert net_is_stale(tmp_path)  # missing
-    assert build_net(tmp_path) == net and net.is_file() and not net_is_stale(tmp_path)
+    scenario = _oval_copy(tmp_path / "oval")
+    sources = config_sources(tmp_path / "oval" / "netconvert.cfg")
+    assert sorted(p.name for p in sources) == ["netconvert.cfg", "oval.edg.xml", "oval.nod.xml"]
+    for s in sources:
+        os.utime(s, (1_000_000.0, 1_000_000.0))
+    net = tmp_path / "oval" / "oval.net.xml"
+    assert is_stale(net, sources)  # missing
+    assert load_scenario(scenario).net_file == net and net.is_file() and not is_stale(net, sources)
     os.utime(net, (2_000_000.0, 2_000_000.0))
-    build_net(tmp_path)  # up to date: not rebuilt, so the file keeps its time stamp
+    load_scenario(scenario)  # up to date: not rebuilt, so the file keeps its time stamp
     assert net.stat().st_mtime == 2_000_000.0
-    for s in NET_SOURCES:  # any one source newer than the net makes it stale
-        os.utime(tmp_path / s, (3_000_000.0, 3_000_000.0))
-        assert net_is_stale(tmp_path), s
-        build_net(tmp_path)
-        assert net.stat().st_mtime > 3_000_000.0 and not net_is_stale(tmp_path)
-        os.utime(tmp_path / s, (1_000_000.0, 1_000_000.0))
+    for s in sources:  # any one source newer than the net makes it stale
+        os.utime(s, (3_000_000.0, 3_000_000.0))
+        assert is_stale(net, sources), s
+        load_scenario(scenario)
+        assert net.stat().st_mtime > 3_000_000.0 and not is_stale(net, sources)
+        os.utime(s, (1_000_000.0, 1_000_000.0))
         os.utime(net, (2_000_000.0, 2_000_000.0))
-    assert not net_is_stale(tmp_path)
+    assert not is_stale(net, sources)
+    load_scenario(scenario, force=True)  # forced: rebuilt though up to date
+    assert net.stat().st_mtime > 3_000_000.0
     net.unlink()
-    assert net_is_stale(tmp_path)
+    assert is_stale(net, sources)
 
 
 def _lane_samples(road, lane, step: float = 1.0) -> np.ndarray:

@@ -78,4 +78,7 @@ def test_a_broken_opendrive_map_is_one_line(tmp_path, capsys):
     assert main(["scenario", "show", str(scenario)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "netconvert failed on" in err[0] and "fix the OpenDRIVE map" in err[0], err
-    assert not (tmp_path / "bad" / "road.net.xml").exists()
+    assert sorted(p.name for p in (tmp_path / "bad").iterdir()) == [
+        "road.xodr",
+        "scenario.toml",
+    ]  # nothing built

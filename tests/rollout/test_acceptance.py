@@ -9,7 +9,7 @@ import pytest
 
 from irlsim.road.scenario import shipped_scenarios
 from irlsim.rollout.acceptance import MISSION_MIN, check_scenario
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 
 OTHER_ROADS = [s for s in shipped_scenarios() if s != "oval"]
 
@@ -27,7 +27,7 @@ FAST_ROADS = ("ramp", "corridor")
     "scenario", [s if s in FAST_ROADS else pytest.param(s, marks=pytest.mark.slow) for s in OTHER_ROADS]
 )
 def test_expert_drives_each_scenario_safely(scenario):
-    acc = check_scenario(scenario, (7,), ScenarioConfig(max_time=120.0))
+    acc = check_scenario(scenario, (7,), EpisodeConfig(max_time=120.0))
     e = acc.expert
     assert e["collisions"] == 0 and e["exits"] == 0 and e["red_crossings"] == 0
     assert e["stops_compliant"] == e["stops_passed"]

@@ -12,11 +12,11 @@ from irlsim.planner.config import PlannerConfig
 from irlsim.planner.expert import THETA_EXPERT, ThetaDriver
 from irlsim.planner.planner import Planner
 from irlsim.rollout import FACT_COUNTS, Cycle, EpisodeResult, EpisodeRunner, ObserverBase
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SimpleDriver
 from irlsim.sim.simulation import TIMING_KEYS, Simulation
 
-SCENARIO = ScenarioConfig(n_vehicles=4, laps=1, max_time=600.0)
+SCENARIO = EpisodeConfig(n_vehicles=4, laps=1, max_time=600.0)
 PLANNER = PlannerConfig(n_policies=120)
 
 

@@ -14,7 +14,7 @@ import pytest
 
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.traffic import lane_runways
 from tests.road.test_scenario import STRAIGHT_NODES, make_scenario
@@ -46,7 +46,7 @@ def test_off_the_motorway_onto_a_one_lane_ramp(tmp_path):
     from irlsim.viz.road_map import draw_scenario
 
     assert draw_scenario(road, tmp_path / "rampexit.png").read_bytes()[:4] == b"\x89PNG"
-    with Simulation(road, ScenarioConfig(name="rampexit", max_time=60.0)) as sim:
+    with Simulation(road, EpisodeConfig(name="rampexit", max_time=60.0)) as sim:
         for seed in range(4):
             sim.reset(seed)
             assert sim.ego is not None
@@ -69,7 +69,7 @@ def test_three_lanes_that_leave_as_one(tmp_path):
     # netconvert goes on from the leftmost lane only: the one lane is route lane 2
     assert road.layout.first == (0, 2) and road.layout.count == (3, 1)
     assert [c.lanes for c in road.checkpoints] == [(2,), ()]
-    with Simulation(road, ScenarioConfig(name="three1", max_time=30.0)) as sim:
+    with Simulation(road, EpisodeConfig(name="three1", max_time=30.0)) as sim:
         sim.reset(1)
         for _ in range(50):
             sim.step()

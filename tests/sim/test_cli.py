@@ -163,15 +163,24 @@ def test_plot_cycle_bad_out_fails_before_driving(capsys, tmp_path):
 
 
 def test_net_reports_netconvert_error_line(capsys, tmp_path, monkeypatch):
-    from irlsim.road import network
+    from irlsim.road import network, scenario
 
-    for name in network.NET_SOURCES:
-        shutil.copy(network.OVAL_DIR / name, tmp_path / name)
-    edg = tmp_path / "oval.edg.xml"
+    oval = tmp_path / "oval"  # the default scenario's folder, with a broken edge file
+    oval.mkdir()
+    for name in ("scenario.toml", "netconvert.cfg", "oval.nod.xml", "oval.edg.xml"):
+        shutil.copy(network.SUMO_NET_DIR / "oval" / name, oval / name)
+    edg = oval / "oval.edg.xml"
     edg.write_text(edg.read_text().replace('from="S1" to="X1"', 'from="Q9" to="X1"'))
-    monkeypatch.setattr(network, "OVAL_DIR", tmp_path)
+    monkeypatch.setattr(scenario, "SUMO_NET_DIR", tmp_path)
     rc, _, err = _run(capsys, "net")
     assert rc == 2
-    _one_line_error(err, "netconvert failed", "Error:", "from-node 'Q9' is not known", "fix the XML sources")
+    _one_line_error(
+        err,
+        "netconvert failed",
+        str(oval / "netconvert.cfg"),
+        "Error:",
+        "from-node 'Q9' is not known",
+        "fix the XML sources",
+    )
     assert "Quitting" not in err
-    assert not (tmp_path / network.NET_FILE).exists()
+    assert not (oval / "oval.net.xml").exists()

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from irlsim.rollout import DRIVERS, make_driver
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SimpleDriver
 from irlsim.sim.types import EgoState, Observation, VehicleStates
 
-CFG = ScenarioConfig()
+CFG = EpisodeConfig()
 
 
 def _obs(road, v=15.0, s=20.0, d=0.0, vehicles=None, stop_s=np.inf) -> Observation:

@@ -17,7 +17,7 @@ import pytest
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.road.network import sumo_binary, sumo_home
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.start import check_start
 from tests.road.test_scenario import make_scenario
@@ -84,7 +84,7 @@ def test_the_same_xy_gets_each_pass_its_own_s(grid, tmp_path, edges):
 
 def test_traffic_keeps_its_progress_where_the_route_meets_itself(grid, tmp_path):
     road = load_road(scenario=scenario(tmp_path / "cross", grid, CROSS))
-    cfg = ScenarioConfig(name="cross", n_vehicles=8, max_time=60.0, spawn_distance=120.0)
+    cfg = EpisodeConfig(name="cross", n_vehicles=8, max_time=60.0, spawn_distance=120.0)
     with Simulation(road, cfg) as sim:
         sim.reset(0)
         last: dict[str, float] = {}
@@ -145,7 +145,7 @@ def test_a_route_with_no_start_is_refused_in_one_line(tmp_path):
     edges = '<edge id="ab" from="a" to="b" numLanes="1"/><edge id="bc" from="b" to="c" numLanes="1"/>'
     road = load_road(scenario=make_scenario(tmp_path / "tiny", nodes, edges, 'edges = ["ab", "bc"]'))
     with pytest.raises(IrlsimError, match="leaves no start for the ego") as e:
-        check_start(road, ScenarioConfig(name="tiny"))
+        check_start(road, EpisodeConfig(name="tiny"))
     assert "\n" not in str(e.value)
     too_short = make_scenario(tmp_path / "tinier", nodes, edges, 'edges = ["ab"]')
     with pytest.raises(IrlsimError, match="shorter than the 50 m") as e:

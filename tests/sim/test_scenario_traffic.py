@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from irlsim.road import load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from tests.road.test_scenario import STRAIGHT_NODES, make_scenario
 
@@ -29,7 +29,7 @@ def test_scenario_with_its_own_demand(tmp_path):
     (folder / "demand.rou.xml").write_text(FLOW)
     road = load_road(scenario=folder)
     assert road.demand == (folder / "demand.rou.xml",) and road.warmup == 40.0
-    with Simulation(road, ScenarioConfig(name=str(folder), max_time=30.0)) as sim:
+    with Simulation(road, EpisodeConfig(name=str(folder), max_time=30.0)) as sim:
         obs = sim.reset(3)
         assert obs.ego.t >= 40.0  # the warm-up ran before the ego entered
         ids = set(obs.vehicles.ids)
@@ -46,7 +46,7 @@ def test_scenario_with_its_own_demand(tmp_path):
 def test_traffic_lights_are_read_every_step():
     road = load_road(scenario="corridor")
     assert len(road.signals) == 3
-    with Simulation(road, ScenarioConfig(name="corridor", n_vehicles=0, max_time=200.0)) as sim:
+    with Simulation(road, EpisodeConfig(name="corridor", n_vehicles=0, max_time=200.0)) as sim:
         sim.reset(1)
         states = []
         for _ in range(900):  # 90 s: every light goes through its cycle
@@ -104,7 +104,7 @@ def test_a_street_slower_than_the_traffic_takes_its_vehicles_and_the_ego(tmp_pat
         '<edge id="bc" from="b" to="c" numLanes="2" speed="2.78"/>'
     )
     road = load_road(scenario=make_scenario(tmp_path / "slow", STRAIGHT_NODES, edges, 'edges = ["ab", "bc"]'))
-    cfg = ScenarioConfig(name="slow", n_vehicles=6, max_time=20.0, ego_start_speed_min=10.0)
+    cfg = EpisodeConfig(name="slow", n_vehicles=6, max_time=20.0, ego_start_speed_min=10.0)
     with Simulation(road, cfg) as sim:
         for seed in range(3):
             obs = sim.reset(seed)

@@ -15,7 +15,7 @@ import pytest
 
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.preflight import check_starts
 from irlsim.sim.simulation import Simulation
 from tests.road.test_scenario import make_scenario
@@ -63,7 +63,7 @@ def test_a_circuit_without_a_mission_is_a_scenario(tmp_path, capsys):
 def test_a_short_urban_route_scales_the_start_down(tmp_path):
     road = load_road(scenario=urban_300(tmp_path))
     assert road.route_end_s - road.route_begin_s == pytest.approx(293.0, abs=3.0)
-    with Simulation(road, ScenarioConfig(name="urban", n_vehicles=3, max_time=20.0)) as sim:
+    with Simulation(road, EpisodeConfig(name="urban", n_vehicles=3, max_time=20.0)) as sim:
         assert sim.start_scale < 1.0  # 300 m of room ahead and 150 m from the exit do not fit
         starts = []
         for seed in range(5):
@@ -72,13 +72,13 @@ def test_a_short_urban_route_scales_the_start_down(tmp_path):
             assert road.route_begin_s <= obs.ego.s < road.route_end_s
         assert len(set(np.round(starts, 3))) == 5  # each seed its own start
     # the shipped roads keep their starts: no scaling there
-    assert Simulation(load_road(scenario="ramp"), ScenarioConfig(name="ramp")).start_scale == 1.0
+    assert Simulation(load_road(scenario="ramp"), EpisodeConfig(name="ramp")).start_scale == 1.0
 
 
 def test_a_route_too_short_for_any_start_is_refused_once(tmp_path, capsys):
     folder = urban_300(tmp_path)
     road = load_road(scenario=folder)
-    cfg = ScenarioConfig(name=str(folder))
+    cfg = EpisodeConfig(name=str(folder))
     with pytest.raises(IrlsimError, match="leaves no start for the ego") as e:
         Simulation(road, replace(cfg, ego_start_clearance=5000.0))
     assert "\n" not in str(e.value)
@@ -122,7 +122,7 @@ def test_a_random_start_leaves_room_to_stop_before_a_traffic_light(tmp_path):
     )
     for scenario in (str(grid6), "corridor"):
         road = load_road(scenario=scenario)
-        cfg = ScenarioConfig(name=scenario)
+        cfg = EpisodeConfig(name=scenario)
         edges = LoopEdges.from_road(road)
         scale = start_scale(road, cfg, edges)
         stop = cfg.ego_start_speed_max**2 / (2 * SIGNAL_START_DECEL) + SIGNAL_START_MARGIN

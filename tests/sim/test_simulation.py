@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SimpleDriver, frenet_trajectory
 from irlsim.sim.simulation import TIMING_KEYS, Simulation
 from irlsim.sim.types import Trajectory
@@ -143,7 +143,7 @@ def test_executed_state_is_the_trajectory_state(sim, road):
 
 
 def test_lifecycle(road):
-    s = Simulation(road, ScenarioConfig(n_vehicles=2))
+    s = Simulation(road, EpisodeConfig(n_vehicles=2))
     with pytest.raises(RuntimeError, match="reset"):
         s.observe()
     with s:
@@ -177,7 +177,7 @@ def test_random_start_is_a_function_of_the_seed(sim, road):
 def test_random_start_keeps_clear_of_stop_lines_exits_and_checkpoints(road):
     from irlsim.errors import IrlsimError
 
-    cfg = ScenarioConfig()
+    cfg = EpisodeConfig()
     s_, lane, v = np.array([Simulation(road, cfg).ego_start(seed) for seed in range(300)]).T
     lap = road.lap_length
     for m in [sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits]:
@@ -189,23 +189,23 @@ def test_random_start_keeps_clear_of_stop_lines_exits_and_checkpoints(road):
     assert set(lane.astype(int).tolist()) == {0, 1, 2}
     assert cfg.ego_start_speed_min <= v.min() and v.max() <= cfg.ego_start_speed_max
     assert len(np.unique(s_)) == 300 and (s_ < lap / 2).any() and (s_ > lap / 2).any()
-    fixed = Simulation(road, ScenarioConfig(ego_start_random=False))
+    fixed = Simulation(road, EpisodeConfig(ego_start_random=False))
     assert {fixed.ego_start(seed) for seed in (0, 1, 99)} == {(10.0, 1, 10.0)}
     # clearances the loop cannot meet are scaled down (by halves) until a start fits; where none does,
     # the simulation is refused when it is made, before any episode
-    wide = Simulation(road, ScenarioConfig(ego_start_clearance=600.0))
+    wide = Simulation(road, EpisodeConfig(ego_start_clearance=600.0))
     assert wide.start_scale == 0.5
     s0 = wide.ego_start(0)[0]
     for m in [sl.s for sl in road.stop_lines] + [ex.s_start for ex in road.exits]:
         assert abs((s0 - m + lap / 2) % lap - lap / 2) >= 300.0
     with pytest.raises(IrlsimError, match="leaves no start for the ego"):
-        Simulation(road, ScenarioConfig(ego_start_clearance=5000.0))
+        Simulation(road, EpisodeConfig(ego_start_clearance=5000.0))
 
 
 def test_laps_counted_from_a_start_late_in_the_lap(road):
     """A ghost ego at 25 m/s from a random start that crosses s = 0 (the lap seam): exactly one lap,
     every checkpoint and stop line passed once."""
-    s = Simulation(road, ScenarioConfig(n_vehicles=0, laps=1, max_time=300.0))
+    s = Simulation(road, EpisodeConfig(n_vehicles=0, laps=1, max_time=300.0))
     seed = next(k for k in range(200) if s.ego_start(k)[0] > road.lap_length - 700.0)
     with s:
         obs = s.reset(seed)

@@ -16,7 +16,7 @@ from irlsim.road import load_road
 from irlsim.road.geometry import TURN_LAT_ACC
 from irlsim.road.network import sumo_binary
 from irlsim.road.route import offset_polyline
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 
 ROUTE = ["A0A1", "A1B1", "B1B2", "B2B3"]  # north, right turn east, left turn north, on north
@@ -77,7 +77,7 @@ def test_the_reference_follows_the_turns(grid_turns):
 
 def test_the_expert_takes_turns_as_a_driver(grid_turns):
     road = load_road(scenario=grid_turns)
-    cfg = ScenarioConfig(name=str(grid_turns), n_vehicles=0, max_time=120.0)
+    cfg = EpisodeConfig(name=str(grid_turns), n_vehicles=0, max_time=120.0)
     driver = ExpertDriver(road, planner_config_for(cfg))
     with Simulation(road, cfg) as sim:
         obs = sim.reset(2)

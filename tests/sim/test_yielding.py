@@ -12,7 +12,7 @@ from irlsim.road import load_road
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim import yielding
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import EgoState
@@ -86,7 +86,7 @@ def test_clear_time_and_foe_arrival_closed_form():
 
 
 def _drive(road, seed: int = 0):
-    cfg = ScenarioConfig(
+    cfg = EpisodeConfig(
         name="t",
         max_time=90.0,
         ego_start_random=False,
