@@ -30,7 +30,7 @@ from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_attributes
@@ -251,7 +251,7 @@ class SumoDemonstrator:
     records. No policy of the set is executed: ``last_index`` is -1 and the writer records the policy
     closest to what was driven as the executed one."""
 
-    def __init__(self, road: Road, planner: PlannerConfig, scenario: ScenarioConfig):
+    def __init__(self, road: Road, planner: PlannerConfig, scenario: EpisodeConfig):
         self.planner = Planner(road, planner)
         self.sumo = SumoDriver(road, scenario)
         self.last_policy_set: PolicySet | None = None
@@ -262,7 +262,7 @@ class SumoDemonstrator:
         return self.sumo.plan(obs)
 
 
-def demo_vtype(cfg: DemonstratorConfig, scenario: ScenarioConfig) -> dict[str, str] | None:
+def demo_vtype(cfg: DemonstratorConfig, scenario: EpisodeConfig) -> dict[str, str] | None:
     """The vType attributes a worker's :class:`~irlsim.sim.simulation.Simulation` gets (None: the
     expert); ``maxSpeed`` defaults to the scenario's ego target speed."""
     if cfg.kind != SUMO:

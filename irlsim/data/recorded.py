@@ -27,7 +27,7 @@ from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
-from irlsim.sim.config import ScenarioConfig
+from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.replay import ReplaySimulation, Tracks
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import EgoState, Observation, Trajectory
@@ -168,7 +168,7 @@ class RecordingDemonstrator:
     of the set is executed: ``last_index`` is -1 and the writer records the policy closest to what was
     driven as the executed one."""
 
-    def __init__(self, ego: EgoTrack, planner: PlannerConfig, scenario: ScenarioConfig):
+    def __init__(self, ego: EgoTrack, planner: PlannerConfig, scenario: EpisodeConfig):
         self.planner = Planner(ego.road, planner)
         self.last_policy_set: PolicySet | None = None
         self.last_index = -1
@@ -200,8 +200,8 @@ class RecordingDemonstrator:
 
 
 def recorded_episode(
-    file: str, scenario: ScenarioConfig, planner: PlannerConfig, vid: str, reactive: bool = False
-) -> tuple[RecordingDemonstrator, Road, ScenarioConfig, ReplaySimulation]:
+    file: str, scenario: EpisodeConfig, planner: PlannerConfig, vid: str, reactive: bool = False
+) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on the scenario of ``scenario``: the ego starts at its recorded state and the episode ends
     with its recording; ``reactive``: SUMO drives the others from their first recorded pose on."""

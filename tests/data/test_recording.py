@@ -225,10 +225,10 @@ def _during(t: np.ndarray, at: float) -> bool:
 def test_the_others_replay_their_recorded_poses(fcd):
     from irlsim.data.recorded import recorded_episode
     from irlsim.planner.config import PlannerConfig
-    from irlsim.sim.config import ScenarioConfig
+    from irlsim.sim.config import EpisodeConfig
 
     rec = load_recording(fcd, load_road().net, 0.1)
-    driver, _, scn, sim = recorded_episode(str(fcd), ScenarioConfig(), PlannerConfig(n_policies=50), "veh0")
+    driver, _, scn, sim = recorded_episode(str(fcd), EpisodeConfig(), PlannerConfig(n_policies=50), "veh0")
     with sim:
         obs = sim.reset(0)
         t_rec = sim.t_begin
@@ -334,10 +334,10 @@ def test_replayed_others_drive_through_a_standing_ego_reactive_ones_do_not(follo
     recorded, into it (a collision ends the episode); reactive, SUMO drives 'follow' around or behind it."""
     from irlsim.data.recorded import recorded_episode
     from irlsim.planner.config import PlannerConfig
-    from irlsim.sim.config import ScenarioConfig
+    from irlsim.sim.config import EpisodeConfig
 
     _, road, _, sim = recorded_episode(
-        str(follower), ScenarioConfig(), PlannerConfig(n_policies=50), "lead", reactive=reactive
+        str(follower), EpisodeConfig(), PlannerConfig(n_policies=50), "lead", reactive=reactive
     )
     with sim:
         obs = sim.reset(0)
