@@ -33,8 +33,8 @@ from irlsim.data.demonstrator import (
 from irlsim.data.demos import DemoConfig as DemoConfig  # re-exported: a field of CollectConfig
 from irlsim.data.demos import DemoProjector, expert_projection
 from irlsim.data.recorded import recorded_episode
-from irlsim.data.scenarios import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
-from irlsim.data.scenarios import by_identity
+from irlsim.data.roads import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
+from irlsim.data.roads import by_identity
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter

@@ -1,5 +1,6 @@
-"""The scenarios of a dataset, from its manifest: which scenario every episode was collected on, and
-selections of scenarios (``--scenario-select``) with what identifies the selected data.
+"""The roads of a dataset, from its manifest: which scenario every episode was collected on, and
+selections of scenarios (``--scenario-select``) with what identifies the selected data. (A scenario
+itself, the road's file, is :mod:`irlsim.road.scenario`.)
 
 A dataset over several scenarios (collect config ``[[scenarios]]``) records ``scenarios`` {name: sha256
 of its scenario file and network} and ``episode_scenarios`` {split: {episode: name}}; a dataset of one
