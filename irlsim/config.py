@@ -124,19 +124,22 @@ def load_config(
     path: str | Path | None,
     overrides: dict[str, Any] | None = None,
     labels: dict[str, str] | None = None,
+    scenarios: Any = None,
 ) -> T:
     """Load ``cls`` from a TOML file (or defaults when ``path`` is None), then apply ``overrides``.
 
-    Overrides use dotted keys (``{"scenario.n_vehicles": 5}``). A class with a ``with_defaults(data)``
-    classmethod fills defaults that depend on the data itself (the collect config: a scenario file's
-    ``[defaults]``) before it is built. A bad value is one line naming where it came from: the config
-    file, the scenario file's ``[defaults]`` (``defaults_source(data)``) or the override, as
-    ``labels[key]`` names it (default ``--set KEY``); see :func:`_blame`.
+    Overrides use dotted keys (``{"scenario.n_vehicles": 5}``). A class with a
+    ``with_defaults(data, scenarios)`` classmethod fills defaults that depend on the data itself (the
+    collect config: a scenario file's ``[defaults]``) before it is built; ``scenarios`` is handed to it
+    (the command's :class:`irlsim.road.scenario.Scenarios`: the scenario file read there is the one the
+    command goes on with). A bad value is one line naming where it came from: the config file, the
+    scenario file's ``[defaults]`` (``defaults_source(data)``) or the override, as ``labels[key]`` names
+    it (default ``--set KEY``); see :func:`_blame`.
     """
     data = _read_toml(Path(path)) if path is not None else {}
     full = _with_overrides(data, overrides or {})
     try:
-        return _build(cls, full)
+        return _build(cls, full, scenarios=scenarios)
     except IrlsimError as e:
         msg = str(e)
         if not msg.startswith("config: "):  # already names its object (a scenario file, a --set key)
@@ -182,10 +185,10 @@ def _with_overrides(data: dict[str, Any], overrides: dict[str, Any]) -> dict[str
     return data
 
 
-def _build(cls: type[T], data: dict[str, Any], hook: bool = True) -> T:
+def _build(cls: type[T], data: dict[str, Any], hook: bool = True, scenarios: Any = None) -> T:
     with_defaults = getattr(cls, "with_defaults", None)  # defaults that depend on the data (a scenario's)
     if hook and callable(with_defaults):
-        data = with_defaults(data)
+        data = with_defaults(data, scenarios)
     return from_dict(cls, data)
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from irlsim.config import MAX_SEED, float_in, int_in, load_config, parse_overrides
 from irlsim.data.collection import CollectConfig
 from irlsim.errors import IrlsimError
+from irlsim.road.scenario import Scenarios
 from irlsim.utils import check_non_negative
 from irlsim.workflows.collect import EPISODE_SIM_FACTOR, EPISODE_START_S, CollectRun, collect_dataset
 
@@ -114,9 +115,10 @@ def request(args: argparse.Namespace) -> CollectRun:
         overrides["dagger_round"] = args.round if args.round is not None else 1
     if args.scenario is not None:
         overrides["scenario.name"] = str(args.scenario)
-    cfg = load_config(CollectConfig, args.config, overrides, OPTION_KEYS)
+    scenarios = Scenarios()  # each road's file read once: for the config's [defaults] and the episodes
+    cfg = load_config(CollectConfig, args.config, overrides, OPTION_KEYS, scenarios)
     return CollectRun(
-        cfg, args.out, args.executor, args.address, args.episode_timeout, args.driver, args.runs
+        cfg, args.out, args.executor, args.address, args.episode_timeout, args.driver, args.runs, scenarios
     )
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import int_in
-from irlsim.data.scenarios import parse_selection
+from irlsim.data.roads import parse_selection
 from irlsim.workflows.evaluate import EvaluateRun, evaluate_runs
 
 HELP = "evaluate every trained model on the sequential test split: Table I (Markdown, JSON) and plots"

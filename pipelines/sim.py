@@ -19,6 +19,7 @@ from typing import Any
 from irlsim.config import float_in, int_in, load_config, to_dict
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
+from irlsim.road.scenario import Scenarios
 from irlsim.rollout import EpisodeRunner, make_driver
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import MAX_SEED, Simulation
@@ -67,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _scenario(args: argparse.Namespace) -> EpisodeConfig:
+def _scenario(args: argparse.Namespace, scenarios: Scenarios) -> EpisodeConfig:
 
     overrides: dict[str, Any] = {}
     if args.laps is not None:
@@ -78,7 +79,7 @@ def _scenario(args: argparse.Namespace) -> EpisodeConfig:
         overrides["max_time"] = args.max_time
     if args.scenario is not None:
         overrides["name"] = str(args.scenario)
-    return load_config(EpisodeConfig, args.config, overrides)
+    return load_config(EpisodeConfig, args.config, overrides, scenarios=scenarios)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -100,8 +101,9 @@ def run(args: argparse.Namespace) -> int:
         raise IrlsimError(f"--max-time must be > 0 s, got {args.max_time}")
     if args.json is not None:
         check_output_file(args.json, "--json", "sim.json")
-    cfg = _scenario(args)
-    road = load_road(args.net) if args.net is not None else load_road(scenario=cfg.name)
+    scenarios = Scenarios()  # the road's file read once: for the config's [defaults] and the road
+    cfg = _scenario(args, scenarios)
+    road = load_road(args.net) if args.net is not None else load_road(scenario=scenarios(cfg.name))
     driver = make_driver(args.driver, road, cfg)
 
     episodes: list[dict[str, Any]] = []

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from irlsim import devices
 from irlsim.config import load_config, parse_overrides
-from irlsim.data.scenarios import parse_selection
+from irlsim.data.roads import parse_selection
 from irlsim.errors import IrlsimError
 from irlsim.train import config as tc
 from irlsim.workflows.train import TrainRun, train_models

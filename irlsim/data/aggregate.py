@@ -50,7 +50,7 @@ from irlsim.data.demonstrator import EXPERT, describe
 from irlsim.data.npy import RowConcat
 from irlsim.data.prune import prune_caches
 from irlsim.data.reader import Dataset, open_dataset
-from irlsim.data.scenarios import check_selection, selection_identity, selections
+from irlsim.data.roads import check_selection, selection_identity, selections
 from irlsim.data.tensors import ARRAY_NAMES, POLICY_ARRAYS, SplitTensors
 from irlsim.errors import IrlsimError
 

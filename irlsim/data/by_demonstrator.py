@@ -1,6 +1,6 @@
 """Datasets of several demonstrators: which demonstrator every episode (and cycle) is of, selections of
 demonstrators (``--demonstrator-select``) with what identifies the selected data, as
-:mod:`irlsim.data.scenarios` does for scenarios.
+:mod:`irlsim.data.roads` does for scenarios.
 
 A folder is the data of one demonstrator (its manifest's ``demonstrator``; none: the expert), named by
 :func:`irlsim.data.demonstrator.identity`; an aggregate of folders (``--data A B``) holds several. A

@@ -33,8 +33,8 @@ from irlsim.data.demonstrator import (
 from irlsim.data.demos import DemoConfig as DemoConfig  # re-exported: a field of CollectConfig
 from irlsim.data.demos import DemoProjector, expert_projection
 from irlsim.data.recorded import recorded_episode
-from irlsim.data.scenarios import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
-from irlsim.data.scenarios import by_identity
+from irlsim.data.roads import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
+from irlsim.data.roads import by_identity
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
@@ -42,7 +42,7 @@ from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
-from irlsim.road.scenario import recorded_name, scenario_identity
+from irlsim.road.scenario import Scenarios, recorded_name
 from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
 from irlsim.sim.config import EpisodeConfig, defaults_source, with_scenario_defaults
@@ -114,13 +114,13 @@ class CollectConfig:
                 )
 
     @classmethod
-    def with_defaults(cls, data: dict[str, Any]) -> dict[str, Any]:
+    def with_defaults(cls, data: dict[str, Any], scenarios: Scenarios | None = None) -> dict[str, Any]:
         """The TOML data with its scenario file's ``[defaults]`` beneath its ``[scenario]`` table (see
         :func:`irlsim.sim.config.with_scenario_defaults`); a dataset over several scenarios as it is."""
         table = data.get("scenario")
         if not isinstance(table, dict) or data.get("scenarios"):
             return data
-        return {**data, "scenario": with_scenario_defaults(table)}
+        return {**data, "scenario": with_scenario_defaults(table, scenarios)}
 
     @classmethod
     def defaults_source(cls, data: dict[str, Any]) -> str | None:
@@ -203,10 +203,12 @@ class CollectConfig:
                 "when [[scenarios]] lists the episodes",
             )
 
-    def check_roads(self) -> None:
+    def check_roads(self, scenarios: Scenarios | None = None) -> None:
         """Collection only (drive and the environment take one road of such a config with ``--scenario``):
         ``[scenario] name`` and ``[[scenarios]]`` may not both name the road, nor two entries one road
-        spelled two ways (by :func:`~irlsim.road.scenario.scenario_identity`)."""
+        spelled two ways (by :func:`~irlsim.road.scenario.scenario_identity`; ``scenarios``: the
+        command's, None: read here)."""
+        identity = (scenarios or Scenarios()).identity
         require(
             not self.scenarios or recorded_name(self.scenario.name) is None,  # [scenario] names none
             f"[scenario] name = '{self.scenario.name}' and [[scenarios]] both name the road: list every "
@@ -214,7 +216,7 @@ class CollectConfig:
         )
         seen: dict[str, str] = {}
         for name in self.scenario_names:
-            road = scenario_identity(name)
+            road = identity(name)
             require(
                 road not in seen,
                 f"[[scenarios]] lists one road twice, as '{seen.get(road)}' and '{name}' (both {road}): give "
@@ -265,10 +267,11 @@ def estimate_dataset_bytes(cfg: CollectConfig) -> int:
     return episodes * cycles * cfg.planner.n_policies * DISK_BYTES_PER_POLICY_ROW
 
 
-def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
+def data_config(cfg: CollectConfig | dict[str, Any], scenarios: Scenarios | None = None) -> dict[str, Any]:
     """The config as recorded in a dataset's manifest: every field that shapes the data, as plain JSON
-    types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``)."""
-    d = cfg if isinstance(cfg, dict) else by_identity(to_dict(cfg))
+    types. Accepts a ``CollectConfig`` or an already recorded dict (older manifests kept ``workers``).
+    ``scenarios``: the command's, which has read the config's roads (None: read here)."""
+    d = cfg if isinstance(cfg, dict) else by_identity(to_dict(cfg), scenarios)
     scn = d.get("scenario")
     if isinstance(scn, dict) and "name" in scn and recorded_name(scn["name"]) is None:
         # the default road is left out: its datasets keep the bytes (and identity) of before scenarios
@@ -284,21 +287,26 @@ def data_config(cfg: CollectConfig | dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def config_hash(cfg: CollectConfig | dict[str, Any]) -> str:
+def config_hash(cfg: CollectConfig | dict[str, Any], scenarios: Scenarios | None = None) -> str:
     """sha256 of the data config (:func:`data_config`, canonical JSON): what every episode file records
     beside its seed, so a resumed collection recognises a file collected with another config."""
-    text = json.dumps(data_config(cfg), sort_keys=True, separators=(",", ":"), default=str)
+    text = json.dumps(data_config(cfg, scenarios), sort_keys=True, separators=(",", ":"), default=str)
     return "sha256:" + hashlib.sha256(text.encode()).hexdigest()
 
 
 def episode_record(
-    seed: int, cfg: CollectConfig | dict[str, Any], scenario: str | None = None
+    seed: int,
+    cfg: CollectConfig | dict[str, Any],
+    scenario: str | None = None,
+    scenarios: Scenarios | None = None,
 ) -> dict[str, Any]:
     """What an episode's files record of their collection (EpisodeWriter ``record``): seed, config hash,
-    and in a dataset over several scenarios (``scenario`` given) the episode's scenario."""
-    out: dict[str, Any] = {"seed": int(seed), "config": config_hash(cfg)}
+    and in a dataset over several scenarios (``scenario`` given) the episode's scenario. ``scenarios``:
+    the command's, which has read the roads (None: read here)."""
+    scenarios = scenarios or Scenarios()
+    out: dict[str, Any] = {"seed": int(seed), "config": config_hash(cfg, scenarios)}
     if scenario is not None:
-        out["scenario"] = scenario_identity(scenario)
+        out["scenario"] = scenarios.identity(scenario)
     return out
 
 
@@ -323,6 +331,9 @@ class EpisodeJob:
     and the expert labels every cycle (DAgger, ``irlsim collect --driver``)"""
     scenario: str | None = None
     """the episode's scenario in a dataset over several (``[[scenarios]]``); None: ``[scenario] name``"""
+    scenarios: Scenarios | None = None
+    """the command's roads, read (and their networks built) once before the jobs: a worker process
+    receives them instead of reading the scenario files again (None: read in the episode)"""
 
 
 @runtime_checkable
@@ -420,7 +431,8 @@ def collect_episode(
     cfg = job.config
     seed_everything(job.seed)
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
-    road = load_road(scenario=scenario.name)
+    scenarios = job.scenarios or Scenarios()
+    road = load_road(scenario=scenarios(scenario.name))
     demonstrator, replay = cfg.demonstrator, None
     if make_driver is not None:
         driver: Any = make_driver(road, cfg)
@@ -451,7 +463,7 @@ def collect_episode(
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
     with replay or Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
-        record = episode_record(job.seed, cfg, job.scenario)
+        record = episode_record(job.seed, cfg, job.scenario, scenarios)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()
             runner = EpisodeRunner(
@@ -467,7 +479,7 @@ def collect_episode(
             "collect/split": job.split,
             "collect/episode": job.episode,
             "collect/seed": job.seed,
-            **({"collect/scenario": scenario_identity(job.scenario)} if job.scenario is not None else {}),
+            **({"collect/scenario": scenarios.identity(job.scenario)} if job.scenario is not None else {}),
             "collect/cycles": n_cycles,
             "collect/setup_s": round(setup, 3),
             "collect/wall_s": round(wall, 3),

@@ -17,7 +17,7 @@ from irlsim.data.by_demonstrator import dataset_demonstrator
 from irlsim.data.cache import CACHE_DIR
 from irlsim.data.demonstrator import describe
 from irlsim.data.reader import fixed_list_to_numpy, iter_policy_groups, open_dataset, open_parquet
-from irlsim.data.scenarios import episode_scenario, records_scenarios
+from irlsim.data.roads import episode_scenario, records_scenarios
 from irlsim.data.schema import TABLE_POLICIES, stats_name
 from irlsim.rollout.style import format_style, pool_styles
 

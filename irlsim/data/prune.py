@@ -32,13 +32,13 @@ from irlsim.data.cache import (
     remove_empty,
 )
 from irlsim.data.reader import Dataset
-from irlsim.data.scenarios import selection_key, selections
+from irlsim.data.roads import selection_key, selections
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 
 #: an aggregate's cache folder as older irlsim versions named it (16 hex digits of its folders' hash)
 AGGREGATE_RE = re.compile(r"aggregate-[0-9a-f]{16}")
-#: a selection's cache folder (irlsim.data.scenarios.selection_key)
+#: a selection's cache folder (irlsim.data.roads.selection_key)
 SELECTION_RE = re.compile(r"scenarios-[0-9a-f]{12}")
 #: why an aggregate's copy goes
 AGGREGATE_WHY = (

@@ -24,7 +24,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from irlsim import N_FEATURES
-from irlsim.data import scenarios as by_scenario
+from irlsim.data import roads
 from irlsim.data.cache import (
     CACHE_DIR,
     REBUILD,
@@ -161,18 +161,18 @@ class Dataset:
         self.selection = scenarios
         self.legacy_identities: tuple[str, ...] = ()
         if scenarios is not None:
-            self.identity = by_scenario.selection_identity(manifest, scenarios)
+            self.identity = roads.selection_identity(manifest, scenarios)
 
     @property
     def scenarios(self) -> list[str]:
         """The scenarios the dataset was collected on (all of them, whatever the selection)."""
-        return by_scenario.manifest_scenarios(self.manifest)
+        return roads.manifest_scenarios(self.manifest)
 
     def scenario_of_cycle(self, split: str) -> np.ndarray:
         """[C] the scenario name of every cycle of ``split``, rows as ``split_tensors`` orders them."""
         eps = self.episodes(split)
         rows = [open_parquet(self.cycles_path(split, e), TABLE_CYCLES).metadata.num_rows for e in eps]
-        names = [by_scenario.episode_scenario(self.manifest, split, e) for e in eps]
+        names = [roads.episode_scenario(self.manifest, split, e) for e in eps]
         return np.repeat(np.asarray(names, dtype=str), rows)
 
     def demonstrator_of_cycle(self, split: str) -> np.ndarray:
@@ -196,7 +196,7 @@ class Dataset:
         eps = sorted(int(e) for e in splits[split])
         if self.selection is None:
             return eps
-        return [e for e in eps if by_scenario.episode_scenario(self.manifest, split, e) in self.selection]
+        return [e for e in eps if roads.episode_scenario(self.manifest, split, e) in self.selection]
 
     def cycles_path(self, split: str, episode: int) -> Path:
         return self.path / split / cycles_name(episode)
@@ -264,7 +264,7 @@ class Dataset:
 
     def cache_dir(self, split: str) -> Path:
         if self.selection is not None:
-            return self.path / CACHE_DIR / by_scenario.selection_key(self.selection) / split
+            return self.path / CACHE_DIR / roads.selection_key(self.selection) / split
         return self.path / CACHE_DIR / split
 
     def cache_valid(self, split: str, sources: list[list[Any]] | None = None) -> bool:
@@ -425,5 +425,5 @@ def open_dataset(path: str | Path, scenarios: tuple[str, ...] | None = None) -> 
         raise IrlsimError(f"{manifest_path} is not a JSON object: {_REGENERATE}")
     validate_manifest(manifest, manifest_path)
     if scenarios is not None:
-        scenarios = by_scenario.check_selection(path, by_scenario.manifest_scenarios(manifest), scenarios)
+        scenarios = roads.check_selection(path, roads.manifest_scenarios(manifest), scenarios)
     return Dataset(path, manifest, scenarios)

@@ -67,6 +67,7 @@ from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.planner import Planner
 from irlsim.reward import EXPERT, LearnedReward, load_reward
 from irlsim.road import LANE_WIDTH, load_road
+from irlsim.road.scenario import Scenario, Scenarios
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim.simulation import MAX_SEED, Simulation
 from irlsim.utils import seed_everything
@@ -213,7 +214,8 @@ class PlanningEnv(gym.Env):
     planner; default: the built-in one); ``overrides``: dotted keys applied on top
     (``{"scenario.max_time": 30, "planner.n_policies": 200}``); ``laps``: laps to drive (default the
     config's); ``max_cycles`` > 0 truncates earlier; ``scenario``: the road (a shipped scenario such as
-    ``"motorway"`` or a scenario.toml path; default the config's, the oval).
+    ``"motorway"``, a scenario.toml path or a loaded :class:`irlsim.road.scenario.Scenario`; default the
+    config's, the oval).
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 5}
@@ -229,12 +231,16 @@ class PlanningEnv(gym.Env):
         max_cycles: int = 0,
         continuous: bool = False,
         render_mode: str | None = None,
-        scenario: str | Path | None = None,
+        scenario: str | Path | Scenario | None = None,
     ):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise IrlsimError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if max_cycles < 0:
             raise IrlsimError(f"max_cycles must be >= 0, got {max_cycles}")
+        # the road's file read once, for the config's [defaults] and the road; a Scenario is not read again
+        scenarios = Scenarios(*([scenario] if isinstance(scenario, Scenario) else []))
+        if isinstance(scenario, Scenario):
+            scenario = scenario.path
         if isinstance(config, CollectConfig):
             cfg = config
             if overrides:
@@ -243,7 +249,7 @@ class PlanningEnv(gym.Env):
             named = {"scenario.name": str(scenario)} if scenario is not None else {}
             given = {**(overrides or {}), **named}  # a bad value names the argument it came from
             labels = {k: f"overrides[{k!r}]" for k in overrides or {}} | {"scenario.name": "scenario="}
-            cfg = load_config(CollectConfig, config, given, labels)
+            cfg = load_config(CollectConfig, config, given, labels, scenarios)
         sc = cfg.scenario
         if scenario is not None:
             sc = dataclasses.replace(sc, name=str(scenario))
@@ -254,7 +260,7 @@ class PlanningEnv(gym.Env):
         self.cfg, self.scenario = cfg, sc
         self.render_mode = render_mode
         self.continuous = bool(continuous)
-        self.road = load_road(scenario=sc.name)
+        self.road = load_road(scenario=scenarios(sc.name))
         self.planner = Planner(self.road, cfg.planner)
         n, k = cfg.planner.n_policies, cfg.planner.n_control_points
         self.reward_name, self._theta_fn = _resolve_reward(reward, runs, n)

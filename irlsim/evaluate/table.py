@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from irlsim.data.scenarios import records_scenarios
+from irlsim.data.roads import records_scenarios
 from irlsim.data.situations import SITUATION_NAMES
 from irlsim.devices import current_device
 from irlsim.errors import IrlsimError

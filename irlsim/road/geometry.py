@@ -20,12 +20,15 @@ import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from irlsim.errors import IrlsimError
 from irlsim.road import crossing, junctions, route
+
+if TYPE_CHECKING:
+    from irlsim.road.scenario import Scenario
 
 LANE_WIDTH = 3.2  # [m]
 N_LANES = 3
@@ -1057,31 +1060,40 @@ def _lefthand(net_file: Path) -> bool:
     return b'lefthand="true"' in head
 
 
-@functools.lru_cache(maxsize=8)
-def _load_road_cached(path: str, mtime: float, scenario: str, scenario_mtime: float) -> Road:
-    from irlsim.road.scenario import load_scenario  # the scenario file, read again only when changed
+#: the roads loaded in this process, the most recent last: (network, its mtime, the scenario) -> Road
+_ROADS: dict[tuple[str, float, str], Road] = {}
+_MAX_ROADS = 8
 
-    scn = load_scenario(scenario, build=False)
-    checkpoints = scn.checkpoints or None
-    return Road(
-        path,
-        scn.edges,
-        checkpoints,
-        from_edge=scn.from_edge,
-        to_edge=scn.to_edge,
-        name=scn.name,
-        scenario_file=scn.path,
-        demand=scn.demand,
-        warmup=scn.warmup,
-    )
+
+def _road_of(net_file: Path, scn: Scenario) -> Road:
+    """The Road of scenario ``scn`` on ``net_file``, made once while the network is unchanged."""
+    key = (str(net_file.resolve()), net_file.stat().st_mtime, repr(scn))
+    road = _ROADS.pop(key, None)
+    if road is None:
+        road = Road(
+            key[0],
+            scn.edges,
+            scn.checkpoints or None,
+            from_edge=scn.from_edge,
+            to_edge=scn.to_edge,
+            name=scn.name,
+            scenario_file=scn.path.resolve(),
+            demand=scn.demand,
+            warmup=scn.warmup,
+        )
+    _ROADS[key] = road
+    while len(_ROADS) > _MAX_ROADS:
+        del _ROADS[next(iter(_ROADS))]
+    return road
 
 
 def load_road(
-    net_file: str | Path | None = None, build: bool = True, scenario: str | Path | None = None
+    net_file: str | Path | None = None, build: bool = True, scenario: str | Path | Scenario | None = None
 ) -> Road:
-    """The :class:`Road` of a scenario (a shipped name or a path; default the default scenario, the
-    oval): the route and checkpoints its file names, on its network or on ``net_file``; builds the
-    scenario's network first when it is missing or stale (if ``build`` and no ``net_file``)."""
+    """The :class:`Road` of a scenario (a loaded :class:`irlsim.road.scenario.Scenario`, which is not
+    read again, or a shipped name or a path; default the default scenario, the oval): the route and
+    checkpoints its file names, on its network or on ``net_file``; builds the scenario's network first
+    when it is missing or stale (if ``build`` and no ``net_file``)."""
     from irlsim.road.scenario import DEFAULT_SCENARIO, build_command, load_scenario
 
     spec = DEFAULT_SCENARIO if scenario is None else scenario
@@ -1089,5 +1101,4 @@ def load_road(
     p = scn.net_file if net_file is None else Path(net_file)
     if not p.is_file():
         raise IrlsimError(f"network {p} not found: run {build_command(spec)} to build it")
-    spath = scn.path.resolve()
-    return _load_road_cached(str(p.resolve()), p.stat().st_mtime, str(spath), spath.stat().st_mtime)
+    return _road_of(p, scn)

@@ -44,7 +44,7 @@ import os
 import shutil
 import tomllib
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -157,6 +157,7 @@ class Scenario:
     demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
     warmup: float = 0.0  # [s] before the ego enters
     defaults: dict[str, Any] = field(default_factory=dict)  # EpisodeConfig values of this road
+    network: NetworkSpec | None = None  # where the network comes from (None: a Scenario made by hand)
 
     def digest(self) -> str:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
@@ -186,24 +187,29 @@ def scenario_path(spec: str | Path) -> Path:
     )
 
 
-def scenario_identity(spec: str | Path) -> str:
+def scenario_identity(spec: str | Path | Scenario) -> str:
     """What a dataset records of a road: one identity however the scenario is spelled. A shipped scenario
     is its name (``oval``, ``sumo_net/oval``, ``sumo_net/oval/scenario.toml``, relative or absolute, are
     ``oval``); any other scenario file is ``<its name>@<the first 16 hex digits of its digest>`` (the
-    scenario file and its network by content: a copy elsewhere is the same road, no path is recorded)."""
-    path = scenario_path(spec).resolve()
-    net = load_scenario(path, build=False).net_file
-    return _identity(str(path), path.stat().st_mtime_ns, net.stat().st_mtime_ns if net.is_file() else 0)
+    scenario file and its network by content: a copy elsewhere is the same road, no path is recorded).
+    A loaded :class:`Scenario` is not read again."""
+    scn = spec if isinstance(spec, Scenario) else load_scenario(spec, build=False)
+    shipped = {(SUMO_NET_DIR / n / SCENARIO_FILE).resolve(): n for n in shipped_scenarios()}
+    if scn.path.resolve() in shipped:
+        return shipped[scn.path.resolve()]
+    scn = load_scenario(scn)  # its network built (when stale): the identity is of its bytes
+    net = scn.net_file
+    return _identity(
+        str(scn.path.resolve()), scn.name, scn.path.stat().st_mtime_ns, str(net), net.stat().st_mtime_ns
+    )
 
 
 @functools.lru_cache(maxsize=32)
-def _identity(path: str, mtime_ns: int, net_mtime_ns: int) -> str:
+def _identity(path: str, name: str, mtime_ns: int, net: str, net_mtime_ns: int) -> str:
     """(cached while the scenario file and its network are unchanged)"""
-    shipped = {(SUMO_NET_DIR / n / SCENARIO_FILE).resolve(): n for n in shipped_scenarios()}
-    if Path(path) in shipped:
-        return shipped[Path(path)]
-    scn = load_scenario(path)
-    return f"{scn.name}@{scn.digest().removeprefix('sha256:')[:16]}"
+    h = hashlib.sha256(Path(path).read_bytes())  # as Scenario.digest
+    h.update(Path(net).read_bytes())
+    return f"{name}@{h.hexdigest()[:16]}"
 
 
 def recorded_name(name: str) -> str | None:
@@ -233,9 +239,16 @@ def read_scenario_file(path: Path) -> ScenarioFile:
         raise IrlsimError(f"scenario {path}: needs [network] and [route] tables ({e})") from None
 
 
-def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True, force: bool = False) -> Scenario:
+def load_scenario(
+    spec: str | Path | Scenario = DEFAULT_SCENARIO, build: bool = True, force: bool = False
+) -> Scenario:
     """Load a scenario by shipped name or path; builds its network into the cache when it is stale (or
-    ``force``: a network irlsim makes from the scenario's source is made again)."""
+    ``force``: a network irlsim makes from the scenario's source is made again). A loaded
+    :class:`Scenario` is not read again: only its network is built (``build``)."""
+    if isinstance(spec, Scenario):
+        if not build or spec.network is None:
+            return spec
+        return replace(spec, net_file=_network_file(spec.path, spec.network, build, force))
     path = scenario_path(spec)
     sf = read_scenario_file(path)
     net_file = _network_file(path, sf.network, build, force)
@@ -251,12 +264,46 @@ def load_scenario(spec: str | Path = DEFAULT_SCENARIO, build: bool = True, force
         warmup=sf.traffic.warmup,
         defaults=dict(sf.defaults),
         description=sf.description,
+        network=sf.network,
     )
 
 
-def build_command(spec: str | Path) -> str:
+class Scenarios:
+    """The scenarios of one command, each read from its file once: ``scenarios(spec)`` is the
+    :class:`Scenario` of a shipped name or a path (however spelled), loaded the first time it is named,
+    its network built the first time it is asked for with ``build``. A command makes one, resolves its
+    roads through it (its config's ``[defaults]`` included) and hands the Scenario objects down; it
+    pickles, so worker processes receive the roads instead of reading them again."""
+
+    def __init__(self, *known: Scenario) -> None:
+        """``known``: scenarios already loaded (their networks as they are), named by their files."""
+        self._loaded: dict[Path, tuple[Scenario, bool]] = {}  # by resolved file: (it, network built)
+        for scn in known:
+            self._loaded[scn.path.resolve()] = (scn, False)
+
+    def __call__(self, spec: str | Path | Scenario, build: bool = True) -> Scenario:
+        if isinstance(spec, Scenario):
+            return load_scenario(spec, build=build)
+        key = scenario_path(spec).resolve()
+        scn, built = self._loaded.get(key, (None, False))
+        if scn is None:
+            scn, built = load_scenario(spec, build=build), build
+        elif build and not built:
+            scn, built = load_scenario(scn, build=True), True
+        self._loaded[key] = (scn, built)
+        return scn
+
+    def identity(self, spec: str | Path | Scenario) -> str:
+        """:func:`scenario_identity` of a scenario this command names (read once)."""
+        return scenario_identity(self(spec, build=False))
+
+
+def build_command(spec: str | Path | Scenario) -> str:
     """The command that builds a scenario's network, quoted: 'irlsim net' builds the default road's;
     any other is built as it is loaded ('irlsim scenario show <it>')."""
+    if isinstance(spec, Scenario):
+        default = spec.path.resolve() == (SUMO_NET_DIR / DEFAULT_SCENARIO / SCENARIO_FILE).resolve()
+        spec = DEFAULT_SCENARIO if default else spec.path
     if str(spec) == DEFAULT_SCENARIO:
         return "'irlsim net' (or 'make net')"
     return f"'irlsim scenario show {spec}'"

@@ -8,9 +8,11 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from irlsim.road import load_road
+from irlsim.road.scenario import Scenario, Scenarios
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim.config import EpisodeConfig, scenario_config
@@ -65,14 +67,14 @@ HEADER = "scenario  eps coll exit  red yield stops  mission  km/h  sumo  ratio"
 
 
 def drive_seeds(
-    scenario: str,
+    scenario: str | Path | Scenario,
     driver: str,
     seeds: tuple[int, ...],
     cfg: EpisodeConfig,
     on_episode: Callable[[], None] | None = None,
 ) -> dict[str, float]:
-    """Sums over ``seeds`` of one driver's episodes on ``scenario`` (mean speed over all of them);
-    ``on_episode`` is called after each episode (a progress bar)."""
+    """Sums over ``seeds`` of one driver's episodes on ``scenario`` (a loaded Scenario, a shipped name or
+    a path; mean speed over all of them); ``on_episode`` is called after each episode (a progress bar)."""
     road = load_road(scenario=scenario)
     totals = dict.fromkeys(
         (
@@ -117,14 +119,18 @@ def check_scenario(
     seeds: tuple[int, ...],
     cfg: EpisodeConfig | None = None,
     on_episode: Callable[[], None] | None = None,
+    road: Scenario | None = None,
 ) -> Acceptance:
     """The expert and SUMO's driver on ``seeds`` of ``scenario`` (a loop: 2 laps each); ``on_episode``
-    is called after each of the 2 x len(seeds) episodes."""
-    base = cfg or scenario_config(scenario)
+    is called after each of the 2 x len(seeds) episodes. ``road``: the scenario as the command read it
+    (None: read here, once)."""
+    scenarios = Scenarios(*([road] if road is not None else []))
+    found = scenarios(scenario)
+    base = cfg or scenario_config(scenario, scenarios)
     cfg = dataclasses.replace(base, name=scenario, laps=min(base.laps, 2))
     return Acceptance(
         scenario,
         tuple(seeds),
-        drive_seeds(scenario, "expert", seeds, cfg, on_episode),
-        drive_seeds(scenario, "sumo", seeds, cfg, on_episode),
+        drive_seeds(found, "expert", seeds, cfg, on_episode),
+        drive_seeds(found, "sumo", seeds, cfg, on_episode),
     )

@@ -8,7 +8,7 @@ from typing import Any
 
 from irlsim.config import from_dict, require
 from irlsim.errors import IrlsimError
-from irlsim.road.scenario import DEFAULT_SCENARIO, load_scenario, scenario_path
+from irlsim.road.scenario import DEFAULT_SCENARIO, Scenarios, load_scenario, scenario_path
 
 MAX_VEHICLES = 15  # the scenario's cap on background vehicles (docs/design/scenario.md)
 
@@ -149,9 +149,9 @@ class EpisodeConfig:
         self.validate()
 
     @classmethod
-    def with_defaults(cls, data: dict[str, Any]) -> dict[str, Any]:
+    def with_defaults(cls, data: dict[str, Any], scenarios: Scenarios | None = None) -> dict[str, Any]:
         """The data with its scenario file's ``[defaults]`` beneath it (``load_config``'s hook)."""
-        return with_scenario_defaults(data)
+        return with_scenario_defaults(data, scenarios)
 
     @classmethod
     def defaults_source(cls, data: dict[str, Any]) -> str | None:
@@ -173,13 +173,15 @@ class EpisodeConfig:
 ScenarioConfig = EpisodeConfig
 
 
-def with_scenario_defaults(table: dict[str, Any]) -> dict[str, Any]:
+def with_scenario_defaults(table: dict[str, Any], scenarios: Scenarios | None = None) -> dict[str, Any]:
     """A ``[scenario]`` table with the named scenario file's ``[defaults]`` beneath it (the table's own
-    keys win); a table without a name gets the default scenario's."""
+    keys win); a table without a name gets the default scenario's. ``scenarios``: the command's, which
+    reads the file once for the config and the road (None: read here)."""
     name = table.get("name", DEFAULT_SCENARIO)
     if not isinstance(name, str):  # not a name: its own line when the config is built
         return table
-    defaults = load_scenario(name, build=False).defaults
+    scn = scenarios(name, build=False) if scenarios is not None else load_scenario(name, build=False)
+    defaults = scn.defaults
     unknown = sorted(set(defaults) - {f for f in EpisodeConfig.__dataclass_fields__} - {"name"})
     if unknown or "name" in defaults:
         bad = unknown[0] if unknown else "name"
@@ -202,12 +204,13 @@ def defaults_source(table: dict[str, Any]) -> str | None:
         return None
 
 
-def scenario_config(name: str, **overrides: Any) -> EpisodeConfig:
+def scenario_config(name: str, scenarios: Scenarios | None = None, **overrides: Any) -> EpisodeConfig:
     """The episode settings for scenario ``name``: its file's ``[defaults]``, then ``overrides``; a bad
-    value of the ``[defaults]`` is one line naming the scenario file."""
+    value of the ``[defaults]`` is one line naming the scenario file. ``scenarios``: the command's (the
+    file read once), None: read here."""
     table = {**overrides, "name": name}
     try:
-        return from_dict(EpisodeConfig, with_scenario_defaults(table))
+        return from_dict(EpisodeConfig, with_scenario_defaults(table, scenarios))
     except IrlsimError as e:
         source = defaults_source(table)
         if source is None or not str(e).startswith("config: "):

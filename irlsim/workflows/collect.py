@@ -53,7 +53,7 @@ from irlsim.executor import TIMED_OUT, check_executor, describe_failures, run_jo
 from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
 from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
-from irlsim.road.scenario import load_scenario, recorded_name, scenario_identity
+from irlsim.road.scenario import Scenarios, recorded_name
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
 
@@ -76,6 +76,9 @@ class CollectRun:
     """DAgger: the learned driver (a model name in ``runs`` or a checkpoint path); None: the expert"""
     runs: Path | None = None
     """with ``driver`` a model name: the runs folder holding it"""
+    scenarios: Scenarios = field(default_factory=Scenarios)
+    """the command's roads, each scenario file read once (the one its config was loaded with, when
+    given: ``load_config(..., scenarios=)``) and handed to every episode"""
 
 
 @dataclass
@@ -163,17 +166,18 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     """Collect (or resume) the dataset of ``run`` into ``run.out``; see the module docstring. Raises
     :class:`~irlsim.errors.IrlsimError` (one line) before any work for a config the folder was not
     collected with, a busy folder, a missing driver or an unusable output folder."""
-    cfg = run.config
-    cfg.check_roads()
+    cfg, scenarios = run.config, run.scenarios
+    cfg.check_roads(scenarios)
     # SUMO's refusal of a demonstrator's vehicle type: one line, before any work (nothing written)
     demo_record = None
     if cfg.demonstrator.kind != EXPERT_DEMONSTRATOR:
-        net = load_scenario(cfg.scenario_names[0]).net_file
+        net = scenarios(cfg.scenario_names[0]).net_file
         n = cfg.train_episodes + cfg.validation_episodes + cfg.test_episodes
         names, step = cfg.scenario_names, cfg.scenario.step
         demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, net, names, step, n)
         cfg = replace(cfg, demonstrator=demonstrator)
-    check_starts(cfg.scenario, cfg.scenario_names)  # a route too short for the ego's start: refused here
+    # a route too short for the ego's start: refused here; each road's network built, before any worker
+    check_starts(cfg.scenario, cfg.scenario_names, scenarios)
     if cfg.dagger_round and run.driver is None:
         raise IrlsimError(
             f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"
@@ -186,7 +190,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     check_output_dir(out, "--out", estimate_dataset_bytes(cfg))
     try:
         with exclusive_lock(out / LOCK_NAME):
-            failed = _collect(cfg, out, run.executor, run.address, driver, timeout, demo_record)
+            failed = _collect(cfg, out, scenarios, run.executor, run.address, driver, timeout, demo_record)
     except LockBusy as busy:
         raise IrlsimError(
             f"another 'irlsim collect' is writing {out} (pid {busy.holder}): wait for it or stop it"
@@ -194,16 +198,18 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     return CollectResult(out, failed)
 
 
-def scenario_records(cfg: CollectConfig) -> dict[str, Any]:
+def scenario_records(cfg: CollectConfig, scenarios: Scenarios | None = None) -> dict[str, Any]:
     """The manifest's record of the roads (refused in one line, before any work, for a scenario that
     does not load): ``scenarios`` {name: sha256 of its scenario file and network} for a dataset over
     several scenarios or one named, and ``episode_scenarios`` {split: {episode: name}} for several;
-    nothing for the default road alone, which records leave out (``recorded_name``)."""
+    nothing for the default road alone, which records leave out (``recorded_name``). ``scenarios``: the
+    command's (None: read here)."""
     if not cfg.scenarios and recorded_name(cfg.scenario.name) is None:
         return {}
+    scenarios = scenarios or Scenarios()
     # each road by its identity (a shipped name, or name@digest): no path, one road however spelled
-    ident = {n: scenario_identity(n) for n in cfg.scenario_names}
-    out: dict[str, Any] = {"scenarios": {ident[n]: load_scenario(n).digest() for n in cfg.scenario_names}}
+    ident = {n: scenarios.identity(n) for n in cfg.scenario_names}
+    out: dict[str, Any] = {"scenarios": {ident[n]: scenarios(n).digest() for n in cfg.scenario_names}}
     if cfg.scenarios:
         out["episode_scenarios"] = {
             s: {str(e): ident[n] for (e, _), n in zip(cfg.episodes(s), cfg.episode_scenarios(s), strict=True)}
@@ -273,9 +279,12 @@ def _check_resumable(
     return old.get("driver")
 
 
-def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[Any], dict[str, list[int]]]:
+def _pending_jobs(
+    cfg: Any, out: Path, ckpt: str | None = None, scenarios: Scenarios | None = None
+) -> tuple[list[Any], dict[str, list[int]]]:
     """The episodes still to collect (executor jobs) and every split's seeds; a finished episode whose
-    files fail the check is deleted and collected again."""
+    files fail the check is deleted and collected again. Every job carries the command's ``scenarios``."""
+    scenarios = scenarios or Scenarios()
     jobs: list[Any] = []
     seeds: dict[str, list[int]] = {}
     vouched = (out / "manifest.json").is_file()  # checked against this config: older files without a record
@@ -294,7 +303,9 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                     episode,
                     n_policies=cfg.planner.n_policies,
                     n_control_points=cfg.planner.n_control_points,
-                    record=episode_record(seed, cfg, road),  # another seed or config: collected again
+                    record=episode_record(
+                        seed, cfg, road, scenarios
+                    ),  # another seed or config: collected again
                     unrecorded_ok=vouched,
                 )
                 if problem is None:
@@ -302,7 +313,9 @@ def _pending_jobs(cfg: Any, out: Path, ckpt: str | None = None) -> tuple[list[An
                 print(f"collect: {problem}: collecting {split} episode {episode} again", file=sys.stderr)
                 remove_episode(out, split, episode)
             # an absolute path: a Ray worker runs in a folder of its own
-            job = EpisodeJob(str(out.resolve()), split, episode, seed, cfg, ckpt, road)  # ckpt: DAgger's
+            job = EpisodeJob(
+                str(out.resolve()), split, episode, seed, cfg, ckpt, road, scenarios
+            )  # ckpt: DAgger's
             jobs.append(ExecutorJob(f"{split}/{episode}", job))
     return jobs, seeds
 
@@ -358,6 +371,7 @@ def _demo_record(demonstrator: dict[str, Any] | None) -> dict[str, Any]:
 def _collect(
     cfg: Any,
     out: Path,
+    scenarios: Scenarios,
     executor: str = "local",
     address: str | None = None,
     driver: dict[str, Any] | None = None,
@@ -367,20 +381,18 @@ def _collect(
     """The collection itself, run while this process holds ``<out>/.lock``. ``driver``: the learned
     driver's identity (:func:`driver_identity`) for a DAgger collection, recorded in the manifest;
     ``timeout``: the executor's limit per episode attempt; ``demonstrator``: a SUMO demonstrator's record
-    (None: the expert). Returns the episodes that failed twice (key -> reason; empty when complete)."""
-
+    (None: the expert); ``scenarios``: the command's roads. Returns the episodes that failed twice (key ->
+    reason; empty when complete)."""
     manifest_path = out / "manifest.json"
-    config = data_config(cfg)
-    roads = scenario_records(cfg)  # a scenario that does not load: one line, before any work
+    config = data_config(cfg, scenarios)
+    roads = scenario_records(cfg, scenarios)  # a scenario that does not load: one line, before any work
     recorded = driver  # as the manifest records it: the first collection's, which the identity hashes
     if manifest_path.is_file():
         recorded = _check_resumable(manifest_path, config, driver, roads, demonstrator)
         if "scenarios" not in json.loads(manifest_path.read_text()):
             roads = {}  # one road, collected before manifests recorded it: the manifest keeps its bytes
-    for name in cfg.scenario_names:  # each road's network built once, before the workers read it
-        load_scenario(name)
 
-    jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None)
+    jobs, seeds = _pending_jobs(cfg, out, driver["checkpoint"] if driver is not None else None, scenarios)
     total = sum(len(v) for v in seeds.values())
     where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
     where += f", at most {timeout:g} s per episode" if timeout is not None else ", in this process"

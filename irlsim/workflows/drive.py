@@ -29,7 +29,7 @@ from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.reward import load_reward
 from irlsim.road import load_road
-from irlsim.road.scenario import recorded_name
+from irlsim.road.scenario import Scenario, Scenarios, recorded_name
 from irlsim.rollout.style import format_style, pool_styles, style_distances
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
@@ -104,6 +104,7 @@ class DriveJob:
     precision: str = "fp32"
     expert_progress: Any = None  # the expert's (t, s) on the same seed, for the scorecard
     reactive: bool = False  # on a recording: SUMO drives the other vehicles
+    road: Any = None  # the Scenario of cfg.scenario.name, read once by the command (None: read here)
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -127,7 +128,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         _MODELS[key] = load_reward(job.spec, job.runs, n_policies=n_policies, threads=job.threads)
     name = job.cfg.scenario.name
     if name not in _ROAD:
-        _ROAD[name] = load_road(scenario=name)
+        _ROAD[name] = load_road(scenario=job.road if job.road is not None else name)
     return drive_episode(
         _MODELS[key],
         _ROAD[name],
@@ -161,6 +162,7 @@ def _episode_jobs(
     out: Path,
     runs: str | None,
     device: str,
+    road: Scenario | None = None,
 ) -> tuple[list[Any], list[str]]:
     """One executor job per (model, episode), and each model's label in the job keys (``label/i``)."""
     jobs: list[Any] = []
@@ -189,6 +191,7 @@ def _episode_jobs(
                 device,
                 run.precision,
                 reactive=run.reactive,
+                road=road,
             )
             jobs.append(Job(f"{label}/{i}", job))
 
@@ -296,9 +299,10 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
         print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
     check_executor(run.executor, run.workers, run.address)
     scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
-    cfg = load_config(CollectConfig, run.config_file, scenario)
+    scenarios = Scenarios()  # the road's file read once: for the config's [defaults] and every episode
+    cfg = load_config(CollectConfig, run.config_file, scenario, scenarios=scenarios)
     cfg = _recording(cfg, run)
-    check_starts(cfg.scenario, (cfg.scenario.name,))  # a route too short for the ego's start: refused here
+    check_starts(cfg.scenario, (cfg.scenario.name,), scenarios)  # a route too short for the ego's start
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
@@ -308,14 +312,22 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, run.threads)] = model
     with owned_output(out, "drive"):  # one command writes an --out at a time; pictures come first
-        return _drive_into(run, models, specs, cfg, out, runs, device)
+        return _drive_into(run, models, specs, cfg, out, runs, device, scenarios(cfg.scenario.name))
 
 
 def _drive_into(
-    run: DriveRun, models: list[Any], specs: list[str], cfg: Any, out: Path, runs: str | None, device: str
+    run: DriveRun,
+    models: list[Any],
+    specs: list[str],
+    cfg: Any,
+    out: Path,
+    runs: str | None,
+    device: str,
+    road: Scenario,
 ) -> DriveResult | None:
-    """The episodes, pictures and tables, while this process holds ``<out>/.lock``."""
-    jobs, labels = _episode_jobs(run, models, specs, cfg, out, runs, device)
+    """The episodes, pictures and tables, while this process holds ``<out>/.lock``; ``road``: the
+    scenario of every episode, as the command read it."""
+    jobs, labels = _episode_jobs(run, models, specs, cfg, out, runs, device, road)
     limit = episode_timeout(run.episode_timeout, run.executor, run.workers, cfg.scenario, run.max_cycles)
     results = _drive_jobs(run, jobs, out, limit)
     if results is None:

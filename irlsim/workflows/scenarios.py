@@ -15,7 +15,7 @@ from irlsim.config import MAX_SEED
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.road.generate import build_network, network_params
-from irlsim.road.scenario import load_scenario
+from irlsim.road.scenario import Scenarios
 from irlsim.rollout.acceptance import MISSION_MIN, SPEED_TOLERANCE, Acceptance, check_scenario
 from irlsim.sim.config import scenario_config
 from irlsim.utils import atomic_write_text, owned_output, progress, write_json
@@ -74,16 +74,17 @@ def check_scenario_run(run: CheckRun) -> Acceptance:
         raise IrlsimError(f"--seed must be in 0..{MAX_SEED - run.episodes}, got {run.seed}")
     if run.max_time is not None and not run.max_time > 0:
         raise IrlsimError(f"--max-time must be > 0 s, got {run.max_time}")
-    scn = load_scenario(run.scenario)
+    scenarios = Scenarios()  # the scenario's file read once: its road, its [defaults], the episodes
+    scn = scenarios(run.scenario)
     out = run.out if run.out is not None else Path("runs/check") / scn.name
     check_output_dir(out, "--out")
     overrides: dict[str, Any] = {} if run.max_time is None else {"max_time": run.max_time}
-    cfg = scenario_config(run.scenario, **overrides)
+    cfg = scenario_config(run.scenario, scenarios, **overrides)
     seeds = tuple(range(run.seed, run.seed + run.episodes))
     out.mkdir(parents=True, exist_ok=True)
     with owned_output(out, "scenario check"):
         bar = progress(total=2 * run.episodes, desc=f"check {scn.name}", unit="episode")
-        acc = check_scenario(run.scenario, seeds, cfg, on_episode=lambda: bar.update(1))
+        acc = check_scenario(run.scenario, seeds, cfg, on_episode=lambda: bar.update(1), road=scn)
         bar.close()
         md = check_markdown(acc, scn.name)
         record = {

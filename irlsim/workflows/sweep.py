@@ -36,7 +36,7 @@ from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.road.draw import MIN_ROUTE_LENGTH, car_edges, draw_routes, read_network
 from irlsim.road.refusals import refusal_reason
-from irlsim.road.scenario import read_scenario_file
+from irlsim.road.scenario import Scenarios, load_scenario
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim.collision import collision_line
@@ -309,11 +309,12 @@ def crash_line(e: BaseException) -> str:
 def _load_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for worker processes
     """Load one route's road as ``irlsim scenario show`` does, and check that it leaves the ego a start
     as every command that drives does before any work: loaded, refused or crash (never raises)."""
-    sf = read_scenario_file(Path(task.scenario))
-    edges = tuple(sf.route.edges)
-    try:
-        road = load_road(scenario=task.scenario)
-        check_start(road, scenario_config(task.scenario))
+    edges: tuple[str, ...] = ()
+    try:  # the route's scenario file read once: its road and its [defaults]
+        scn = load_scenario(task.scenario, build=False)
+        edges = scn.edges
+        road = load_road(scenario=scn)
+        check_start(road, scenario_config(task.scenario, Scenarios(scn)))
     except IrlsimError as e:
         return _base_record(task.network, task.index, task.seed, edges, 0.0, task.scenario, "refused", str(e))
     except Exception as e:  # a defect of the road layer: recorded, never a refusal
@@ -353,8 +354,9 @@ def _load(run: SweepRun, tasks: list[RouteTask]) -> None:
 def _drive_route(task: RouteTask) -> dict[str, Any]:  # top level: picklable for worker processes
     """The expert's episode on one route: its outcome against the safety bounds (never raises)."""
     try:
-        road = load_road(scenario=task.scenario)
-        cfg = scenario_config(task.scenario, max_time=task.max_time)
+        scn = load_scenario(task.scenario)  # the route's scenario file read once
+        road = load_road(scenario=scn)
+        cfg = scenario_config(task.scenario, Scenarios(scn), max_time=task.max_time)
         seed_everything(task.seed)
         with Simulation(road, cfg) as sim:
             result = EpisodeRunner(sim).run(make_driver("expert", road, cfg), task.seed)

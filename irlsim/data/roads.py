@@ -1,5 +1,6 @@
-"""The scenarios of a dataset, from its manifest: which scenario every episode was collected on, and
-selections of scenarios (``--scenario-select``) with what identifies the selected data.
+"""The roads of a dataset, from its manifest: which scenario every episode was collected on, and
+selections of scenarios (``--scenario-select``) with what identifies the selected data. (A scenario
+itself, the road's file, is :mod:`irlsim.road.scenario`.)
 
 A dataset over several scenarios (collect config ``[[scenarios]]``) records ``scenarios`` {name: sha256
 of its scenario file and network} and ``episode_scenarios`` {split: {episode: name}}; a dataset of one
@@ -18,7 +19,11 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.errors import IrlsimError
-from irlsim.road.scenario import DEFAULT_SCENARIO, scenario_identity  # DEFAULT: of a manifest naming none
+from irlsim.road.scenario import (
+    DEFAULT_SCENARIO,
+    Scenarios,
+    scenario_identity,
+)  # DEFAULT: of a manifest naming none
 
 #: evaluation accepts a model trained on any selection of a dataset's scenarios: up to this many of them
 MAX_SELECTABLE = 8
@@ -48,14 +53,16 @@ def episode_scenario(manifest: dict[str, Any], split: str, episode: int) -> str:
     return manifest_scenarios(manifest)[0]
 
 
-def by_identity(d: dict[str, Any]) -> dict[str, Any]:
+def by_identity(d: dict[str, Any], scenarios: Scenarios | None = None) -> dict[str, Any]:
     """The config's scenario names as their identities (:func:`irlsim.road.scenario.scenario_identity`):
-    the same road spelled another way is the same data config, and no path enters it."""
+    the same road spelled another way is the same data config, and no path enters it. ``scenarios``: the
+    command's, which has read the roads (None: read here)."""
+    identity = (scenarios or Scenarios()).identity
     scn = d.get("scenario")
     if isinstance(scn, dict) and isinstance(scn.get("name"), str):
-        d = {**d, "scenario": {**scn, "name": scenario_identity(scn["name"])}}
+        d = {**d, "scenario": {**scn, "name": identity(scn["name"])}}
     if d.get("scenarios"):
-        d = {**d, "scenarios": [{**e, "name": scenario_identity(e["name"])} for e in d["scenarios"]]}
+        d = {**d, "scenarios": [{**e, "name": identity(e["name"])} for e in d["scenarios"]]}
     return d
 
 

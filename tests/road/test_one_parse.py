@@ -1,0 +1,58 @@
+"""A scenario file is read once per command and road: the command resolves it into one ``Scenario``
+and hands that object down (config defaults, the road, the simulation, collection's episodes)."""
+
+from __future__ import annotations
+
+import pickle
+from collections import Counter
+from pathlib import Path
+
+import pytest
+
+from irlsim.cli import main
+from irlsim.road import load_road
+from irlsim.road import scenario as scenario_module
+from irlsim.road.scenario import Scenarios, load_scenario
+
+
+@pytest.fixture
+def parses(monkeypatch) -> Counter[Path]:
+    """Every read_scenario_file call, by the file it read."""
+    counts: Counter[Path] = Counter()
+    real = scenario_module.read_scenario_file
+
+    def counting(path: Path):
+        counts[Path(path).resolve()] += 1
+        return real(path)
+
+    monkeypatch.setattr(scenario_module, "read_scenario_file", counting)
+    return counts
+
+
+def test_sim_reads_its_scenario_once(parses, capsys):
+    rc = main(["sim", "--episodes", "1", "--vehicles", "0", "--max-time", "1", "--scenario", "oval"])
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
+
+
+def test_collect_episode_reads_its_scenario_once(parses, tmp_path, capsys):
+    config = tmp_path / "collect.toml"
+    config.write_text(
+        "workers = 1\ntrain_episodes = 1\nvalidation_episodes = 0\ntest_episodes = 0\nmax_cycles = 2\n"
+        "[scenario]\nn_vehicles = 0\n[planner]\nn_policies = 20\n"
+    )
+    rc = main(["collect", "--config", str(config), "--out", str(tmp_path / "data")])
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
+
+
+def test_a_scenario_pickles_and_loads_its_road_without_reading_the_file(parses):
+    scn = pickle.loads(pickle.dumps(load_scenario("oval")))
+    roads = Scenarios()
+    roads("sumo_net/oval")
+    in_worker = pickle.loads(pickle.dumps(roads))  # what a worker process receives with its job
+    parses.clear()
+    road = load_road(scenario=scn)
+    assert road.name == "oval" and road.net_file == scn.net_file
+    assert in_worker("oval").path.resolve() == scn.path.resolve() and in_worker.identity("oval") == "oval"
+    assert not parses
