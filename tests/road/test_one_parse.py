@@ -56,3 +56,29 @@ def test_a_scenario_pickles_and_loads_its_road_without_reading_the_file(parses):
     assert road.name == "oval" and road.net_file == scn.net_file
     assert in_worker("oval").path.resolve() == scn.path.resolve() and in_worker.identity("oval") == "oval"
     assert not parses
+
+
+def _collect_one(tmp_path: Path, config: str, *overrides: str) -> list[str]:
+    """A one-episode collect of ``config`` at a tiny size (2 cycles of 20 policies)."""
+    sizes = (
+        "train_episodes=1",
+        "validation_episodes=0",
+        "test_episodes=0",
+        "max_cycles=2",
+        "planner.n_policies=20",
+    )
+    sets = [f"--set={o}" for o in (*sizes, *overrides)]
+    return ["collect", "--config", config, "--out", str(tmp_path / "data"), *sets]
+
+
+def test_sumo_demonstrator_collect_reads_its_scenario_once(parses, tmp_path, capsys):
+    rc = main(_collect_one(tmp_path, "configs/collect/sumo_idm.toml", "scenario.n_vehicles=0"))
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
+
+
+def test_recording_collect_reads_its_scenario_once(parses, tmp_path, capsys):
+    """The recording is read and checked on the road the command loaded, then replayed in the episode."""
+    rc = main(_collect_one(tmp_path, "examples/mydriver/collect.toml", "demonstrator.ego=car0"))
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
