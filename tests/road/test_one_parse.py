@@ -82,3 +82,18 @@ def test_recording_collect_reads_its_scenario_once(parses, tmp_path, capsys):
     rc = main(_collect_one(tmp_path, "examples/mydriver/collect.toml", "demonstrator.ego=car0"))
     assert rc == 0, capsys.readouterr().err
     assert list(parses.values()) == [1], parses
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["scenario", "show", "motorway"],
+        ["net"],
+        ["plot-cycle", "--time", "0", "--vehicles", "0", "--out", "{tmp}/cycle.png"],
+    ],
+    ids=lambda argv: " ".join(argv[:2]),
+)
+def test_road_commands_read_their_scenario_once(parses, tmp_path, capsys, argv):
+    rc = main([a.format(tmp=tmp_path) for a in argv])
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
