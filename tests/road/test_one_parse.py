@@ -90,6 +90,7 @@ def test_recording_collect_reads_its_scenario_once(parses, tmp_path, capsys):
         ["scenario", "show", "motorway"],
         ["net"],
         ["plot-cycle", "--time", "0", "--vehicles", "0", "--out", "{tmp}/cycle.png"],
+        ["bench", "--planner", "--cycles", "1", "--scenario", "motorway", "--out", "{tmp}/bench"],
     ],
     ids=lambda argv: " ".join(argv[:2]),
 )
