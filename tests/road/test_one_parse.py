@@ -84,6 +84,13 @@ def test_recording_collect_reads_its_scenario_once(parses, tmp_path, capsys):
     assert list(parses.values()) == [1], parses
 
 
+def test_drive_on_a_recording_reads_its_scenario_once(parses, tmp_path, capsys):
+    argv = ["drive", "--config", "examples/mydriver/drive.toml", "--model", "expert", "--episodes", "1"]
+    rc = main([*argv, "--max-cycles", "2", "--frames", "0", "--out", str(tmp_path / "drive")])
+    assert rc == 0, capsys.readouterr().err
+    assert list(parses.values()) == [1], parses
+
+
 @pytest.mark.parametrize(
     "argv",
     [
