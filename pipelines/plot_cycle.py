@@ -12,6 +12,7 @@ from irlsim.config import float_in, int_in, load_config
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, make_expert_driver
 from irlsim.road import load_road
+from irlsim.road.scenario import Scenarios
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import MAX_SEED, Simulation
 from irlsim.utils import atomic_path, check_output_file
@@ -58,8 +59,9 @@ def run(args: argparse.Namespace) -> int:
         if theta.shape != (len(FEATURE_NAMES),):
             raise IrlsimError(f"--theta needs {len(FEATURE_NAMES)} weights, got {theta.size}")
     overrides = {"laps": 3} if args.vehicles is None else {"laps": 3, "n_vehicles": args.vehicles}
-    cfg = load_config(EpisodeConfig, None, overrides)
-    road = load_road()
+    scenarios = Scenarios()  # the road's file read once: for its [defaults] and the road
+    cfg = load_config(EpisodeConfig, None, overrides, scenarios=scenarios)
+    road = load_road(scenario=scenarios(cfg.name))
     drv = make_expert_driver(road, cfg)
     with Simulation(road, cfg) as sim:
         obs = sim.reset(args.seed)

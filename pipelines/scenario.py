@@ -121,8 +121,8 @@ def show(args: argparse.Namespace) -> int:
         raise IrlsimError("scenario show needs a scenario: irlsim scenario show NAME|PATH")
     if args.out is not None:
         check_output_file(args.out, "--out", "scenario.png")
-    scn = load_scenario(args.scenario)
-    road = load_road(scenario=args.scenario)
+    scn = load_scenario(args.scenario)  # the file read once: its road and its description
+    road = load_road(scenario=scn)
     print(f"scenario {scn.name}: {scn.path}")
     print(f"  network: {scn.net_file}")
     for key, value in describe(road).items():

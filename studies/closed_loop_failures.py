@@ -49,6 +49,7 @@ from irlsim.planner import LABEL_NAMES
 from irlsim.planner.expert import THETA_EXPERT, mission_lanes_away
 from irlsim.reward import load_reward
 from irlsim.road import load_road
+from irlsim.road.scenario import Scenarios
 from irlsim.rollout.runner import Cycle, EpisodeRunner, ObserverBase
 from irlsim.sim.simulation import Simulation
 from irlsim.utils import seed_everything
@@ -407,8 +408,9 @@ def main() -> int:
     p.add_argument("--split", default="train")
     p.add_argument("--max-theta", type=int, default=300, help="cycles per bucket the model predicts theta on")
     args = p.parse_args()
-    cfg = load_config(CollectConfig, args.config)
-    road = load_road(scenario=cfg.scenario.name)  # the config's road (the oval unless it names another)
+    scenarios = Scenarios()  # the config's road (the oval unless it names another), its file read once
+    cfg = load_config(CollectConfig, args.config, scenarios=scenarios)
+    road = load_road(scenario=scenarios(cfg.scenario.name))
     model = load_reward(args.model, args.runs, n_policies=cfg.planner.n_policies)
     episodes: dict[int, tuple[list[dict], str]] = {}
     for seed in args.seeds:

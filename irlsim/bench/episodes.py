@@ -19,38 +19,43 @@ from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode
 from irlsim.data.demonstrator import EXPERT, identity, resolve
 from irlsim.executor import Job, run_jobs
-from irlsim.road.scenario import load_scenario
+from irlsim.road.scenario import DEFAULT_SCENARIO, Scenarios, load_scenario
 
 #: the paper's scale: one hour of driving
 PAPER_TRAIN_CYCLES = 17_000
 
 
 def collect_one(args: tuple[Any, ...]) -> dict[str, Any]:
-    out, seed, cycles, n_policies, *who = args
+    """One episode as ``irlsim collect`` runs it: ``args`` (out, seed, cycles, n_policies, the command's
+    :class:`~irlsim.road.scenario.Scenarios`, then optionally a resolved demonstrator and its scenario)."""
+    out, seed, cycles, n_policies, scenarios, *who = args
     cfg = load_config(
         CollectConfig,
         None,
         {"max_cycles": cycles, "planner.n_policies": n_policies, "scenario.n_vehicles": 15},
+        scenarios=scenarios,
     )
     if who:  # a demonstrator (resolved) and its scenario: episode ``seed`` is the seed-th ego of a recording
         cfg = dataclasses.replace(
             cfg, demonstrator=who[0], scenario=dataclasses.replace(cfg.scenario, name=who[1])
         )
-    return collect_episode(EpisodeJob(out, "train", seed, seed, cfg))
+    return collect_episode(EpisodeJob(out, "train", seed, seed, cfg, scenarios=scenarios))
 
 
-def bench_demonstrator(config: Path | None, episodes: int) -> tuple[tuple[Any, ...], str]:
+def bench_demonstrator(
+    config: Path | None, episodes: int, scenarios: Scenarios
+) -> tuple[tuple[Any, ...], str]:
     """What ``collect_one`` gets beyond its sizes: () for the expert, else the ``[demonstrator]`` of the
     collect config ``config`` resolved (checked, one line) for ``episodes`` episodes and its scenario's
-    name; with the demonstrator's identity (:func:`irlsim.data.demonstrator.identity`)."""
+    name (read once into ``scenarios``); with the demonstrator's identity
+    (:func:`irlsim.data.demonstrator.identity`)."""
     if config is None:
         return (), EXPERT
-    cfg = load_config(CollectConfig, config, {})
+    cfg = load_config(CollectConfig, config, {}, scenarios=scenarios)
     if cfg.demonstrator.kind == EXPERT:
         return (), EXPERT
     name = cfg.scenario_names[0]
-    net = load_scenario(name).net_file
-    demo, record = resolve(cfg.demonstrator, net, (name,), cfg.scenario.step, episodes)
+    demo, record = resolve(cfg.demonstrator, (scenarios(name),), cfg.scenario.step, episodes)
     return (demo, name), identity(record)
 
 
@@ -64,12 +69,13 @@ def bench_collect(
     ``demonstrator``: a collect config whose ``[demonstrator]`` (on its scenario) drives instead of the
     expert (a recording's episodes ``seed`` to ``seed + 2`` are its egos of those positions).
     """
-    load_scenario()  # the default road's network, built once before the workers read it
-    who, ident = bench_demonstrator(demonstrator, seed + 3)
+    scenarios = Scenarios()  # each road read once and handed to every episode, as 'irlsim collect' does
+    scenarios(DEFAULT_SCENARIO)  # the default road's network, built once before the workers read it
+    who, ident = bench_demonstrator(demonstrator, seed + 3, scenarios)
     with tempfile.TemporaryDirectory() as tmp:
-        one = collect_one((tmp + "/one", seed, cycles, n_policies, *who))
+        one = collect_one((tmp + "/one", seed, cycles, n_policies, scenarios, *who))
         t0 = time.perf_counter()
-        jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies, *who)) for i in (1, 2)]
+        jobs = [Job(str(i), (tmp + "/two", seed + i, cycles, n_policies, scenarios, *who)) for i in (1, 2)]
         # as irlsim collect runs its episodes: the local executor's spawned single-threaded workers
         done = run_jobs(collect_one, jobs, executor="local", workers=2)
         if done.failed:

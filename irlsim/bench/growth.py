@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.bench.planner import planner_observations
-from irlsim.road.scenario import load_scenario, shipped_scenarios
+from irlsim.road.scenario import DEFAULT_SCENARIO, Scenario, Scenarios, load_scenario, shipped_scenarios
 
 #: timed repeats of each point at least (more while its time budget lasts)
 MIN_REPEATS = 5
@@ -124,8 +124,8 @@ def time_for(fn: Callable[[], Any], seconds: float, min_repeats: int = MIN_REPEA
 # ----------------------------------------------------------------------------------------- the planner
 
 
-def _planner_ms(scenario: str, n_policies: int, n_vehicles: int, seconds: float, seed: int) -> float:
-    """Median planner cycle [ms] over the synthetic cycles of ``scenario``."""
+def _planner_ms(scenario: Scenario, n_policies: int, n_vehicles: int, seconds: float, seed: int) -> float:
+    """Median planner cycle [ms] over the synthetic cycles of ``scenario`` (loaded: not read again)."""
     from irlsim.planner.config import PlannerConfig
     from irlsim.planner.planner import Planner
     from irlsim.road import load_road
@@ -182,19 +182,20 @@ def straight_road(folder: Path, lanes: int) -> str:
 def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) -> list[Curve]:
     """The planner cycle against policies (15 vehicles), vehicles (2,500 policies) and lanes."""
     road = f"the {scenario} road" if scenario in shipped_scenarios() else scenario  # a name, or a path
+    scn = load_scenario(scenario)  # the road's file read once for every point
     by_policies = []
     for n in sizes.policies:
-        by_policies.append(_planner_ms(scenario, n, 15, sizes.point_s, seed))
+        by_policies.append(_planner_ms(scn, n, 15, sizes.point_s, seed))
         say(f"planner, {n} policies: {by_policies[-1]:.2f} ms per cycle")
     by_vehicles = []
     for m in sizes.vehicles:
-        by_vehicles.append(_planner_ms(scenario, 2500, m, sizes.point_s, seed))
+        by_vehicles.append(_planner_ms(scn, 2500, m, sizes.point_s, seed))
         say(f"planner, {m} vehicles: {by_vehicles[-1]:.2f} ms per cycle")
     by_lanes = []
     with tempfile.TemporaryDirectory() as tmp:
         for lanes in sizes.lanes:
             path = straight_road(Path(tmp) / f"lanes{lanes}", lanes)
-            by_lanes.append(_planner_ms(path, 2500, 15, sizes.point_s, seed))
+            by_lanes.append(_planner_ms(load_scenario(path), 2500, 15, sizes.point_s, seed))
             say(f"planner, {lanes} lane{'s' if lanes > 1 else ''}: {by_lanes[-1]:.2f} ms per cycle")
     return [
         Curve(
@@ -215,8 +216,11 @@ def planner_curves(sizes: GrowthSizes, seed: int, scenario: str, say: Progress) 
 # ---------------------------------------------------------------------------------- collection and disk
 
 
-def _episode_jobs(out: Path, n_policies: int, cycles: int, n: int, seed: int) -> list[Any]:
-    """``n`` expert episodes of ``cycles`` cycles of ``n_policies`` policies, 15 vehicles, on the oval."""
+def _episode_jobs(
+    out: Path, n_policies: int, cycles: int, n: int, seed: int, scenarios: Scenarios
+) -> list[Any]:
+    """``n`` expert episodes of ``cycles`` cycles of ``n_policies`` policies, 15 vehicles, on the oval
+    (``scenarios``: the roads read once, handed to every episode as ``irlsim collect`` does)."""
     from irlsim.config import load_config
     from irlsim.data.collection import CollectConfig, EpisodeJob
     from irlsim.executor import Job
@@ -225,8 +229,10 @@ def _episode_jobs(out: Path, n_policies: int, cycles: int, n: int, seed: int) ->
         CollectConfig,
         None,
         {"max_cycles": cycles, "planner.n_policies": n_policies, "scenario.n_vehicles": 15},
+        scenarios=scenarios,
     )
-    return [Job(f"train/{i}", EpisodeJob(str(out), "train", i, seed + i, cfg)) for i in range(n)]
+    jobs = [EpisodeJob(str(out), "train", i, seed + i, cfg, scenarios=scenarios) for i in range(n)]
+    return [Job(f"train/{i}", job) for i, job in enumerate(jobs)]
 
 
 def _collect(jobs: list[Any], workers: int) -> tuple[float, int, float]:
@@ -255,12 +261,13 @@ def collect_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
     """Episodes per minute with each worker count: end to end (workers' start included), and after the
     start: with w workers, the episodes after the first w over the time from the w-th result to the
     last (each worker's first episode carries its start)."""
-    load_scenario()  # the default road's network, built once before the workers read it
+    scenarios = Scenarios()
+    scenarios(DEFAULT_SCENARIO)  # the default road read and its network built once, before the workers
     rates, steady = [], []
     with tempfile.TemporaryDirectory() as tmp:
         for w in sizes.workers:
             n, cycles = sizes.collect_episodes, sizes.collect_cycles
-            jobs = _episode_jobs(Path(tmp) / f"w{w}", sizes.collect_policies, cycles, n, seed)
+            jobs = _episode_jobs(Path(tmp) / f"w{w}", sizes.collect_policies, cycles, n, seed, scenarios)
             wall, total, after_start = _collect(jobs, w)
             rates.append(n / wall * 60.0)
             steady.append((n - w) / after_start * 60.0)
@@ -295,15 +302,16 @@ def disk_curves(sizes: GrowthSizes, seed: int, say: Progress) -> list[Curve]:
     from irlsim.data.reader import open_dataset
 
     parquet, cache = [], []
+    scenarios = Scenarios()  # the default road read once for every point
     with tempfile.TemporaryDirectory() as tmp:
         for n in sizes.disk_policies:
             out = Path(tmp) / f"n{n}"
-            jobs = _episode_jobs(out, n, sizes.disk_cycles, 1, seed)
+            jobs = _episode_jobs(out, n, sizes.disk_cycles, 1, seed, scenarios)
             _, cycles, _ = _collect(jobs, 1)
             cfg = jobs[0].arg.config
             seeds = {"train": [j.arg.seed for j in jobs], "validation": [], "test": []}
             splits = {"train": [0], "validation": [], "test": []}
-            write_manifest(out, {"config": data_config(cfg), "seeds": seeds, "splits": splits})
+            write_manifest(out, {"config": data_config(cfg, scenarios), "seeds": seeds, "splits": splits})
             open_dataset(out).split_tensors("train")  # builds <out>/.cache/train
             parquet.append(_folder_bytes(out, "*.parquet") / cycles)
             cache.append(_folder_bytes(out / ".cache", "*") / cycles)

@@ -15,13 +15,13 @@ import numpy as np
 from irlsim.bench.episodes import collect_one
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, run_jobs
-from irlsim.road.scenario import load_scenario
+from irlsim.road.scenario import DEFAULT_SCENARIO, Scenarios
 
 #: episodes of each timed collection (two per worker with 2 workers)
 EPISODES = 4
 
 
-def _collect_job(args: tuple[str, int, int, int]) -> dict[str, Any]:  # top level: picklable
+def _collect_job(args: tuple[str, int, int, int, Scenarios]) -> dict[str, Any]:  # top level: picklable
     return collect_one(args)
 
 
@@ -29,7 +29,9 @@ def _timed_collection(
     executor: str, workers: int, root: str, seed: int, cycles: int, n_policies: int, episodes: int
 ) -> dict[str, Any]:
     """Wall time of ``episodes`` collection episodes through irlsim.executor (workers' start included)."""
-    jobs = [Job(str(i), (root, seed + i, cycles, n_policies)) for i in range(episodes)]
+    scenarios = Scenarios()  # the road read once and handed to every episode, as 'irlsim collect' does
+    scenarios(DEFAULT_SCENARIO)
+    jobs = [Job(str(i), (root, seed + i, cycles, n_policies, scenarios)) for i in range(episodes)]
     t0 = time.perf_counter()
     res = run_jobs(_collect_job, jobs, executor=executor, workers=workers)
     wall = time.perf_counter() - t0
@@ -49,7 +51,6 @@ def bench_executors(cycles: int, n_policies: int, seed: int, workers: int = 2) -
     the clock: its start-up is reported apart), each end to end, workers' start included."""
     import ray  # lazy: the optional extra 'ray' (bench_scale checks it is there)
 
-    load_scenario()  # the default road's network, built once before the workers read it
     out: dict[str, Any] = {"workers": workers, "n_policies": n_policies, "cycles_per_episode": cycles}
     with tempfile.TemporaryDirectory() as tmp:
         out["local"] = _timed_collection("local", workers, tmp + "/local", seed, cycles, n_policies, EPISODES)

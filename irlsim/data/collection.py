@@ -441,7 +441,7 @@ def collect_episode(
     elif demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
         counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
         ego = recorded_ego(demonstrator, counts, job.split, job.episode)
-        driver, road, scenario, replay = recorded_episode(demonstrator.file, scenario, cfg.planner, ego)
+        driver, road, scenario, replay = recorded_episode(demonstrator.file, road, scenario, cfg.planner, ego)
     else:
         driver = SumoDemonstrator(road, cfg.planner, scenario)
     labeller = driver if make_driver is not None else None

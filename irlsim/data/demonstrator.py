@@ -30,6 +30,7 @@ from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
+from irlsim.road.scenario import Scenario
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.types import Observation, Trajectory
@@ -111,24 +112,29 @@ class DemonstratorConfig:
 
 def resolve(
     cfg: DemonstratorConfig,
-    net_file: Path,
-    scenarios: tuple[str, ...] = (),
+    scenarios: tuple[Scenario, ...],
     step: float = 0.1,
     episodes: int = 0,
 ) -> tuple[DemonstratorConfig, dict[str, Any]]:
     """Before any work: the demonstrator with its ``vtype_file`` read into ``params`` (what the workers
     get and the manifest's config records), and its manifest record (kind, models, params, the file's
-    path and sha256); SUMO's refusal of the type as one line (:func:`irlsim.sim.vtype.check_vtype`).
-    A recording (kind 'recording', on the one scenario of ``scenarios``, ``episodes`` episodes at the
-    simulation ``step``): see :func:`resolve_recording`."""
+    path and sha256); SUMO's refusal of the type (on the first network of ``scenarios``, the roads the
+    command loaded) as one line (:func:`irlsim.sim.vtype.check_vtype`). A recording (kind 'recording',
+    on the one scenario of ``scenarios``, ``episodes`` episodes at the simulation ``step``): see
+    :func:`resolve_recording`."""
     cfg.validate()
     if cfg.kind == EXPERT:
         return cfg, {"kind": EXPERT}
     if cfg.kind == RECORDING:
-        return resolve_recording(cfg, scenarios, step, episodes)
+        require(
+            len(scenarios) == 1,
+            f"a recording is on one scenario's network, this config lists {len(scenarios)}: give [scenario] "
+            "name",
+        )
+        return resolve_recording(cfg, load_road(scenario=scenarios[0]), step, episodes)
     attrs = cfg.attributes()
     with tempfile.TemporaryDirectory(prefix="irlsim-check-") as tmp:
-        check_vtype(net_file, vtype_attributes(attrs, 1.0), Path(tmp))
+        check_vtype(scenarios[0].net_file, vtype_attributes(attrs, 1.0), Path(tmp))
     params = {k: _canonical(v) for k, v in attrs.items() if k not in MODEL_KEYS}
     out = replace(
         cfg,
@@ -150,18 +156,14 @@ def resolve(
 
 
 def resolve_recording(
-    cfg: DemonstratorConfig, scenarios: tuple[str, ...], step: float, episodes: int
+    cfg: DemonstratorConfig, road: Road, step: float, episodes: int
 ) -> tuple[DemonstratorConfig, dict[str, Any]]:
-    """A recording read and checked on its scenario's network (one line before any work), its egos
-    (``ego``, else every vehicle long enough) written into ``ego``, and the manifest record: kind, the
-    file's path and sha256, the egos."""
-    require(
-        len(scenarios) == 1,
-        f"a recording is on one scenario's network, this config lists {len(scenarios)}: give [scenario] name",
-    )
-    rec = open_recording(cfg.file, scenarios[0], step)
+    """A recording read and checked on ``road`` (its scenario's, as the command loaded it; one line
+    before any work), its egos (``ego``, else every vehicle long enough) written into ``ego``, and the
+    manifest record: kind, the file's path and sha256, the egos."""
+    rec = open_recording(cfg.file, road, step)
     wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
-    ids = recorded_egos(rec, load_road(scenario=scenarios[0]), wanted, cfg.min_duration)
+    ids = recorded_egos(rec, road, wanted, cfg.min_duration)
     if len(ids) < episodes:
         raise IrlsimError(
             f"recording {cfg.file} gives {len(ids)} ego(s) (vehicles on a route of the network for "

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-import functools
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +25,7 @@ from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
-from irlsim.road import Road, load_road
+from irlsim.road import Road
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.replay import ReplaySimulation, Tracks
 from irlsim.sim.traffic import LoopEdges, wrap_route
@@ -36,18 +35,22 @@ from irlsim.sim.types import EgoState, Observation, Trajectory
 LAPS = 1_000_000
 
 
-@functools.lru_cache(maxsize=2)
-def _cached(path: str, mtime: float, scenario: str, step: float) -> Recording:
-    return load_recording(path, load_road(scenario=scenario).net, step)
+#: per process: the recordings read, by (file, its mtime, the network, step); the last two kept
+_RECORDINGS: dict[tuple[str, float, str, float], Recording] = {}
 
 
-def open_recording(path: str | Path, scenario: str, step: float) -> Recording:
-    """The recording ``path`` on the network of ``scenario``, checked and resampled to ``step`` (read once
-    per process)."""
+def open_recording(path: str | Path, road: Road, step: float) -> Recording:
+    """The recording ``path`` on the network of ``road`` (the scenario's, as the command loaded it),
+    checked and resampled to ``step`` (read once per process)."""
     p = Path(path)
     if not p.is_file():
         raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
-    return _cached(str(p.resolve()), p.stat().st_mtime, scenario, step)
+    key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step)
+    if key not in _RECORDINGS:
+        _RECORDINGS[key] = load_recording(key[0], road.net, step)
+        while len(_RECORDINGS) > 2:
+            del _RECORDINGS[next(iter(_RECORDINGS))]
+    return _RECORDINGS[key]
 
 
 @dataclass(frozen=True)
@@ -200,14 +203,14 @@ class RecordingDemonstrator:
 
 
 def recorded_episode(
-    file: str, scenario: EpisodeConfig, planner: PlannerConfig, vid: str, reactive: bool = False
+    file: str, road: Road, scenario: EpisodeConfig, planner: PlannerConfig, vid: str, reactive: bool = False
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
-    ``file`` on the scenario of ``scenario``: the ego starts at its recorded state and the episode ends
-    with its recording; ``reactive``: SUMO drives the others from their first recorded pose on."""
-    scenario_name = scenario.name
-    rec = open_recording(file, scenario_name, scenario.step)
-    et = ego_track(rec, vid, load_road(scenario=scenario_name))
+    ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
+    ego starts at its recorded state and the episode ends with its recording; ``reactive``: SUMO drives
+    the others from their first recorded pose on."""
+    rec = open_recording(file, road, scenario.step)
+    et = ego_track(rec, vid, road)
     if isinstance(et, str):
         raise IrlsimError(f"recording {rec.path}: vehicle {vid} cannot be an ego: {et}")
     road = et.road

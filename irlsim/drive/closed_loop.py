@@ -275,7 +275,8 @@ def _simulation(
     if cfg.demonstrator.kind != RECORDING:
         return road, scenario, Simulation(road, scenario)
     ego = cfg.demonstrator.ego.split(",")[episode]
-    _, road, scenario, sim = recorded_episode(cfg.demonstrator.file, scenario, cfg.planner, ego, reactive)
+    file = cfg.demonstrator.file
+    _, road, scenario, sim = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)
     return road, scenario, sim
 
 

@@ -171,10 +171,9 @@ def collect_dataset(run: CollectRun) -> CollectResult:
     # SUMO's refusal of a demonstrator's vehicle type: one line, before any work (nothing written)
     demo_record = None
     if cfg.demonstrator.kind != EXPERT_DEMONSTRATOR:
-        net = scenarios(cfg.scenario_names[0]).net_file
         n = cfg.train_episodes + cfg.validation_episodes + cfg.test_episodes
-        names, step = cfg.scenario_names, cfg.scenario.step
-        demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, net, names, step, n)
+        roads, step = tuple(scenarios(name) for name in cfg.scenario_names), cfg.scenario.step
+        demonstrator, demo_record = resolve_demonstrator(cfg.demonstrator, roads, step, n)
         cfg = replace(cfg, demonstrator=demonstrator)
     # a route too short for the ego's start: refused here; each road's network built, before any worker
     check_starts(cfg.scenario, cfg.scenario_names, scenarios)

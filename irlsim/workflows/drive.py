@@ -301,7 +301,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
     scenarios = Scenarios()  # the road's file read once: for the config's [defaults] and every episode
     cfg = load_config(CollectConfig, run.config_file, scenario, scenarios=scenarios)
-    cfg = _recording(cfg, run)
+    cfg = _recording(cfg, run, scenarios)
     check_starts(cfg.scenario, (cfg.scenario.name,), scenarios)  # a route too short for the ego's start
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
@@ -350,14 +350,16 @@ def _drive_into(
     return DriveResult(out, episodes, summaries)
 
 
-def _recording(cfg: CollectConfig, run: DriveRun) -> CollectConfig:
-    """On a recording: its egos, one per episode (read and checked in one line before any work)."""
+def _recording(cfg: CollectConfig, run: DriveRun, scenarios: Scenarios) -> CollectConfig:
+    """On a recording: its egos, one per episode (read and checked in one line before any work, on the
+    road ``scenarios`` has read)."""
     if cfg.demonstrator.kind != RECORDING:
         if run.reactive:
             raise IrlsimError("--reactive drives a recording's vehicles: give a --config with a recording")
         return cfg
     scenario = cfg.scenario
-    resolved, _ = resolve_recording(cfg.demonstrator, (scenario.name,), scenario.step, run.episodes)
+    road = load_road(scenario=scenarios(scenario.name))
+    resolved, _ = resolve_recording(cfg.demonstrator, road, scenario.step, run.episodes)
     return replace(cfg, demonstrator=resolved)
 
 

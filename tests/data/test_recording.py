@@ -228,7 +228,8 @@ def test_the_others_replay_their_recorded_poses(fcd):
     from irlsim.sim.config import EpisodeConfig
 
     rec = load_recording(fcd, load_road().net, 0.1)
-    driver, _, scn, sim = recorded_episode(str(fcd), EpisodeConfig(), PlannerConfig(n_policies=50), "veh0")
+    planner = PlannerConfig(n_policies=50)
+    driver, _, scn, sim = recorded_episode(str(fcd), load_road(), EpisodeConfig(), planner, "veh0")
     with sim:
         obs = sim.reset(0)
         t_rec = sim.t_begin
@@ -337,7 +338,7 @@ def test_replayed_others_drive_through_a_standing_ego_reactive_ones_do_not(follo
     from irlsim.sim.config import EpisodeConfig
 
     _, road, _, sim = recorded_episode(
-        str(follower), EpisodeConfig(), PlannerConfig(n_policies=50), "lead", reactive=reactive
+        str(follower), load_road(), EpisodeConfig(), PlannerConfig(n_policies=50), "lead", reactive=reactive
     )
     with sim:
         obs = sim.reset(0)
