@@ -76,7 +76,7 @@ class CollectRun:
     """DAgger: the learned driver (a model name in ``runs`` or a checkpoint path); None: the expert"""
     runs: Path | None = None
     """with ``driver`` a model name: the runs folder holding it"""
-    scenarios: Scenarios = field(default_factory=Scenarios)
+    scenarios: Scenarios = field(default_factory=Scenarios, compare=False)
     """the command's roads, each scenario file read once (the one its config was loaded with, when
     given: ``load_config(..., scenarios=)``) and handed to every episode"""
 
