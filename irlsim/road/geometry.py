@@ -233,6 +233,11 @@ class Road:
             )
             ends = self._arc_to_s(np.array([0.0, _open_length(centre)]), centre)
             s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
+            if self.flat and (np.abs(s_ends - ends) > NEAR_WINDOW).any():
+                # a route that ends where it began: each end lies on the other's straight run-on, which a
+                # global projection cannot tell apart; points are projected by their progress instead
+                self.flat = False
+                s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
             self.route_begin_s, self.route_end_s = float(s_ends[0]), float(s_ends[1])
         if self.route_end_s - self.route_begin_s < MIN_OPEN_LENGTH:
             raise IrlsimError(

@@ -369,3 +369,22 @@ def test_a_scenario_file_sets_its_episode_defaults_and_a_config_overrides_them(t
     toml.write_text(toml.read_text() + "lanes = 3\n")
     with pytest.raises(IrlsimError, match="'lanes', which is not an episode setting"):
         load_config(CollectConfig, None, {"scenario.name": str(folder)})
+
+
+def test_an_open_route_that_ends_on_its_start_s_run_on_has_its_whole_length(tmp_path):
+    """East from a, round a block and back heading east, ending at g 50 m short of a: the end lies on the
+    start's straight run-on of the route frame (the line the frame extends back from a). Projected
+    globally, the end landed 50 m before the start (1.1 km routes of the sweep refused as -53 m long);
+    projected by progress the route has its length."""
+    nodes = (
+        '<node id="a" x="0" y="0"/><node id="b" x="300" y="0"/><node id="c" x="300" y="300"/>'
+        '<node id="d" x="-300" y="300"/><node id="e" x="-300" y="0"/><node id="g" x="-50" y="0"/>'
+    )
+    edges = "".join(
+        f'<edge id="{u}{v}" from="{u}" to="{v}" numLanes="1" speed="13.9"/>'
+        for u, v in ("ab", "bc", "cd", "de", "eg", "ga")
+    )
+    folder = make_scenario(tmp_path / "block", nodes, edges, 'edges = ["ab", "bc", "cd", "de", "eg"]')
+    road = load_road(scenario=folder)
+    assert not road.closed and not road.flat
+    assert 1650.0 < road.route_end_s - road.route_begin_s < 1800.0
