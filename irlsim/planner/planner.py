@@ -26,7 +26,7 @@ from irlsim.planner.features import (
 from irlsim.planner.policy_set import LazyWorld, PolicySet
 from irlsim.planner.sampler import LatBank, LonBank, Sampler, concat_lat, select_pairs, stop_distances
 from irlsim.road import Road, wrap_angle
-from irlsim.sim.types import Observation, Trajectory, VehicleStates
+from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 
 F32 = np.float32
 
@@ -161,7 +161,7 @@ class Planner:
         f_lon, series = lon_features(lon, kappa, ctx, cfg_c, self.w)
         f_lat = lat_features(lat, lon, series, road, ctx, cfg, self.w)
         f_x = cross_features(lat, lon, series, ctx, self.w, pairs, cfg.yaw_speed_floor)
-        boxes = route_frame_boxes(road, obs.vehicles)
+        boxes = route_frame_boxes(road, obs.vehicles, ego)
         veh = vehicle_terms(lat, lon, boxes, ctx, cfg, self.w, self._stop_lines, pairs)
 
         cj, cl = pairs.lat_idx(), pairs.lon_idx()
@@ -376,13 +376,33 @@ def lane_window(road: Road, s_ego: float, lon_s: np.ndarray) -> tuple[np.ndarray
 BOX_TURN_MIN = 0.15
 
 
-def route_frame_boxes(road: Road, vehicles: VehicleStates) -> VehicleStates:
+#: [m] on a route that comes back near itself, a vehicle this close to the ego but placed on another pass
+#: of the route (far along it) is seen on the ego's pass
+OTHER_PASS_REACH = 40.0
+
+
+def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None = None) -> VehicleStates:
     """``vehicles`` as the planner's collision and proximity terms see them, boxes aligned with the route
     frame: a vehicle turned by theta > :data:`BOX_TURN_MIN` to the route's heading at its position gets the
     extent of its rotated box (length L|cos| + W|sin|, width L|sin| + W|cos|) about the box's true centre,
-    so that a car standing at an angle beside a junction is not thinner, in the frame, than it is."""
+    so that a car standing at an angle beside a junction is not thinner, in the frame, than it is. Where a
+    route passes a place twice, a vehicle within OTHER_PASS_REACH of the ``ego``
+    that the frame puts on the other pass (further along the route than it is away) is projected onto the
+    ego's pass: at a junction both passes share, it stands beside the ego, not a lap away."""
     if not vehicles.count:
         return vehicles
+    if ego is not None:
+        lap = road.lap_length
+        ds = (vehicles.s - ego.s + lap / 2) % lap - lap / 2
+        dist = np.hypot(vehicles.x - ego.x, vehicles.y - ego.y)
+        other = np.flatnonzero((dist < OTHER_PASS_REACH) & (np.abs(ds) > dist + OTHER_PASS_REACH))
+        if len(other):
+            s2, d2 = road.project_near(vehicles.x[other], vehicles.y[other], ego.s)
+            here = np.abs((s2 - ego.s + lap / 2) % lap - lap / 2) <= dist[other] + OTHER_PASS_REACH
+            if here.any():  # on the ego's pass, within the road there (else it keeps its own place)
+                s_new, d_new = vehicles.s.copy(), vehicles.d.copy()
+                s_new[other[here]], d_new[other[here]] = s2[here], d2[here]
+                vehicles = dataclasses.replace(vehicles, s=s_new, d=d_new)
     theta = wrap_angle(vehicles.yaw - road.heading(vehicles.s))
     turned = np.abs(theta) > BOX_TURN_MIN
     if not turned.any():

@@ -571,6 +571,14 @@ class Road:
         s, d = self._project_smooth(qx, qy, seg, t)
         return s.reshape(shape), d.reshape(shape)
 
+    def project_near(self, x: np.ndarray, y: np.ndarray, near: float) -> tuple[np.ndarray, np.ndarray]:
+        """World xy [m] [Q] -> route frame (s, d) projected onto the reference within NEAR_WINDOW of the
+        route position ``near`` [m], on any route (``to_frenet``'s ``near`` applies only where ``flat`` is
+        False); a point further than the road's half width + NEAR_SLACK from there is projected globally."""
+        qx, qy = np.asarray(x, np.float64).ravel(), np.asarray(y, np.float64).ravel()
+        seg, t = self._nearest_near(qx, qy, np.full(len(qx), float(near)))
+        return self._project_smooth(qx, qy, seg, t)
+
     def _nearest_near(
         self, qx: np.ndarray, qy: np.ndarray, near: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:

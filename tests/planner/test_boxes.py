@@ -43,3 +43,17 @@ def test_a_turned_box_is_the_bounding_box_of_the_rotated_body(road):
     np.testing.assert_allclose(out.length, [4.5 * c + 1.8 * s], atol=1e-9)
     np.testing.assert_allclose(out.width, [4.5 * s + 1.8 * c], atol=1e-9)
     np.testing.assert_allclose(out.d, [0.0 + 2.25 * s], atol=1e-9)  # turned right: the body lies left
+
+
+def test_on_the_oval_no_vehicle_is_ever_moved_to_the_ego_s_pass(road):
+    """The other-pass rule moves a vehicle within OTHER_PASS_REACH of the ego that the frame puts further
+    along the route than it is away. On the oval no two places of the road (reference +- its half width)
+    are that close in space and that far apart along the route, so the rule never applies there and the
+    oval's policy sets keep their bytes."""
+    from irlsim.planner.planner import OTHER_PASS_REACH
+
+    xy, s, lap = road.ref_xy, road.ref_s, road.lap_length
+    dist = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
+    along = np.abs((s[:, None] - s[None, :] + lap / 2) % lap - lap / 2)
+    slack = 2 * road.half_road  # a vehicle and the ego anywhere across their stretch
+    assert not ((dist < OTHER_PASS_REACH + slack) & (along > dist + OTHER_PASS_REACH - slack)).any()
