@@ -30,6 +30,7 @@ from irlsim import FEATURE_NAMES
 from irlsim.data.reader import open_dataset
 from irlsim.reward import load_reward
 from irlsim.road.geometry import load_road
+from irlsim.road.scenario import DEFAULT_SCENARIO
 
 BANDS = ((0.0, 50.0), (50.0, 110.0), (110.0, 200.0), (200.0, 400.0))
 ML, VEL, JERK = (FEATURE_NAMES.index(n) for n in ("mission_lane", "velocity", "jerk_lon"))
@@ -101,12 +102,12 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _scenario_of(data: Path) -> str:
-    """The road a dataset was collected on (its manifest's config; the oval when it names none)."""
+    """The road a dataset was collected on (its manifest's config; the default road when it names none)."""
     try:
         manifest = json.loads((data / "manifest.json").read_text())
     except (OSError, ValueError):
-        return "oval"
-    return str(((manifest.get("config") or {}).get("scenario") or {}).get("name", "oval"))
+        return DEFAULT_SCENARIO
+    return str(((manifest.get("config") or {}).get("scenario") or {}).get("name", DEFAULT_SCENARIO))
 
 
 if __name__ == "__main__":

@@ -38,7 +38,10 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.drive.metrics import summarize
-from irlsim.road.scenario import shipped_scenarios
+from irlsim.road.scenario import DEFAULT_SCENARIO, shipped_scenarios
+
+#: the road the zero-shot rewards are trained on (the paper's course, the default road)
+ZERO_SHOT = DEFAULT_SCENARIO
 
 MODELS = ("LIRL", "PACNN+S", "PTACNN+S")
 REFERENCES = ("expert", "expert-theta")
@@ -56,8 +59,8 @@ def irlsim() -> str:
 
 def training_sets(scenarios: list[str]) -> dict[str, list[str]]:
     """name -> the scenarios it trains on."""
-    held = [s for s in scenarios if s != "oval"]
-    out = {"oval-only": ["oval"]}
+    held = [s for s in scenarios if s != ZERO_SHOT]
+    out = {f"{ZERO_SHOT}-only": [ZERO_SHOT]}
     for x in held:
         out[f"loo-{x}"] = [s for s in scenarios if s != x]
         out[f"in-{x}"] = [x]
@@ -252,7 +255,7 @@ def bar_summary(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-KINDS = {"loo": "leave-one-out", "in": "in-domain", "oval": "zero-shot"}
+KINDS = {"loo": "leave-one-out", "in": "in-domain", ZERO_SHOT: "zero-shot"}
 
 
 def study_rows(out: Path, plan: list[tuple[str, str, int, int]], sets: dict[str, list[str]], a: Any) -> list:
@@ -309,13 +312,13 @@ def main() -> int:
     out = Path(a.out)
     os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
     scenarios = list(shipped_scenarios())
-    held = [s for s in scenarios if s != "oval"]
+    held = [s for s in scenarios if s != ZERO_SHOT]
     sets = training_sets(scenarios)
     if not a.table_only:
         collect(out, scenarios, a.config)
     plan: list[tuple[str, str, int, int]] = []  # (road, training name, seed, episodes): most needed first
     plan += [(x, f"loo-{x}", seed, a.episodes) for seed in a.seeds for x in held]
-    single = [(x, "oval-only", a.seeds[0], a.episodes_single) for x in held]
+    single = [(x, f"{ZERO_SHOT}-only", a.seeds[0], a.episodes_single) for x in held]
     single += [(x, f"in-{x}", a.seeds[0], a.episodes_single) for x in held]
     rows: list[dict[str, Any]] = []
     rows += study_rows(out, plan, sets, a)
