@@ -223,6 +223,7 @@ class Road:
                 for k in range(self.n_lanes)
             ]
         )
+        self.flat: bool = True  # set by _build_reference: False where the route comes back near itself
         centre = self._build_reference()
         if self.closed:
             self.lane_lengths = tuple(float(_closed_length(sh)) for sh in self.lane_shapes)
@@ -231,14 +232,7 @@ class Road:
             self.lane_lengths = tuple(
                 float(np.linalg.norm(np.diff(sh, axis=0), axis=1).sum()) for sh in self.lane_shapes
             )
-            ends = self._arc_to_s(np.array([0.0, _open_length(centre)]), centre)
-            s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
-            if self.flat and (np.abs(s_ends - ends) > NEAR_WINDOW).any():
-                # a route that ends where it began: each end lies on the other's straight run-on, which a
-                # global projection cannot tell apart; points are projected by their progress instead
-                self.flat = False
-                s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
-            self.route_begin_s, self.route_end_s = float(s_ends[0]), float(s_ends[1])
+            self.route_begin_s, self.route_end_s = self._open_ends(centre)
         if self.route_end_s - self.route_begin_s < MIN_OPEN_LENGTH:
             raise IrlsimError(
                 f"route is {self.route_end_s - self.route_begin_s:.0f} m long, shorter than the "
@@ -313,6 +307,18 @@ class Road:
                     f"{head} requires lane {lane}, but the route has lanes {lo[i]}..{hi[i]} there: give "
                     "one of them or -1 (any lane)"
                 )
+
+    def _open_ends(self, centre: np.ndarray) -> tuple[float, float]:
+        """Route positions [m] of an open route's first and last point. A route that ends on its start's
+        straight run-on (round a block and back towards its first edge) is not flat: globally each end
+        lies on the other's run-on, which a projection cannot tell apart; its points are then projected by
+        their progress."""
+        ends = self._arc_to_s(np.array([0.0, _open_length(centre)]), centre)
+        s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
+        if self.flat and (np.abs(s_ends - ends) > NEAR_WINDOW).any():
+            self.flat = False
+            s_ends, _ = self.to_frenet(centre[[0, -1], 0], centre[[0, -1], 1], near=ends)
+        return float(s_ends[0]), float(s_ends[1])
 
     def _build_reference(self) -> np.ndarray:
         """The reference line, whether the route comes back near itself, and where each edge lies on it;
