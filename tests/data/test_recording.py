@@ -356,6 +356,32 @@ def test_replayed_others_drive_through_a_standing_ego_reactive_ones_do_not(follo
         assert other_lane or v.s[0] < obs.ego.s - 4.5
 
 
+def test_reactive_replay_drives_vehicles_on_routes_matched_from_their_positions(follower, tmp_path):
+    """The same recording as a CSV without the lane column: 'follow' gets its route from its positions,
+    and SUMO, taking it over on that route, drives it around or behind the standing ego as with the
+    recorded lanes (a wrong route would leave it unable to drive on, or send it elsewhere)."""
+    from irlsim.data.recorded import recorded_episode
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.sim.config import EpisodeConfig
+    from tests.data.test_recording_routes import _csv_without_lanes
+
+    csv = _csv_without_lanes(follower, tmp_path / "two.csv")
+    _, road, _, sim = recorded_episode(
+        str(csv), load_road(), EpisodeConfig(), PlannerConfig(n_policies=50), "lead", reactive=True
+    )
+    with sim:
+        sim.reset(0)
+        for _ in range(100):
+            sim.step(None)
+            if sim.done:
+                break
+        obs = sim.observe()
+    assert sim.stats["sim/collisions"] == 0 and not sim.done
+    v = obs.vehicles
+    assert v.ids == ("rec/follow",)
+    assert abs(v.d[0] - obs.ego.d) > 0.5 * road.lane_width or v.s[0] < obs.ego.s - 4.5
+
+
 @pytest.mark.parametrize("reactive", [False, True])
 def test_closed_loop_on_a_recording(fcd, tmp_path, capsys, reactive):
     cfg = tmp_path / "rec.toml"

@@ -97,3 +97,35 @@ def test_positions_that_match_no_connected_route_are_one_line(grid_fcd, tmp_path
     msg = str(e.value)
     assert "vehicle straight cannot be an ego: its positions match no connected route" in msg
     assert "\n" not in msg and str(path) in msg
+
+
+def test_reactive_replay_drives_each_vehicle_on_its_matched_route(grid_fcd, tmp_path):
+    """Reactive, SUMO takes the other recorded vehicles over on the routes matched from their positions
+    (the CSV has no lane column): each one SUMO drives has its own route through the grid, turns included,
+    not the scenario's."""
+    from irlsim.data.recorded import recorded_episode
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.sim.config import EpisodeConfig
+
+    road = load_road(scenario="grid")
+    csv = _csv_without_lanes(grid_fcd, tmp_path / "rec.csv")
+    _, _, _, sim = recorded_episode(
+        str(csv), road, EpisodeConfig(name="grid"), PlannerConfig(n_policies=50), "straight", reactive=True
+    )
+    seen: dict[str, tuple[str, ...]] = {}
+    with sim:
+        sim.reset(0)
+        for _ in range(40):
+            api = sim._api.vehicle
+            for vid in api.getIDList():
+                if vid.startswith("rec/") and vid not in seen:
+                    seen[vid] = tuple(api.getRoute(vid))
+            sim.step(None)
+            if sim.done:
+                break
+    others = {vid.removeprefix("rec/"): r for vid, r in seen.items()}
+    assert set(others) >= {"right-left", "across"}
+    for vid, route in others.items():
+        full = tuple(ROUTES[vid].split())  # what it drove, of which the recording holds a stretch
+        starts = [k for k in range(len(full)) if full[k : k + len(route)] == route]
+        assert starts and len(route) >= 2, (vid, route)
