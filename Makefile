@@ -8,7 +8,7 @@ DATA    ?= data/$(PRESET)
 RUNS    ?= runs/$(PRESET)
 SEED    ?= 0
 
-.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer recipe rounds sweep lint docs import-graph clean
+.PHONY: setup net test test-slow demo collect train train-stage1 train-stage2 evaluate drive dagger bench bench-growth transfer styles recipe rounds sweep lint docs import-graph clean
 
 $(BIN)/.installed: pyproject.toml
 	@command -v $(PY) >/dev/null || { echo "error: $(PY) not found; install Python 3.11 or run 'make PY=python3 ...'"; exit 1; }
@@ -73,6 +73,11 @@ bench-growth: setup
 transfer: setup
 	nice -n 5 $(BIN)/python studies/transfer.py --out runs/transfer --seeds 0 1 2 --episodes 20 \
 		--episodes-single 10 --dagger grid --threads 2 --workers 2
+
+# the style study (docs/guide/demonstrators.md, "Does a learned reward drive in its demonstrator's style"):
+# the expert, a cautious and an assertive SUMO driver on the oval and the motorway, 3 training seeds
+styles: setup
+	nice -n 5 $(BIN)/python studies/styles.py --out runs/styles --seeds 0 1 2 --episodes 20 --threads 2 --workers 2
 
 # the paper-scale recipe, old and new side by side (docs/results/recipe.md, "Time to a driving reward"): one dataset,
 # each recipe's stage 1 and DAgger rounds for 2 training seeds, timed, then their acceptance drives and Table I

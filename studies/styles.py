@@ -1,0 +1,390 @@
+"""Learn the reward of any driver: does a reward learned from a demonstrator drive in that demonstrator's
+style, and more like it than like any other demonstrator?
+
+Demonstrators (``--demonstrators``): the expert (configs/collect/default.toml), a cautious and an
+assertive SUMO driver (configs/collect/styles/, their attributes and reasons written there before any
+run) and, with ``recording``, SUMO run on its own (the wheel's ``sumo`` binary, SUMO's routing and
+drivers, ``--fcd-output``) on the default road, imported as a recording. For each demonstrator:
+
+- a dataset on every road of ``--roads`` (its collect config; base seed = the road's index, so every
+  demonstrator meets the same traffic);
+- LIRL and PACNN+S trained on its datasets of all roads, one training per ``--seeds`` seed;
+- Table I of those models on its own test split (``irlsim evaluate``);
+- closed-loop drives of both models on every road, ``--episodes`` episodes on the evaluation seeds
+  (episode seeds ``EVAL_BASE`` * 1e6 + i, which no dataset uses);
+- its own driving on the same seeds, the style reference: the expert by ``irlsim drive --model expert``;
+  a SUMO demonstrator by ``irlsim collect`` of its config with base seed ``EVAL_BASE`` (SUMO drives the
+  ego with the demonstrator's type; a collection's train episode i has the seed ``EVAL_BASE`` * 1e6 + i,
+  the drives' seed); the recording by its replay (a collection of the cars no training episode used).
+
+The table (``<out>/styles.md`` and ``<out>/styles.json``): per road, one row per learned reward (model,
+demonstrator it learned from, training seed), one column per demonstrator, each cell the style distance
+(:func:`irlsim.rollout.style.style_distances` over the row's driving and the references) and the row's
+smallest cell marked; beside it the safety bounds of the row's drives. The recording's rows are driven
+where it was recorded (the held-out cars' routes and starts, the others replayed) and compared with the
+recorded cars and the expert driven there.
+
+Every step is a separate ``irlsim`` command whose output is kept; a step whose output exists is skipped,
+so the study resumes where it stopped. Run from the repository root:
+
+    nice -n 5 .venv/bin/python studies/styles.py --out runs/styles --seeds 0 1 2 --episodes 20 \\
+        [--demonstrators expert cautious assertive recording] [--threads 2] [--workers 2]
+
+``--smoke`` runs the whole chain at toy sizes (one training seed, one episode, a few cycles).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from irlsim.road import load_road
+from irlsim.road.network import sumo_binary
+from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.rollout.style import pool_styles, style_distances
+
+CONFIGS = {
+    "expert": "configs/collect/default.toml",
+    "cautious": "configs/collect/styles/cautious.toml",
+    "assertive": "configs/collect/styles/assertive.toml",
+}
+RECORDING = "recording"
+MODELS = ("PACNN+S", "LIRL")
+EVAL_BASE = 1000  # evaluation: episode seeds EVAL_BASE * 1e6 + i (no dataset of this study uses them)
+SEED_STRIDE = 1_000_000  # irlsim.data.collection.SEED_STRIDE
+REC_CARS = 60  # cars SUMO drives for the recording (training, validation and test egos, then the drives')
+REC_SEED = 1  # SUMO's seed of the recording
+
+#: toy sizes of --smoke: the collect configs' fields (written to <out>/smoke/, as drives read them too)
+SMOKE_FIELDS = {"n_policies": 60, "n_vehicles": 3, "max_cycles": 40, "workers": 1}
+SMOKE_FIELDS |= {"train_episodes": 1, "validation_episodes": 1, "test_episodes": 1}
+SMOKE_TRAIN = ["--set", "epochs=1"]
+SMOKE_CYCLES = 8
+
+
+def smoke_configs(out: Path) -> dict[str, str]:
+    """The demonstrators' collect configs at toy sizes (``SMOKE_FIELDS``), written under ``out``."""
+    (out / "smoke").mkdir(parents=True, exist_ok=True)
+    configs = {}
+    for d, src in CONFIGS.items():
+        text = Path(src).read_text()
+        for k, v in SMOKE_FIELDS.items():
+            text = re.sub(rf"^{k} = [^#\n]*", f"{k} = {v} ", text, flags=re.M)
+        (out / "smoke" / f"{d}.toml").write_text(text)
+        configs[d] = str(out / "smoke" / f"{d}.toml")
+    return configs
+
+
+def run(cmd: list[str]) -> None:
+    print("$", " ".join(cmd), flush=True)
+    subprocess.run(cmd, check=True)
+
+
+def irlsim() -> str:
+    return str(Path(sys.executable).parent / "irlsim")
+
+
+def complete(folder: Path) -> bool:
+    m = folder / "manifest.json"
+    return m.is_file() and '"complete": true' in m.read_text()
+
+
+def collect(config: str, road: str, out: Path, sets: list[str], a: Any) -> None:
+    if not complete(out):
+        run(
+            [irlsim(), "collect", "--config", config, "--scenario", road, *a.collect_sets, *sets]
+            + ["--workers", str(a.workers), "--out", str(out)]
+        )
+
+
+def collected_style(folder: Path) -> dict[str, Any]:
+    """The pooled style of every episode a collection recorded."""
+    stats = [json.loads(p.read_text()) for p in sorted(folder.glob("*/*.stats.json"))]
+    return pool_styles([s for s in stats if "style/time_s" in s])
+
+
+def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:
+    """model -> the pooled style of its episodes in a drive.json."""
+    eps = json.loads(drive_json.read_text())["episodes"]
+    return {
+        m: pool_styles([e for e in eps if e["drive/model"] == m]) for m in {e["drive/model"] for e in eps}
+    }
+
+
+def safety(drive_json: Path, model: str) -> dict[str, Any]:
+    """The safety bounds of a model's drives: collisions, exits, red crossings, full stops, mission."""
+    s = next(s for s in json.loads(drive_json.read_text())["summary"] if s["drive/model"] == model)
+    out = {
+        "collisions": s["drive/collisions"],
+        "exits": s["drive/exits"],
+        "red": s.get("drive/red_crossings", 0),
+        "stops": [s["drive/stop_lines_compliant"], s["drive/stop_lines_passed"]],
+        "mission": [s["drive/checkpoints_in_lane"], s["drive/checkpoints_passed"]],
+    }
+    stops, mission = out["stops"], out["mission"]
+    out["safe"] = (
+        out["collisions"] == 0
+        and out["exits"] == 0
+        and out["red"] == 0
+        and (stops[1] == 0 or stops[0] >= 0.99 * stops[1])
+        and (mission[1] == 0 or mission[0] >= 0.9 * mission[1])
+    )
+    return out
+
+
+def drive(config: str, road: str | None, models: list[str], runs: Path | None, out: Path, a: Any) -> Path:
+    """``irlsim drive`` of ``models`` on the evaluation seeds; its drive.json."""
+    if not (out / "drive.json").is_file():
+        where = ["--scenario", road] if road else []
+        run(
+            [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
+            + ["--episodes", str(a.episodes), "--seed", str(EVAL_BASE * SEED_STRIDE), "--config", config]
+            + [*where, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
+            + ["--workers", str(a.workers), "--out", str(out)]
+        )
+    return out / "drive.json"
+
+
+def train(data: list[Path], runs: Path, seed: int, a: Any) -> None:
+    # always called: a finished training is a no-op, a killed one resumes from its last epoch
+    run(
+        [irlsim(), "train", "--stage", "1", "--config", a.train_config, "--data", *map(str, data)]
+        + ["--out", str(runs), "--set", f"models={json.dumps(list(MODELS))}", "--set", f"seed={seed}"]
+        + ["--set", f"threads={a.threads}", "--set", f"epochs={a.epochs}", *a.train_sets]
+    )
+
+
+def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict[str, Any]]:
+    """Table I of ``runs``' models on the demonstrator's own test split: model -> OPD and EVD."""
+    if not (out / "results.json").is_file():
+        run(
+            [irlsim(), "evaluate", "--data", *map(str, data), "--runs", str(runs)]
+            + ["--threads", str(a.threads), "--out", str(out)]
+        )
+    rows = json.loads((out / "results.json").read_text())
+    rows = rows.get("rows", rows) if isinstance(rows, dict) else rows
+    return {
+        r["model"]: {"opd_m": r.get("OPD [m]", r.get("opd")), "evd": r.get("EVD", r.get("evd"))}
+        for r in rows
+        if isinstance(r, dict) and r.get("model") in MODELS
+    }
+
+
+# ------------------------------------------------------------------------------------------ recording
+
+
+def record(out: Path, a: Any) -> tuple[str, str]:
+    """SUMO alone drives ``REC_CARS`` cars round the default road (its own routing: each car a trip of
+    one lap, SUMO's default driver type) with --fcd-output; the collect and drive configs of the
+    recording (training egos first, the cars after them for the drives)."""
+    folder = out / RECORDING
+    fcd = folder / "traffic.fcd.xml"
+    road = load_road(scenario=DEFAULT_SCENARIO)
+    cars = a.rec_cars
+    if not fcd.is_file():
+        folder.mkdir(parents=True, exist_ok=True)
+        first, last = road.edges[0], road.edges[-1]
+        trips = "".join(
+            f'<trip id="car{i}" depart="{4 * i}" from="{first}" to="{last}" departLane="best" '
+            f'departSpeed="max"/>'
+            for i in range(cars)
+        )
+        (folder / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
+        cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(folder / "cars.rou.xml")]
+        cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
+        cmd += ["--seed", str(REC_SEED), "--end", str(4 * cars + a.rec_seconds)]
+        run(cmd)
+        fcd.with_suffix(".tmp").rename(fcd)
+    n_train = a.rec_train
+    train_egos = ",".join(f"car{i}" for i in range(n_train + 2))
+    drive_egos = ",".join(f"car{i}" for i in range(n_train + 2, n_train + 2 + a.episodes))
+    common = (
+        f'seed = 0\n\n[scenario]\nname = "{DEFAULT_SCENARIO}"\n\n[planner]\nn_policies = {a.n_policies}\n'
+    )
+    rec = f'\n[demonstrator]\nkind = "recording"\nfile = "{fcd}"\nmin_duration = 20.0\n'
+    splits = f"train_episodes = {n_train}\nvalidation_episodes = 1\ntest_episodes = 1\n"
+    collect_toml, drive_toml = folder / "collect.toml", folder / "drive.toml"
+    collect_toml.write_text(f'{splits}max_cycles = {a.collect_cycles}\n{common}{rec}ego = "{train_egos}"\n')
+    drive_toml.write_text(f'{common}{rec}ego = "{drive_egos}"\n')
+    ref = folder / "reference.toml"  # the drive egos' own recorded driving, as a collection
+    ref.write_text(
+        f"train_episodes = {a.episodes}\nvalidation_episodes = 0\ntest_episodes = 0\n"
+        f'max_cycles = {a.max_cycles}\n{common}{rec}ego = "{drive_egos}"\n'
+    )
+    return str(collect_toml), str(drive_toml)
+
+
+# ------------------------------------------------------------------------------------------ the table
+
+
+def table_rows(learned: dict[str, dict[str, Any]], refs: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
+    """One row per learned driving: the style distance to every reference (row and references compared
+    together), the nearest reference."""
+    cols = list(refs)
+    out = []
+    for name, r in learned.items():
+        d = style_distances([r["style"], *(refs[c] for c in cols)])[0, 1:]
+        cells = {c: float(x) for c, x in zip(cols, d, strict=True)}
+        nearest = min(cells, key=lambda c: cells[c])
+        own = nearest == r["demonstrator"]
+        out.append({**{k: v for k, v in r.items() if k != "style"}, "row": name, "cells": cells})
+        out[-1].update(nearest=nearest, own_nearest=own)
+    return out
+
+
+def markdown(tables: dict[str, list[dict[str, Any]]]) -> str:
+    parts = []
+    for road, rows in tables.items():
+        if not rows:
+            continue
+        cols = list(rows[0]["cells"])
+        head = [
+            "learned reward",
+            *cols,
+            "own nearest",
+            "collisions",
+            "exits",
+            "red",
+            "stops",
+            "mission",
+            "safe",
+        ]
+        lines = [f"## {road}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for r in rows:
+            cells = [f"**{v:.3f}**" if c == r["nearest"] else f"{v:.3f}" for c, v in r["cells"].items()]
+            s = r["safety"]
+            tail = [s["collisions"], s["exits"], s["red"], "{}/{}".format(*s["stops"])]
+            tail += ["{}/{}".format(*s["mission"]), "yes" if s["safe"] else "no"]
+            lines.append(
+                "| "
+                + " | ".join([r["row"], *cells, "yes" if r["own_nearest"] else "no", *map(str, tail)])
+                + " |"
+            )
+        parts.append("\n".join(lines) + "\n")
+    return "\n".join(parts)
+
+
+def study(a: Any) -> dict[str, list[dict[str, Any]]]:
+    out = Path(a.out)
+    sumo_demos = [d for d in a.demonstrators if d in CONFIGS]
+    data = {d: [out / "data" / d / r for r in a.roads] for d in sumo_demos}
+    for d in sumo_demos:
+        for k, road in enumerate(a.roads):
+            collect(a.configs[d], road, data[d][k], ["--set", f"seed={k}"], a)
+    rec = record(out, a) if RECORDING in a.demonstrators else None
+    if rec is not None:
+        data[RECORDING] = [out / "data" / RECORDING]
+        collect(rec[0], DEFAULT_SCENARIO, data[RECORDING][0], [], a)
+    tables: dict[str, list[dict[str, Any]]] = {}
+    for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
+        refs: dict[str, dict[str, Any]] = {}
+        for d in sumo_demos:
+            if d == "expert":
+                ref = drive(a.configs[d], road, ["expert"], None, out / "drive" / road / "expert", a)
+                refs[d] = driven_styles(ref)["expert"]
+            else:
+                folder = out / "reference" / d / road
+                sets = ["--set", f"seed={EVAL_BASE}", "--set", f"train_episodes={a.episodes}"]
+                sets += ["--set", "validation_episodes=0", "--set", "test_episodes=0"]
+                sets += ["--set", f"max_cycles={a.max_cycles}", "--set", f"scenario.laps={a.laps}"]
+                collect(a.configs[d], road, folder, sets, a)
+                refs[d] = collected_style(folder)
+        learned: dict[str, dict[str, Any]] = {}
+        for d in sumo_demos:
+            for seed in a.seeds:
+                runs = out / "runs" / f"{d}-seed{seed}"
+                train(data[d], runs, seed, a)
+                t1 = table_one(data[d], runs, out / "eval" / f"{d}-seed{seed}", a)
+                dj = drive(
+                    a.configs[d], road, list(MODELS), runs, out / "drive" / road / f"{d}-seed{seed}", a
+                )
+                for m, style in driven_styles(dj).items():
+                    row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
+                    learned[f"{m} / {d} / seed {seed}"] = {**row, "safety": safety(dj, m)}
+        tables[road] = table_rows(learned, refs)
+    if rec is not None:
+        tables[f"{DEFAULT_SCENARIO}, where the recording was made"] = recording_rows(out, rec, data, a)
+    return tables
+
+
+def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]], a: Any) -> list:
+    """The recording's learned rewards and the expert driven on the held-out cars' routes, against the
+    recorded cars' own driving and the expert's there."""
+    folder = out / "reference" / RECORDING
+    collect(str(out / RECORDING / "reference.toml"), DEFAULT_SCENARIO, folder, [], a)
+    expert = drive(rec[1], None, ["expert"], None, out / "drive" / RECORDING / "expert", a)
+    refs = {RECORDING: collected_style(folder), "expert": driven_styles(expert)["expert"]}
+    learned: dict[str, dict[str, Any]] = {}
+    for seed in a.seeds:
+        runs = out / "runs" / f"{RECORDING}-seed{seed}"
+        train(data[RECORDING], runs, seed, a)
+        t1 = table_one(data[RECORDING], runs, out / "eval" / f"{RECORDING}-seed{seed}", a)
+        dj = drive(rec[1], None, list(MODELS), runs, out / "drive" / RECORDING / f"seed{seed}", a)
+        for m, style in driven_styles(dj).items():
+            row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
+            learned[f"{m} / {RECORDING} / seed {seed}"] = {**row, "safety": safety(dj, m)}
+    return table_rows(learned, refs)
+
+
+def _finite(x: Any) -> Any:
+    """JSON without NaN: a NaN figure (no following) is null."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _finite(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_finite(v) for v in x]
+    return float(x) if isinstance(x, np.floating) else x
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/styles")
+    p.add_argument("--roads", nargs="+", default=[DEFAULT_SCENARIO, "motorway"])
+    p.add_argument("--demonstrators", nargs="+", default=["expert", "cautious", "assertive"])
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds")
+    p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per road")
+    p.add_argument("--epochs", type=int, default=6, help="stage-1 epochs")
+    p.add_argument(
+        "--laps", type=int, default=2, help="laps of each evaluation episode (the collect configs')"
+    )
+    p.add_argument("--max-cycles", type=int, default=800, help="cycles of each evaluation episode")
+    p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
+    p.add_argument("--workers", type=int, default=1, help="episodes collected or driven in parallel")
+    p.add_argument("--smoke", action="store_true", help="toy sizes end to end (about a minute)")
+    a = p.parse_args(argv)
+    unknown = [d for d in a.demonstrators if d not in (*CONFIGS, RECORDING)]
+    if unknown:
+        sys.exit(f"styles: unknown demonstrator {unknown[0]}: choose from {', '.join([*CONFIGS, RECORDING])}")
+    a.train_config, a.collect_sets, a.train_sets = "configs/train/stage1.toml", [], []
+    a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train = 500, REC_CARS, 200, 20
+    a.collect_cycles = 800
+    if a.smoke:
+        a.seeds, a.episodes, a.max_cycles, a.laps = a.seeds[:1], 1, SMOKE_CYCLES, 1
+        a.train_config, a.train_sets = "configs/train/tiny_stage1.toml", SMOKE_TRAIN
+        a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train, a.epochs = 60, 6, 60, 1, 1
+        a.collect_cycles = 40
+    a.configs = smoke_configs(Path(a.out)) if a.smoke else dict(CONFIGS)
+    os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
+    try:
+        tables = study(a)
+    except subprocess.CalledProcessError as e:  # the command printed its own one line above
+        sys.exit(f"styles: step failed (exit {e.returncode}): {' '.join(map(str, e.cmd))}")
+    out = Path(a.out)
+    (out / "styles.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
+    (out / "styles.md").write_text(markdown(tables))
+    print(f"wrote {out / 'styles.md'} and {out / 'styles.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,40 @@
+"""The style study end to end at toy sizes (studies/styles.py --smoke): every step runs as the real
+irlsim command in SUMO, and the table has one row per learned reward and road, one finite cell per
+demonstrator."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+_spec = importlib.util.spec_from_file_location("styles", Path(__file__).parents[2] / "studies" / "styles.py")
+study = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(study)  # type: ignore[union-attr]
+
+
+@pytest.mark.slow
+def test_smoke_writes_the_style_table(tmp_path):
+    assert study.main(["--smoke", "--out", str(tmp_path)]) == 0
+    tables = json.loads((tmp_path / "styles.json").read_text())
+    assert list(tables) == ["oval", "motorway"]
+    for rows in tables.values():
+        # 2 models x 3 demonstrators x 1 training seed
+        assert sorted((r["model"], r["demonstrator"]) for r in rows) == sorted(
+            (m, d) for m in ("PACNN+S", "LIRL") for d in ("expert", "cautious", "assertive")
+        )
+        for r in rows:
+            assert list(r["cells"]) == ["expert", "cautious", "assertive"]
+            assert all(math.isfinite(v) and v >= 0 for v in r["cells"].values())
+            assert r["nearest"] == min(r["cells"], key=r["cells"].get)
+            assert isinstance(r["safety"]["safe"], bool)
+    assert "| learned reward | expert | cautious | assertive |" in (tmp_path / "styles.md").read_text()
+
+
+def test_unknown_demonstrator_is_one_line(tmp_path):
+    with pytest.raises(SystemExit) as e:
+        study.main(["--demonstrators", "expert", "timid", "--out", str(tmp_path)])
+    assert "unknown demonstrator timid" in str(e.value) and "\n" not in str(e.value)
