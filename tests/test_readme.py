@@ -1,10 +1,10 @@
-"""The README's and the docs' commands run as written: the quickstart block is examples/reward_quickstart.py
-verbatim (tests/reward runs that file), the own-road walkthrough's commands go from an OpenStreetMap extract
-to a learned reward driving it (real netconvert, SUMO, Parquet and training), the own-driver
-walkthrough's from a recording to a learned reward driving where a car of it drove, and every other
-``irlsim`` command in a code block of the README, the guide, the design, the results and the open
-questions names a command and options that exist, with values they accept (parsed, not run: most are
-hours of work)."""
+"""The README's and the docs' commands run as written: the README's quickstart block is
+examples/reward_quickstart.py verbatim (tests/reward runs that file); the walkthrough of the guide's "Your
+own road network" goes from an OpenStreetMap extract to a learned reward driving it (real netconvert,
+SUMO, Parquet and training), that of "Demonstrators and style" from a recording to a learned reward
+driving where a car of it drove; every other ``irlsim`` command in a code block of the README, the guide,
+the design, the results and the open questions names a command and options that exist, with values they
+accept (parsed, not run: most are hours of work)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ import shutil
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-README = (ROOT / "README.md").read_text()
 #: the pages whose commands are parsed; HISTORY.md keeps commands of older versions as they were run
 DOC_PAGES = [
     "README.md",
@@ -26,9 +25,9 @@ DOC_PAGES = [
 _COMMAND = re.compile(r"^\s*(?:\S+=\S*\s+|nice -n \d+ |time )*(?:\.venv/bin/)?irlsim ([a-z].*)$")
 
 
-def block(name: str) -> str:
-    m = re.search(rf"<!-- {name}:begin -->\n(.*?)<!-- {name}:end -->", README, flags=re.S)
-    assert m, f"README has no {name} block"
+def block(name: str, page: str = "README.md") -> str:
+    m = re.search(rf"<!-- {name}:begin -->\n(.*?)<!-- {name}:end -->", (ROOT / page).read_text(), flags=re.S)
+    assert m, f"{page} has no {name} block"
     return m.group(1)
 
 
@@ -40,9 +39,18 @@ def test_quickstart_block_is_the_example_file():
     )
 
 
+def run_walkthrough(name: str, page: str) -> None:
+    """Run the four ``.venv/bin/irlsim`` lines of ``page``'s ``name`` block, as written, each exiting 0."""
+    from pipelines.commands import main
+
+    lines = [ln.strip() for ln in block(name, page).splitlines() if ln.strip()]
+    assert len(lines) == 4 and all(ln.startswith(".venv/bin/irlsim ") for ln in lines)
+    for line in lines:
+        assert main(shlex.split(line)[1:]) == 0, line
+
+
 def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
     from irlsim.road.scenario import scenario_identity
-    from pipelines.commands import main
 
     shutil.copytree(ROOT / "configs", tmp_path / "configs")
     shutil.copytree(
@@ -51,11 +59,7 @@ def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
         ignore=shutil.ignore_patterns("*.net.xml"),
     )
     monkeypatch.chdir(tmp_path)
-    lines = [ln.strip() for ln in block("own-road").splitlines() if ln.strip()]
-    assert len(lines) == 4 and all(ln.startswith(".venv/bin/irlsim ") for ln in lines)
-    for line in lines:
-        argv = shlex.split(line)[1:]
-        assert main(argv) == 0, line
+    run_walkthrough("own-road", "docs/guide/your-network.md")
     out = capsys.readouterr().out
     assert "route: 3 edges, open" in out and "lanes_per_stretch" in out
     assert (tmp_path / "myroad.png").is_file()
@@ -70,16 +74,10 @@ def test_own_road_commands_run_as_written(tmp_path, monkeypatch, capsys):
 def test_own_driver_commands_run_as_written(tmp_path, monkeypatch, capsys):
     import json
 
-    from pipelines.commands import main
-
     shutil.copytree(ROOT / "configs", tmp_path / "configs")
     shutil.copytree(ROOT / "examples" / "mydriver", tmp_path / "examples" / "mydriver")
     monkeypatch.chdir(tmp_path)
-    lines = [ln.strip() for ln in block("own-driver").splitlines() if ln.strip()]
-    assert len(lines) == 4 and all(ln.startswith(".venv/bin/irlsim ") for ln in lines)
-    for line in lines:
-        argv = shlex.split(line)[1:]
-        assert main(argv) == 0, line
+    run_walkthrough("own-driver", "docs/guide/demonstrators.md")
     out = capsys.readouterr().out
     # the recording demonstrated: its cars are the egos, their routes matched without a lane column
     manifest = json.loads((tmp_path / "data" / "mydriver" / "manifest.json").read_text())
