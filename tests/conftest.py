@@ -153,3 +153,14 @@ def one_line(e) -> str:
     msg = str(e.value)
     assert msg and "\n" not in msg
     return msg
+
+
+def refused(capsys, argv: list[str]) -> str:
+    """The one line an ``irlsim`` command (``argv``) refused with: exit status 2, one line on stderr."""
+    from irlsim.cli import main
+
+    capsys.readouterr()
+    rc = main(argv)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    return err[0]

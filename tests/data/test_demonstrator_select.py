@@ -16,7 +16,7 @@ from irlsim.data.demonstrator import identity
 from irlsim.data.info import dataset_info
 from irlsim.data.reader import open_dataset
 from irlsim.errors import IrlsimError
-from tests.conftest import TINY_COLLECT, one_line
+from tests.conftest import TINY_COLLECT, one_line, refused
 
 IDM = "sumo:IDM/SL2015{accel=2,decel=3,tau=1.5}"  # configs/collect/sumo_idm.toml
 
@@ -43,14 +43,6 @@ def idm_runs(tiny_dataset, idm, tmp_path_factory):
 
 def _text(d: dict) -> str:
     return json.dumps(d, sort_keys=True)
-
-
-def refused(capsys, argv: list[str]) -> str:
-    capsys.readouterr()
-    rc = main(argv)
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1, err
-    return err[0]
 
 
 def test_identity_strings():

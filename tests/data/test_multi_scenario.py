@@ -12,18 +12,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from irlsim.errors import IrlsimError
-from tests.conftest import MULTI_TOML, one_line
-
-
-def refused(capsys, argv: list[str]) -> str:
-    """The one line a command refused with (exit status 2)."""
-    from irlsim.cli import main
-
-    capsys.readouterr()
-    rc = main(argv)
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1, err
-    return err[0]
+from tests.conftest import MULTI_TOML, one_line, refused
 
 
 def test_manifest_records_every_scenario_and_episode(multi):
