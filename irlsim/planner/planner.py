@@ -188,7 +188,7 @@ class Planner:
         feats[:, 14] = veh.proximity[sel]
         np.maximum(feats, 0.0, out=feats)
         if lanes is None:
-            offroad = self._offroad(lat, lon, ego.s, None)[cj]
+            offroad = self._offroad(lat, lon, ego.s)[cj]
         else:  # where lanes end or begin, the lanes that exist where each lon profile is
             offroad = self._offroad_pairs(lat, lon, ego.s, pairs)[sel]
         exit_j = (lat.bound_lon >= 0) & (lat.d.min(axis=1) < -road.half_road)
@@ -287,20 +287,13 @@ class Planner:
             ok[unsure] = acc & slip
         return ok
 
-    def _offroad(
-        self, lat: LatBank, lon: LonBank, s_ego: float, lanes: tuple[np.ndarray, np.ndarray] | None
-    ) -> np.ndarray:
-        """[J] bool: the ego's body beyond the drivable area (ramps included) at some step; where lanes
-        are added or dropped, the lanes of :func:`lane_window`."""
+    def _offroad(self, lat: LatBank, lon: LonBank, s_ego: float) -> np.ndarray:
+        """[J] bool, on a road with the same lanes throughout: the ego's body beyond the drivable area
+        (ramps included) at some step. Where lanes are added or dropped: :meth:`_offroad_pairs`."""
         cfg = self.cfg
         half = self.road.half_road
-        if lanes is None:
-            left = (lat.d + cfg.ego_width / 2 > half + 0.2).any(axis=1)
-            right_edge = np.full(len(lat.d), -half)[:, None] * np.ones_like(lat.d)
-        else:
-            right_t, left_t = lane_edges(self.road, lanes)
-            left = (lat.d + cfg.ego_width / 2 > left_t + 0.2).any(axis=1)
-            right_edge = np.broadcast_to(right_t, lat.d.shape).copy()
+        left = (lat.d + cfg.ego_width / 2 > half + 0.2).any(axis=1)
+        right_edge = np.full(len(lat.d), -half)[:, None] * np.ones_like(lat.d)
         bound = lat.bound_lon >= 0
         if bound.any():
             right_edge[bound] = self.road.drivable_right_edge(s_ego + lon.s[lat.bound_lon[bound]])
@@ -429,9 +422,3 @@ def lane_targets(road: Road, lanes: tuple[np.ndarray, np.ndarray], d0: float) ->
     own = int(np.clip(own, lanes[0][0], lanes[1][0]))
     ids = np.union1d(np.arange(lanes[0][-1], lanes[1][-1] + 1), [own])
     return road.lane_centres[ids]
-
-
-def lane_edges(road: Road, lanes: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(right, left) edge [m] [T] of the lanes of :func:`lane_window`."""
-    half_w = road.lane_width / 2
-    return road.lane_center(lanes[0]) - half_w, road.lane_center(lanes[1]) + half_w
