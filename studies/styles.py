@@ -4,7 +4,8 @@ style, and more like it than like any other demonstrator?
 Demonstrators (``--demonstrators``): the expert (configs/collect/default.toml), a cautious and an
 assertive SUMO driver (configs/collect/styles/, their attributes and reasons written there before any
 run) and, with ``recording``, SUMO run on its own (the wheel's ``sumo`` binary, SUMO's routing and
-drivers, ``--fcd-output``) on the default road, imported as a recording. For each demonstrator:
+drivers, ``--fcd-output``) on the default road, imported as a recording (learned and driven with the
+planner's top speed raised to ``REC_V_MAX``, the speeds SUMO's drivers reach there). For each demonstrator:
 
 - a dataset on every road of ``--roads`` (its collect config; base seed = the road's index, so every
   demonstrator meets the same traffic);
@@ -63,6 +64,10 @@ EVAL_BASE = 1000  # evaluation: episode seeds EVAL_BASE * 1e6 + i (no dataset of
 SEED_STRIDE = 1_000_000  # irlsim.data.collection.SEED_STRIDE
 REC_CARS = 60  # cars SUMO drives for the recording (training, validation and test egos, then the drives')
 REC_SEED = 1  # SUMO's seed of the recording
+#: [m/s] the planner's top speed where the recording is learned and driven: SUMO's default drivers drive
+#: the oval at up to their speedFactor x its 100 km/h limit (36 % of the recorded rows above the default
+#: 25 m/s, 5 % above 30), and a policy set that cannot reach a driver's speed cannot hold its odometry
+REC_V_MAX = 35.0
 
 #: toy sizes of --smoke: the collect configs' fields (written to <out>/smoke/, as drives read them too)
 SMOKE_FIELDS = {"n_policies": 60, "n_vehicles": 3, "max_cycles": 40, "workers": 1}
@@ -209,6 +214,7 @@ def record(out: Path, a: Any) -> tuple[str, str]:
     drive_egos = ",".join(f"car{i}" for i in range(n_train + 2, n_train + 2 + a.episodes))
     common = (
         f'seed = 0\n\n[scenario]\nname = "{DEFAULT_SCENARIO}"\n\n[planner]\nn_policies = {a.n_policies}\n'
+        f"v_max = {REC_V_MAX}\n"
     )
     rec = f'\n[demonstrator]\nkind = "recording"\nfile = "{fcd}"\nmin_duration = 20.0\n'
     splits = f"train_episodes = {n_train}\nvalidation_episodes = 1\ntest_episodes = 1\n"

@@ -230,6 +230,9 @@ class Sampler:
         v = np.maximum(v_raw, 0.0)
         a = np.where(stopped & (v_raw <= 0.0), 0.0, a_raw)
         ok = v.max(axis=1) <= max(cfg.v_max, v0 + 1e-6)
+        if not ok.any():  # above v_max and still speeding up (a driver the planner did not drive): the
+            # profiles that add no speed to what the initial acceleration, common to all, adds
+            ok = v.max(axis=1) <= v0 + max(0.0, float((a0 * B[0]).max())) + 1e-6
         v, a, kind = v[ok], a[ok], kind[ok]
         s = np.concatenate(
             [np.zeros((len(v), 1)), np.cumsum(0.5 * (v[:, 1:] + v[:, :-1]) * cfg.dt, axis=1)], axis=1

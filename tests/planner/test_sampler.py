@@ -51,6 +51,17 @@ def test_lane_keeping_at_several_speeds(road, planner):
     assert end_speeds.min() < 5.0 and end_speeds.max() > 19.0
 
 
+def test_a_driver_above_v_max_and_speeding_up_still_gets_its_policies(road, planner):
+    # a recorded driver at 26 m/s (above v_max = 25) still accelerating: no profile can stay under v_max,
+    # so the policies are those that add no speed beyond what the initial acceleration adds
+    v0, a0 = 26.0, 0.4
+    assert v0 > planner.cfg.v_max
+    ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, v0, a=a0))
+    assert ps.n_policies == 2500
+    assert ps.v.max() <= v0 + a0 * planner.cfg.horizon
+    assert ps.v[:, -1].min() < v0 - 5.0  # braking profiles among them
+
+
 @pytest.mark.parametrize("d0, finals", [(0.0, (0, 2)), (-LANE_WIDTH, (1, 2)), (LANE_WIDTH, (1, 0))])
 def test_single_and_double_lane_changes_both_ways(road, planner, d0, finals):
     ps = planner.plan(make_obs(road, STRAIGHT_S, d0, 15.0))

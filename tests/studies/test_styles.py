@@ -1,6 +1,6 @@
 """The style study end to end at toy sizes (studies/styles.py --smoke): every step runs as the real
-irlsim command in SUMO, and the table has one row per learned reward and road, one finite cell per
-demonstrator."""
+irlsim command in SUMO (the recording made by the sumo binary on its own), and the table has one row per
+learned reward and road, one finite cell per demonstrator."""
 
 from __future__ import annotations
 
@@ -18,10 +18,17 @@ _spec.loader.exec_module(study)  # type: ignore[union-attr]
 
 @pytest.mark.slow
 def test_smoke_writes_the_style_table(tmp_path):
-    assert study.main(["--smoke", "--out", str(tmp_path)]) == 0
+    demos = ["expert", "cautious", "assertive", "recording"]
+    assert study.main(["--smoke", "--out", str(tmp_path), "--demonstrators", *demos]) == 0
     tables = json.loads((tmp_path / "styles.json").read_text())
-    assert list(tables) == ["oval", "motorway"]
-    for rows in tables.values():
+    where = "oval, where the recording was made"
+    assert list(tables) == ["oval", "motorway", where]
+    # the recording made by SUMO on its own, imported, learned and driven on its held-out cars' routes
+    assert sorted(r["model"] for r in tables[where]) == ["LIRL", "PACNN+S"]
+    for r in tables[where]:
+        assert r["demonstrator"] == "recording" and list(r["cells"]) == ["recording", "expert"]
+        assert all(math.isfinite(v) and v >= 0 for v in r["cells"].values())
+    for rows in (tables["oval"], tables["motorway"]):
         # 2 models x 3 demonstrators x 1 training seed
         assert sorted((r["model"], r["demonstrator"]) for r in rows) == sorted(
             (m, d) for m in ("PACNN+S", "LIRL") for d in ("expert", "cautious", "assertive")
