@@ -15,6 +15,12 @@ config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` la
   policies), ``configs/dagger/paper_fast.toml`` (the same rounds, each fine-tuning the reward that drove
   it for 5 epochs).
 
+Development variants of the new recipe, each one lever changed (``--recipes new-ft10 new-ftall``; they
+share the new recipe's stage 1 of the same seed): ``new-ft10`` fine-tunes 10 epochs a round instead of 5,
+``new-ftall`` fine-tunes on every policy of a cycle instead of a sample of 256. Choose among them on
+development seeds (``--drive-seed 2000``: the drives, their folders and the table say the seed), and judge
+the choice once on the evaluation seeds.
+
 Every step is a command whose output is kept, so the study resumes where it stopped: a finished step is
 recorded with its wall time and not run again (an interrupted one runs again, and its time is the run
 that finished it). Run from the repository root, alone on the machine for the times to mean
@@ -41,9 +47,20 @@ from irlsim.drive.metrics import summarize
 RECIPES = {
     "old": ("configs/train/stage1.toml", "configs/dagger/paper.toml"),
     "new": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+    # development variants of the new recipe: its stage 1 (shared with the "new" run of the same seed) and
+    # its DAgger config with the overrides of VARIANT_SETS, each one lever of the recipe changed
+    "new-ft10": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+    "new-ftall": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+}
+#: the DAgger overrides of the variants: 10 fine-tuning epochs a round instead of 5; the rounds'
+#: fine-tuning on every policy of a cycle instead of a sample of 256
+VARIANT_SETS = {
+    "new-ft10": ["--set", "epochs=[10, 10]"],
+    "new-ftall": ["--set", 'stage1_config="configs/train/stage1.toml"'],
 }
 MODELS = ("PACNN+S", "PTACNN+S")
 EVAL_SEED = 1000
+MISSION_BAR = 0.95  # the recipe's own bar on checkpoints in lane (the closed-loop bar's is 90 %)
 
 
 def run(cmd: list[str], times: Path, step: str) -> None:
@@ -60,25 +77,36 @@ def run(cmd: list[str], times: Path, step: str) -> None:
     times.write_text(json.dumps(spent, indent=1) + "\n")
 
 
-def recipe_run(out: Path, data: Path, recipe: str, seed: int, threads: int) -> dict[str, Any]:
-    """Stage 1 and the DAgger rounds of ``recipe`` with training seed ``seed``; their folder's record."""
-    stage1, dagger = RECIPES[recipe]
+def recipe_run(
+    out: Path, data: Path, recipe: str, seed: int, threads: int, dagger: bool = True
+) -> dict[str, Any]:
+    """Stage 1 and (``dagger``) the DAgger rounds of ``recipe`` with training seed ``seed``; their
+    folder's record."""
+    stage1, dagger_config = RECIPES[recipe]
     here = out / f"{recipe}-seed{seed}"
     here.mkdir(parents=True, exist_ok=True)
     times = here / "times.json"
     common = ["--set", f"seed={seed}", "--set", f"threads={threads}"]
-    run(
-        ["train", "--stage", "1", "--config", stage1, "--data", str(data), "--out", str(here / "runs")]
-        + ["--set", 'models=["PACNN+S"]', *common],
-        times,
-        "stage 1",
-    )
-    run(
-        ["dagger", "--config", dagger, "--data", str(data), "--runs", str(here / "runs")]
-        + ["--out", str(here / "dagger"), "--set", f"seed={seed}"],
-        times,
-        "DAgger",
-    )
+    if recipe in VARIANT_SETS:  # the new recipe's stage 1 of this seed, run once for every variant
+        base = recipe_run(out, data, "new", seed, threads, dagger=False)
+        stage1_runs = Path(base["folder"]) / "runs"
+        spent = json.loads(times.read_text()) if times.is_file() else {}
+        times.write_text(json.dumps({**spent, "stage 1": base["times"]["stage 1"]}, indent=1) + "\n")
+    else:
+        stage1_runs = here / "runs"
+        run(
+            ["train", "--stage", "1", "--config", stage1, "--data", str(data), "--out", str(stage1_runs)]
+            + ["--set", 'models=["PACNN+S"]', *common],
+            times,
+            "stage 1",
+        )
+    if dagger:
+        run(
+            ["dagger", "--config", dagger_config, "--data", str(data), "--runs", str(stage1_runs)]
+            + ["--out", str(here / "dagger"), "--set", f"seed={seed}", *VARIANT_SETS.get(recipe, [])],
+            times,
+            "DAgger",
+        )
     n = recipe_rounds(recipe)
     record = {"recipe": recipe, "seed": seed, "folder": here, "times": json.loads(times.read_text())}
     return {**record, "rounds": n, "dagger_s": dagger_seconds(here, n)}
@@ -131,9 +159,20 @@ def accept(r: dict[str, Any], a: Any) -> dict[str, Any]:
     the same seeds); their summaries and Table I rows."""
     n, here = r["rounds"], r["folder"]
     runs, table, times = last_round(here, n), here / f"table1-round{n}", here / "times.json"
-    eps = drive(a.out / f"expert-e{a.episodes}", None, ("expert",), a, a.out / "times.json")
+    # on the evaluation seeds the folders and steps keep their names; on others (development) they say it
+    at = "" if a.drive_seed == EVAL_SEED else f"-s{a.drive_seed}"
+    step = "acceptance drive" + at
+    eps = drive(
+        a.out / f"expert{at}-e{a.episodes}", None, ("expert",), a, a.out / "times.json", a.drive_seed, step
+    )
     eps += drive(
-        here / f"accept-round{n}-e{a.episodes}", runs, MODELS, a, times, step=f"acceptance drive, round {n}"
+        here / f"accept-round{n}{at}-e{a.episodes}",
+        runs,
+        MODELS,
+        a,
+        times,
+        a.drive_seed,
+        f"{step}, round {n}",
     )
     if not (table / "results.json").is_file():  # on the data they were trained on: the expert's test split
         data = [str(a.out / "data"), *(str(here / "dagger" / f"round_{k}" / "data") for k in range(1, n + 1))]
@@ -161,6 +200,12 @@ def meets_bar(s: dict[str, Any], expert_kmh: float) -> bool:
     )
 
 
+def in_lane(s: dict[str, Any]) -> float:
+    """The share of the checkpoints passed in the mission's lane (0 when none was passed)."""
+    passed = s["drive/checkpoints_passed"]
+    return s["drive/checkpoints_in_lane"] / passed if passed else 0.0
+
+
 def closed_loop_cells(s: dict[str, Any]) -> list[Any]:
     """A drive summary's collisions, exits, stops (compliant/passed), checkpoints (in lane/passed)."""
     stops = f"{s['drive/stop_lines_compliant']}/{s['drive/stop_lines_passed']}"
@@ -175,6 +220,7 @@ def closed_loop_cells(s: dict[str, Any]) -> list[Any]:
 def table(rows: list[dict[str, Any]]) -> str:
     head = "recipe | seed | rounds | model | stage 1 [min] | DAgger [min] | to a reward [min]"
     head += " | collisions | exits | stops | checkpoints in lane | speed / expert | OPD [m] (test) | bar"
+    head += f" | in lane >= {MISSION_BAR:.0%}"
     lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
     for r in rows:
         t = r["times"]
@@ -185,7 +231,7 @@ def table(rows: list[dict[str, Any]]) -> str:
             cells = [r["recipe"], r["seed"], r["rounds"], m, *(f"{x:.1f}" for x in (*minutes, sum(minutes)))]
             cells += [*closed_loop_cells(s), f"{s['drive/mean_speed_kmh'] / kmh:.3f}"]
             cells += [f"{r['opd'].get(m, float('nan')):.3f}"]
-            cells += ["yes" if meets_bar(s, kmh) else "no"]
+            cells += ["yes" if meets_bar(s, kmh) else "no", "yes" if in_lane(s) >= MISSION_BAR else "no"]
             lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"
 
@@ -200,6 +246,10 @@ def main() -> int:
     p.add_argument("--laps", type=int, default=2, help="laps per acceptance episode")
     p.add_argument("--threads", type=int, default=2, help="torch threads of the stage-1 training")
     p.add_argument("--workers", type=int, default=2, help="acceptance episodes driven in parallel")
+    p.add_argument(
+        "--drive-seed", type=int, default=EVAL_SEED,
+        help=f"first seed of the drives ({EVAL_SEED}: the evaluation seeds; choose on others, e.g. 2000)",
+    )  # fmt: skip
     a = p.parse_args()
     a.out = Path(a.out)
     data = a.out / "data"
@@ -209,9 +259,10 @@ def main() -> int:
         run(["collect", "--config", a.config, "--out", str(data)], a.out / "times.json", "collect")
     runs = [recipe_run(a.out, data, k, s, a.threads) for k in a.recipes for s in a.seeds]
     rows = [{**r, **accept(r, a), "folder": str(r["folder"])} for r in runs]
-    (a.out / "recipe.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (a.out / "recipe.md").write_text(table(rows))
-    print(table(rows) + f"wrote {a.out / 'recipe.md'} and {a.out / 'recipe.json'}")
+    name = "recipe" if a.drive_seed == EVAL_SEED else f"recipe-s{a.drive_seed}"
+    (a.out / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (a.out / f"{name}.md").write_text(table(rows))
+    print(table(rows) + f"wrote {a.out / (name + '.md')} and {a.out / (name + '.json')}")
     return 0
 
 

@@ -55,9 +55,11 @@ def test_the_table_adds_up_the_times():
     }  # fmt: skip
     lines = study.table([row]).splitlines()
     assert lines[2].startswith(
-        "| new | 1 | 2 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes |"
+        "| new | 1 | 2 | PACNN+S | 2.0 | 8.0 | 10.0 | 0 | 0 | 80/80 | 144/160 | 0.900 | 0.410 | yes | no |"
     )
-    assert lines[3].endswith("| 2 | 0 | 80/80 | 144/160 | 0.900 | 0.400 | no |")
+    assert lines[3].endswith("| 2 | 0 | 80/80 | 144/160 | 0.900 | 0.400 | no | no |")
+    row["drive"]["PACNN+S"] = _summary(**{"drive/checkpoints_in_lane": 152})  # 95 %: the recipe's own bar
+    assert study.table([row]).splitlines()[2].endswith("| 152/160 | 0.900 | 0.410 | yes | yes |")
 
 
 def test_a_recorded_step_is_not_run_again(tmp_path, capsys):
