@@ -275,8 +275,23 @@ def markdown(tables: dict[str, list[dict[str, Any]]]) -> str:
                 + " | ".join([r["row"], *cells, "yes" if r["own_nearest"] else "no", *map(str, tail)])
                 + " |"
             )
+        lines += ["", *verdicts(rows)]
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
+
+
+def verdicts(rows: list[dict[str, Any]]) -> list[str]:
+    """One line per model: in how many of its rows (demonstrator x training seed) the nearest driving is
+    its own demonstrator's, and in how many every safety bound held."""
+    out = []
+    for m in dict.fromkeys(r["model"] for r in rows):
+        mine = [r for r in rows if r["model"] == m]
+        own = sum(r["own_nearest"] for r in mine)
+        safe = sum(r["safety"]["safe"] for r in mine)
+        out.append(
+            f"- {m}: own demonstrator nearest in {own} of {len(mine)} rows; safe in {safe} of {len(mine)}"
+        )
+    return out
 
 
 def study(a: Any) -> dict[str, list[dict[str, Any]]]:
