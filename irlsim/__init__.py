@@ -1,4 +1,4 @@
-"""irlsim: path-integral maximum-entropy deep IRL with policy and temporal attention on a SUMO oval.
+"""irlsim: path-integral maximum-entropy deep IRL with policy and temporal attention on SUMO roads.
 
 Implements Rosbach et al., "Planning on the fast lane", IROS 2020. Packages are split by noun:
 ``road`` (geometry), ``sim`` (SUMO), ``planner`` (sampling + features + expert), ``data`` (Parquet),

@@ -40,7 +40,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser(command: str | None) -> argparse.ArgumentParser:
-    parser = _Parser(prog="irlsim", description="path-integral maximum-entropy deep IRL on a SUMO oval")
+    parser = _Parser(prog="irlsim", description="path-integral maximum-entropy deep IRL on SUMO roads")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name, module_name in COMMANDS.items():
         if name == command:
