@@ -22,8 +22,9 @@ The table (``<out>/styles.md`` and ``<out>/styles.json``): per road, one row per
 demonstrator it learned from, training seed), one column per demonstrator, each cell the style distance
 (:func:`irlsim.rollout.style.style_distances` over the row's driving and the references) and the row's
 smallest cell marked; beside it the safety bounds of the row's drives. The recording's rows are driven
-where it was recorded (the held-out cars' routes and starts, the others replayed) and compared with the
-recorded cars and the expert driven there.
+where it was recorded (the held-out cars' routes and starts; the others driven by SUMO from their
+recorded states, ``irlsim drive --reactive``: replayed cars cannot see the ego, and rear-end it) and
+compared with the recorded cars and the expert driven there.
 
 Every step is a separate ``irlsim`` command whose output is kept; a step whose output exists is skipped,
 so the study resumes where it stopped. Run from the repository root:
@@ -147,9 +148,10 @@ def safety(drive_json: Path, model: str) -> dict[str, Any]:
 
 
 def drive(config: str, road: str | None, models: list[str], runs: Path | None, out: Path, a: Any) -> Path:
-    """``irlsim drive`` of ``models`` on the evaluation seeds; its drive.json."""
+    """``irlsim drive`` of ``models`` on the evaluation seeds; its drive.json. On the recording
+    (``road`` None) reactive: SUMO drives the other cars, as a replayed car cannot see the ego."""
     if not (out / "drive.json").is_file():
-        where = ["--scenario", road] if road else []
+        where = ["--scenario", road] if road else ["--reactive"]
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--episodes", str(a.episodes), "--seed", str(EVAL_BASE * SEED_STRIDE), "--config", config]
