@@ -122,13 +122,30 @@ def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:
     """model -> the pooled style of its episodes in a drive.json."""
     eps = json.loads(drive_json.read_text())["episodes"]
     return {
-        m: pool_styles([e for e in eps if e["drive/model"] == m]) for m in {e["drive/model"] for e in eps}
+        m: pool_styles([e for e in eps if e["drive/model"] == m])
+        for m in dict.fromkeys(e["drive/model"] for e in eps)
     }
 
 
 def safety(drive_json: Path, model: str) -> dict[str, Any]:
-    """The safety bounds of a model's drives: collisions, exits, red crossings, full stops, mission."""
-    s = next(s for s in json.loads(drive_json.read_text())["summary"] if s["drive/model"] == model)
+    """The safety bounds of a model's drives (:func:`bounds`)."""
+    return bounds(next(s for s in json.loads(drive_json.read_text())["summary"] if s["drive/model"] == model))
+
+
+def collected_bounds(folder: Path) -> dict[str, Any]:
+    """The safety bounds (:func:`bounds`) of a demonstrator's own driving in a collection: its
+    episodes' counts added up."""
+    stats = [json.loads(p.read_text()) for p in sorted(folder.glob("*/*.stats.json"))]
+    keys = ["collisions", "exits", "red_crossings", "stop_lines_compliant", "stop_lines_passed"]
+    keys += ["checkpoints_in_lane", "checkpoints_passed"]
+    return bounds({f"drive/{k}": sum(int(s.get(f"sim/{k}", 0)) for s in stats) for k in keys})
+
+
+def bounds(s: dict[str, Any]) -> dict[str, Any]:
+    """The safety bounds of a drive summary: collisions, exits, red crossings, full stops at stop lines;
+    ``safe`` when none was broken (a collision, an exit, a red crossing, fewer than 99 % of the stops).
+    The mission (checkpoints in the lane irlsim's route asks for) is reported beside them and not a
+    bound: SUMO's drivers do not know irlsim's mission lanes, so their learned rewards cannot either."""
     out = {
         "collisions": s["drive/collisions"],
         "exits": s["drive/exits"],
@@ -136,13 +153,12 @@ def safety(drive_json: Path, model: str) -> dict[str, Any]:
         "stops": [s["drive/stop_lines_compliant"], s["drive/stop_lines_passed"]],
         "mission": [s["drive/checkpoints_in_lane"], s["drive/checkpoints_passed"]],
     }
-    stops, mission = out["stops"], out["mission"]
+    stops = out["stops"]
     out["safe"] = (
         out["collisions"] == 0
         and out["exits"] == 0
         and out["red"] == 0
         and (stops[1] == 0 or stops[0] >= 0.99 * stops[1])
-        and (mission[1] == 0 or mission[0] >= 0.9 * mission[1])
     )
     return out
 
@@ -249,37 +265,39 @@ def table_rows(learned: dict[str, dict[str, Any]], refs: dict[str, dict[str, Any
     return out
 
 
-def markdown(tables: dict[str, list[dict[str, Any]]]) -> str:
+def markdown(tables: dict[str, dict[str, Any]]) -> str:
     parts = []
-    for road, rows in tables.items():
+    for road, table in tables.items():
+        rows = table["rows"]
         if not rows:
             continue
         cols = list(rows[0]["cells"])
-        head = [
-            "learned reward",
-            *cols,
-            "own nearest",
-            "collisions",
-            "exits",
-            "red",
-            "stops",
-            "mission",
-            "safe",
-        ]
+        head = ["learned reward", *cols, "own nearest", *BOUNDS_HEAD]
         lines = [f"## {road}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in rows:
             cells = [f"**{v:.3f}**" if c == r["nearest"] else f"{v:.3f}" for c, v in r["cells"].items()]
-            s = r["safety"]
-            tail = [s["collisions"], s["exits"], s["red"], "{}/{}".format(*s["stops"])]
-            tail += ["{}/{}".format(*s["mission"]), "yes" if s["safe"] else "no"]
-            lines.append(
-                "| "
-                + " | ".join([r["row"], *cells, "yes" if r["own_nearest"] else "no", *map(str, tail)])
-                + " |"
-            )
-        lines += ["", *verdicts(rows)]
+            own = "yes" if r["own_nearest"] else "no"
+            lines.append("| " + " | ".join([r["row"], *cells, own, *bounds_cells(r["safety"])]) + " |")
+        lines += ["", *verdicts(rows), "", "The demonstrators' own driving on the same seeds:", ""]
+        lines += ["| demonstrator | " + " | ".join(BOUNDS_HEAD) + " |", "|" + "---|" * (len(BOUNDS_HEAD) + 1)]
+        lines += [f"| {d} | " + " | ".join(bounds_cells(b)) + " |" for d, b in table["demonstrators"].items()]
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
+
+
+BOUNDS_HEAD = ["collisions", "exits", "red", "stops", "mission", "safe"]
+
+
+def bounds_cells(s: dict[str, Any]) -> list[str]:
+    """The cells of :data:`BOUNDS_HEAD` for a :func:`bounds` record."""
+    cells = [
+        s["collisions"],
+        s["exits"],
+        s["red"],
+        "{}/{}".format(*s["stops"]),
+        "{}/{}".format(*s["mission"]),
+    ]
+    return [*map(str, cells), "yes" if s["safe"] else "no"]
 
 
 def verdicts(rows: list[dict[str, Any]]) -> list[str]:
@@ -296,7 +314,7 @@ def verdicts(rows: list[dict[str, Any]]) -> list[str]:
     return out
 
 
-def study(a: Any) -> dict[str, list[dict[str, Any]]]:
+def study(a: Any) -> dict[str, dict[str, Any]]:
     out = Path(a.out)
     sumo_demos = [d for d in a.demonstrators if d in CONFIGS]
     data = {d: [out / "data" / d / r for r in a.roads] for d in sumo_demos}
@@ -307,20 +325,21 @@ def study(a: Any) -> dict[str, list[dict[str, Any]]]:
     if rec is not None:
         data[RECORDING] = [out / "data" / RECORDING]
         collect(rec[0], DEFAULT_SCENARIO, data[RECORDING][0], [], a)
-    tables: dict[str, list[dict[str, Any]]] = {}
+    tables: dict[str, dict[str, Any]] = {}
     for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
         refs: dict[str, dict[str, Any]] = {}
+        own: dict[str, dict[str, Any]] = {}
         for d in sumo_demos:
             if d == "expert":
                 ref = drive(a.configs[d], road, ["expert"], None, out / "drive" / road / "expert", a)
-                refs[d] = driven_styles(ref)["expert"]
+                refs[d], own[d] = driven_styles(ref)["expert"], safety(ref, "expert")
             else:
                 folder = out / "reference" / d / road
                 sets = ["--set", f"seed={EVAL_BASE}", "--set", f"train_episodes={a.episodes}"]
                 sets += ["--set", "validation_episodes=0", "--set", "test_episodes=0"]
                 sets += ["--set", f"max_cycles={a.max_cycles}", "--set", f"scenario.laps={a.laps}"]
                 collect(a.configs[d], road, folder, sets, a)
-                refs[d] = collected_style(folder)
+                refs[d], own[d] = collected_style(folder), collected_bounds(folder)
         learned: dict[str, dict[str, Any]] = {}
         for d in sumo_demos:
             for seed in a.seeds:
@@ -333,19 +352,20 @@ def study(a: Any) -> dict[str, list[dict[str, Any]]]:
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
                     learned[f"{m} / {d} / seed {seed}"] = {**row, "safety": safety(dj, m)}
-        tables[road] = table_rows(learned, refs)
+        tables[road] = {"rows": table_rows(learned, refs), "demonstrators": own}
     if rec is not None:
         tables[f"{DEFAULT_SCENARIO}, where the recording was made"] = recording_rows(out, rec, data, a)
     return tables
 
 
-def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]], a: Any) -> list:
+def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]], a: Any) -> dict[str, Any]:
     """The recording's learned rewards and the expert driven on the held-out cars' routes, against the
     recorded cars' own driving and the expert's there."""
     folder = out / "reference" / RECORDING
     collect(str(out / RECORDING / "reference.toml"), DEFAULT_SCENARIO, folder, [], a)
     expert = drive(rec[1], None, ["expert"], None, out / "drive" / RECORDING / "expert", a)
     refs = {RECORDING: collected_style(folder), "expert": driven_styles(expert)["expert"]}
+    own = {RECORDING: collected_bounds(folder), "expert": safety(expert, "expert")}
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
         runs = out / "runs" / f"{RECORDING}-seed{seed}"
@@ -355,7 +375,7 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
             learned[f"{m} / {RECORDING} / seed {seed}"] = {**row, "safety": safety(dj, m)}
-    return table_rows(learned, refs)
+    return {"rows": table_rows(learned, refs), "demonstrators": own}
 
 
 def _finite(x: Any) -> Any:

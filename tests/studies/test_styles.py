@@ -24,11 +24,16 @@ def test_smoke_writes_the_style_table(tmp_path):
     where = "oval, where the recording was made"
     assert list(tables) == ["oval", "motorway", where]
     # the recording made by SUMO on its own, imported, learned and driven on its held-out cars' routes
-    assert sorted(r["model"] for r in tables[where]) == ["LIRL", "PACNN+S"]
-    for r in tables[where]:
+    assert sorted(r["model"] for r in tables[where]["rows"]) == ["LIRL", "PACNN+S"]
+    assert list(tables[where]["demonstrators"]) == ["recording", "expert"]
+    for r in tables[where]["rows"]:
         assert r["demonstrator"] == "recording" and list(r["cells"]) == ["recording", "expert"]
         assert all(math.isfinite(v) and v >= 0 for v in r["cells"].values())
-    for rows in (tables["oval"], tables["motorway"]):
+    for table in (tables["oval"], tables["motorway"]):
+        rows = table["rows"]
+        # each demonstrator's own driving on the evaluation seeds, with its safety bounds
+        assert list(table["demonstrators"]) == ["expert", "cautious", "assertive"]
+        assert all(isinstance(b["safe"], bool) for b in table["demonstrators"].values())
         # 2 models x 3 demonstrators x 1 training seed
         assert sorted((r["model"], r["demonstrator"]) for r in rows) == sorted(
             (m, d) for m in ("PACNN+S", "LIRL") for d in ("expert", "cautious", "assertive")
