@@ -33,6 +33,14 @@ so the study resumes where it stopped. Run from the repository root:
         [--demonstrators expert cautious assertive recording] [--threads 2] [--workers 2]
 
 ``--smoke`` runs the whole chain at toy sizes (one training seed, one episode, a few cycles).
+
+Development runs, to choose before the evaluation seeds judge: ``--eval-base 2000`` drives on the episode
+seeds 2000 * 1e6 + i instead (its drives, references and table named ``-s2000``); ``--rule kept`` trains
+the rewards of the demonstrators other than the expert with every demonstration kept as driven
+(``safe_demos = false``: the training's rule that moves a demonstration labelled as a predicted
+collision to the closest unlabelled policy fits the expert's planner, whose choice is never labelled
+so, not a driver who followed closely and did not collide; their runs, drives and table named
+``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all).
 """
 
 from __future__ import annotations
@@ -61,6 +69,9 @@ CONFIGS = {
 }
 RECORDING = "recording"
 MODELS = ("PACNN+S", "LIRL")
+#: --rule: how the demonstrations of a demonstrator other than the expert are trained on ("default": the
+#: training config's rules for every demonstrator)
+RULES = {"default": [], "kept": ["--set", "safe_demos=false"]}
 EVAL_BASE = 1000  # evaluation: episode seeds EVAL_BASE * 1e6 + i (no dataset of this study uses them)
 SEED_STRIDE = 1_000_000  # irlsim.data.collection.SEED_STRIDE
 REC_CARS = 60  # cars SUMO drives for the recording (training, validation and test egos, then the drives')
@@ -170,20 +181,28 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
         where = ["--scenario", road] if road else ["--reactive"]
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-            + ["--episodes", str(a.episodes), "--seed", str(EVAL_BASE * SEED_STRIDE), "--config", config]
+            + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * SEED_STRIDE), "--config", config]
             + [*where, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
             + ["--workers", str(a.workers), "--out", str(out)]
         )
     return out / "drive.json"
 
 
-def train(data: list[Path], runs: Path, seed: int, a: Any) -> None:
+def train(data: list[Path], runs: Path, seed: int, a: Any, rule: list[str]) -> None:
     # always called: a finished training is a no-op, a killed one resumes from its last epoch
     run(
         [irlsim(), "train", "--stage", "1", "--config", a.train_config, "--data", *map(str, data)]
         + ["--out", str(runs), "--set", f"models={json.dumps(list(MODELS))}", "--set", f"seed={seed}"]
-        + ["--set", f"threads={a.threads}", "--set", f"epochs={a.epochs}", *a.train_sets]
+        + ["--set", f"threads={a.threads}", "--set", f"epochs={a.epochs}", *a.train_sets, *rule]
     )
+
+
+def learner(d: str, seed: int, a: Any) -> tuple[str, list[str]]:
+    """The folder name of demonstrator ``d``'s learned rewards of training seed ``seed`` under ``--rule``
+    (``<d>[-<rule>]-seed<seed>``), and the rule's training settings; the expert's always the default."""
+    rule = "default" if d == "expert" else a.rule
+    tag = "" if rule == "default" else f"-{rule}"
+    return f"{d}{tag}-seed{seed}", RULES[rule]
 
 
 def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict[str, Any]]:
@@ -326,34 +345,37 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
         data[RECORDING] = [out / "data" / RECORDING]
         collect(rec[0], DEFAULT_SCENARIO, data[RECORDING][0], [], a)
     tables: dict[str, dict[str, Any]] = {}
+    at = "" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}"  # development seeds: folders of their own
     for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
         refs: dict[str, dict[str, Any]] = {}
         own: dict[str, dict[str, Any]] = {}
         for d in sumo_demos:
             if d == "expert":
-                ref = drive(a.configs[d], road, ["expert"], None, out / "drive" / road / "expert", a)
+                ref = drive(a.configs[d], road, ["expert"], None, out / f"drive{at}" / road / "expert", a)
                 refs[d], own[d] = driven_styles(ref)["expert"], safety(ref, "expert")
             else:
-                folder = out / "reference" / d / road
-                sets = ["--set", f"seed={EVAL_BASE}", "--set", f"train_episodes={a.episodes}"]
+                folder = out / f"reference{at}" / d / road
+                sets = ["--set", f"seed={a.eval_base}", "--set", f"train_episodes={a.episodes}"]
                 sets += ["--set", "validation_episodes=0", "--set", "test_episodes=0"]
                 sets += ["--set", f"max_cycles={a.max_cycles}", "--set", f"scenario.laps={a.laps}"]
                 collect(a.configs[d], road, folder, sets, a)
                 refs[d], own[d] = collected_style(folder), collected_bounds(folder)
         learned: dict[str, dict[str, Any]] = {}
-        for d in sumo_demos:
+        for d in (d for d in sumo_demos if d in a.rows):
             for seed in a.seeds:
-                runs = out / "runs" / f"{d}-seed{seed}"
-                train(data[d], runs, seed, a)
-                t1 = table_one(data[d], runs, out / "eval" / f"{d}-seed{seed}", a)
-                dj = drive(
-                    a.configs[d], road, list(MODELS), runs, out / "drive" / road / f"{d}-seed{seed}", a
-                )
+                name, rule = learner(d, seed, a)
+                runs = out / "runs" / name
+                train(data[d], runs, seed, a, rule)
+                t1 = table_one(data[d], runs, out / "eval" / name, a)
+                dj = drive(a.configs[d], road, list(MODELS), runs, out / f"drive{at}" / road / name, a)
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
-                    learned[f"{m} / {d} / seed {seed}"] = {**row, "safety": safety(dj, m)}
+                    learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {
+                        **row,
+                        "safety": safety(dj, m),
+                    }
         tables[road] = {"rows": table_rows(learned, refs), "demonstrators": own}
-    if rec is not None:
+    if rec is not None and RECORDING in a.rows:
         tables[f"{DEFAULT_SCENARIO}, where the recording was made"] = recording_rows(out, rec, data, a)
     return tables
 
@@ -368,13 +390,15 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
     own = {RECORDING: collected_bounds(folder), "expert": safety(expert, "expert")}
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
-        runs = out / "runs" / f"{RECORDING}-seed{seed}"
-        train(data[RECORDING], runs, seed, a)
-        t1 = table_one(data[RECORDING], runs, out / "eval" / f"{RECORDING}-seed{seed}", a)
-        dj = drive(rec[1], None, list(MODELS), runs, out / "drive" / RECORDING / f"seed{seed}", a)
+        name, rule = learner(RECORDING, seed, a)
+        runs = out / "runs" / name
+        train(data[RECORDING], runs, seed, a, rule)
+        t1 = table_one(data[RECORDING], runs, out / "eval" / name, a)
+        tag = name.replace(f"{RECORDING}-", "").replace(f"{RECORDING}", "")
+        dj = drive(rec[1], None, list(MODELS), runs, out / "drive" / RECORDING / tag, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
-            learned[f"{m} / {RECORDING} / seed {seed}"] = {**row, "safety": safety(dj, m)}
+            learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {**row, "safety": safety(dj, m)}
     return {"rows": table_rows(learned, refs), "demonstrators": own}
 
 
@@ -404,8 +428,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
     p.add_argument("--workers", type=int, default=1, help="episodes collected or driven in parallel")
     p.add_argument("--smoke", action="store_true", help="toy sizes end to end (about a minute)")
+    p.add_argument(
+        "--eval-base", type=int, default=EVAL_BASE, help="episode seeds base * 1e6 + i of the drives"
+    )
+    p.add_argument(
+        "--rule", choices=sorted(RULES), default="default", help="demonstrations of the non-experts"
+    )
+    p.add_argument("--rows", nargs="+", help="demonstrators whose learned rewards get rows (default: all)")
     a = p.parse_args(argv)
-    unknown = [d for d in a.demonstrators if d not in (*CONFIGS, RECORDING)]
+    a.rows = a.rows or a.demonstrators
+    if RECORDING in a.rows and a.eval_base != EVAL_BASE:
+        sys.exit(
+            "styles: --eval-base moves the drives on the SUMO roads only (the recording is driven on its "
+            "held-out cars): leave recording out of --rows"
+        )
+    unknown = [d for d in [*a.demonstrators, *a.rows] if d not in (*CONFIGS, RECORDING)]
     if unknown:
         sys.exit(f"styles: unknown demonstrator {unknown[0]}: choose from {', '.join([*CONFIGS, RECORDING])}")
     a.train_config, a.collect_sets, a.train_sets = "configs/train/stage1.toml", [], []
@@ -423,9 +460,11 @@ def main(argv: list[str] | None = None) -> int:
     except subprocess.CalledProcessError as e:  # the command printed its own one line above
         sys.exit(f"styles: step failed (exit {e.returncode}): {' '.join(map(str, e.cmd))}")
     out = Path(a.out)
-    (out / "styles.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
-    (out / "styles.md").write_text(markdown(tables))
-    print(f"wrote {out / 'styles.md'} and {out / 'styles.json'}")
+    name = "styles" + ("" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}")
+    name += "" if a.rule == "default" else f"-{a.rule}"
+    (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
+    (out / f"{name}.md").write_text(markdown(tables))
+    print(f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
     return 0
 
 

@@ -50,3 +50,10 @@ def test_unknown_demonstrator_is_one_line(tmp_path):
     with pytest.raises(SystemExit) as e:
         study.main(["--demonstrators", "expert", "timid", "--out", str(tmp_path)])
     assert "unknown demonstrator timid" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_development_seeds_leave_the_recording_out_in_one_line(tmp_path):
+    with pytest.raises(SystemExit) as e:
+        study.main(["--eval-base", "2000", "--demonstrators", "expert", "recording", "--out", str(tmp_path)])
+    assert "leave recording out of --rows" in str(e.value) and "\n" not in str(e.value)
+    assert not any(tmp_path.iterdir())  # refused before any work
