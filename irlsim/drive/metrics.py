@@ -20,6 +20,10 @@ Metric keys (namespaced ``drive/``; an episode record also keeps the simulator's
     drive/plan_ms_mean                                        [ms] policy sampling + features per cycle
     drive/wall_s                                              [s] wall time of the episode
     drive/end_reason                                          collision, exit, laps, timeout or max_cycles
+    drive/checkpoints_missed                                  the checkpoints crossed out of lane: index (the
+                                                              road's checkpoint order), time [s], lane driven
+                                                              and lane required (-1: any of several); a
+                                                              summary counts them per index
 
 The nuPlan-style scorecard (``score/...`` keys, formulas in :mod:`irlsim.drive.scorecard`) follows in
 every episode record and every summary (means over the episodes, ``score/score_std`` the spread).
@@ -199,6 +203,7 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
             sum(e["drive/plan_ms_mean"] * e["drive/cycles"] for e in episodes) / max(cycles, 1), 4
         ),
         "drive/end_reasons": dict(Counter(str(e["drive/end_reason"]) for e in episodes)),
+        "drive/checkpoints_missed": missed_by_checkpoint(episodes),
         **(summarize_scores(episodes) if "score/score" in episodes[0] else {}),
         # on a road with traffic lights only (the oval's summaries keep their keys)
         **(
@@ -212,6 +217,22 @@ def summarize(episodes: Sequence[dict[str, Any]], inference_ms: Sequence[float] 
             else {}
         ),
     }
+
+
+def missed_checkpoints(events: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The checkpoints an episode crossed out of lane, from its events (:class:`irlsim.sim.episode.Episode`):
+    index, time [s], lane driven, lane required."""
+    return [
+        {"index": e["index"], "t": round(float(e["t"]), 2), "lane": e["lane"], "required": e["required"]}
+        for e in events
+        if e["kind"] == "checkpoint" and not e["met"]
+    ]
+
+
+def missed_by_checkpoint(episodes: Sequence[dict[str, Any]]) -> dict[str, int]:
+    """How often each checkpoint (by index, as a string: a JSON key) was crossed out of lane."""
+    n = Counter(m["index"] for e in episodes for m in e.get("drive/checkpoints_missed", ()))
+    return {str(k): n[k] for k in sorted(n)}
 
 
 def _frac(k: int, n: int) -> str:

@@ -158,6 +158,7 @@ class Episode:
                 c["checkpoints_in_lane"] += int(met)
                 self.events.append(
                     {"t": ego.t, "kind": "checkpoint", "index": i, "lane": ego.lane, "required": lane}
+                    | {"met": bool(met)}
                 )
         for i, m in enumerate(self.marks.stop_line_s):
             for _ in range(self.marks.passes(ego.s, m) - self.marks.passes(prev.s, m)):

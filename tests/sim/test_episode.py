@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from irlsim.drive.metrics import missed_by_checkpoint, missed_checkpoints
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.types import EgoState
 
@@ -67,6 +68,11 @@ def test_laps_checkpoints_and_lane():
     assert ep.done and ep.end_reason == "laps" and st["sim/laps"] == 2
     assert st["sim/checkpoints_passed"] == 4 and st["sim/checkpoints_in_lane"] == 2  # lane 2 meets cp 0 only
     assert st["sim/mean_speed_kmh"] == pytest.approx(72.0)
+    # the drive record's missed checkpoints: cp 1 (lane 0 required) in both laps, driven in lane 2
+    missed = missed_checkpoints(ep.events)
+    assert [(m["index"], m["lane"], m["required"]) for m in missed] == [(1, 2, 0), (1, 2, 0)]
+    assert missed[0]["t"] < missed[1]["t"]
+    assert missed_by_checkpoint([{"drive/checkpoints_missed": missed}] * 3) == {"1": 6}
 
 
 def test_target_is_next_checkpoint_unwrapped():
