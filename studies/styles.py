@@ -40,7 +40,8 @@ the rewards of the demonstrators other than the expert with every demonstration 
 (``safe_demos = false``: the training's rule that moves a demonstration labelled as a predicted
 collision to the closest unlabelled policy fits the expert's planner, whose choice is never labelled
 so, not a driver who followed closely and did not collide; their runs, drives and table named
-``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all).
+``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all), ``--models`` the
+learned rewards driven (default: both; both are always trained).
 """
 
 from __future__ import annotations
@@ -177,7 +178,7 @@ def bounds(s: dict[str, Any]) -> dict[str, Any]:
 def drive(config: str, road: str | None, models: list[str], runs: Path | None, out: Path, a: Any) -> Path:
     """``irlsim drive`` of ``models`` on the evaluation seeds; its drive.json. On the recording
     (``road`` None) reactive: SUMO drives the other cars, as a replayed car cannot see the ego."""
-    if not (out / "drive.json").is_file():
+    if not set(models) <= driven_models(out / "drive.json"):  # a drive of fewer models is driven again
         where = ["--scenario", road] if road else ["--reactive"]
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
@@ -186,6 +187,13 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
             + ["--workers", str(a.workers), "--out", str(out)]
         )
     return out / "drive.json"
+
+
+def driven_models(drive_json: Path) -> set[str]:
+    """The models a drive.json holds (none when there is none)."""
+    if not drive_json.is_file():
+        return set()
+    return {s["drive/model"] for s in json.loads(drive_json.read_text())["summary"]}
 
 
 def train(data: list[Path], runs: Path, seed: int, a: Any, rule: list[str]) -> None:
@@ -367,7 +375,7 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
                 runs = out / "runs" / name
                 train(data[d], runs, seed, a, rule)
                 t1 = table_one(data[d], runs, out / "eval" / name, a)
-                dj = drive(a.configs[d], road, list(MODELS), runs, out / f"drive{at}" / road / name, a)
+                dj = drive(a.configs[d], road, a.models, runs, out / f"drive{at}" / road / name, a)
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
                     learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {
@@ -395,7 +403,7 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         train(data[RECORDING], runs, seed, a, rule)
         t1 = table_one(data[RECORDING], runs, out / "eval" / name, a)
         tag = name.replace(f"{RECORDING}-", "").replace(f"{RECORDING}", "")
-        dj = drive(rec[1], None, list(MODELS), runs, out / "drive" / RECORDING / tag, a)
+        dj = drive(rec[1], None, a.models, runs, out / "drive" / RECORDING / tag, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
             learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {**row, "safety": safety(dj, m)}
@@ -435,6 +443,9 @@ def main(argv: list[str] | None = None) -> int:
         "--rule", choices=sorted(RULES), default="default", help="demonstrations of the non-experts"
     )
     p.add_argument("--rows", nargs="+", help="demonstrators whose learned rewards get rows (default: all)")
+    p.add_argument(
+        "--models", nargs="+", choices=MODELS, default=list(MODELS), help="the learned rewards driven"
+    )
     a = p.parse_args(argv)
     a.rows = a.rows or a.demonstrators
     if RECORDING in a.rows and a.eval_base != EVAL_BASE:
