@@ -240,7 +240,6 @@ def drive_episode(
     with sim:
         result = EpisodeRunner(sim, observers=observers, max_cycles=max(max_cycles, 0)).run(decider, seed)
         odometry = sim.odometry_arrays()
-        missed = missed_checkpoints(sim.episode.events if sim.episode is not None else [])
     bar.close()
     rec = episode_metrics(
         dict(result.stats),
@@ -257,7 +256,7 @@ def drive_episode(
     )
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
-    rec["drive/checkpoints_missed"] = missed
+    rec["drive/checkpoints_missed"] = missed_checkpoints(sim.episode.events if sim.episode else [])
     rec.update(_scores(scorer, dict(result.stats), model.is_expert, expert_progress))
     rec.update(style.summary())
     rec["_inference_ms"] = timing.inference_ms

@@ -36,6 +36,8 @@ def test_short_expert_run_reports_every_figure(road, tmp_path):
     assert set(EPISODE_KEYS) <= set(rec) and rec["drive/model"] == "expert"
     assert rec["drive/cycles"] == 60 and rec["drive/end_reason"] == "max_cycles"
     assert rec["drive/collisions"] == 0 and rec["drive/exits"] == 0
+    missed = rec["drive/checkpoints_missed"]
+    assert len(missed) == rec["drive/checkpoints_passed"] - rec["drive/checkpoints_in_lane"]
     assert rec["drive/time_s"] == pytest.approx(12.0) and rec["drive/distance_m"] > 50.0
     assert 0.0 < rec["drive/rms_jerk_lon"] < 10.0 and rec["drive/plan_ms_mean"] > 0.0
     assert len(rec["_inference_ms"]) == 60
