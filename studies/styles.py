@@ -67,6 +67,8 @@ CONFIGS = {
     "expert": "configs/collect/default.toml",
     "cautious": "configs/collect/styles/cautious.toml",
     "assertive": "configs/collect/styles/assertive.toml",
+    # development: the assertive driver's lane changes take 3 s, not one step (a jump of a lane width)
+    "assertive-lc3": "configs/collect/styles/assertive_lc3.toml",
 }
 RECORDING = "recording"
 MODELS = ("PACNN+S", "LIRL")

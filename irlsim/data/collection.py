@@ -462,7 +462,10 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with replay or Simulation(road, scenario, demo_vtype=demo_vtype(demonstrator, scenario)) as sim:
+    lc = demonstrator.lane_change_duration
+    with replay or Simulation(
+        road, scenario, demo_vtype=demo_vtype(demonstrator, scenario), lane_change_duration=lc
+    ) as sim:
         record = episode_record(job.seed, cfg, job.scenario, scenarios)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()

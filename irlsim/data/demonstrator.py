@@ -22,7 +22,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from irlsim.config import require
+from irlsim.config import STORED_IF_SET, require
 from irlsim.data.recorded import egos as recorded_egos
 from irlsim.data.recorded import open_recording
 from irlsim.errors import IrlsimError
@@ -44,7 +44,7 @@ RECORDING = "recording"
 KINDS = (EXPERT, SUMO, RECORDING)
 #: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
 #: keeps the bytes of before recordings existed)
-SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file")
+SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
 RECORDING_FIELDS = ("file", "ego", "min_duration")
 
 
@@ -67,6 +67,10 @@ class DemonstratorConfig:
     """kind 'sumo': an additional file with one <vType>, whose attributes come first (``params`` and
     the two models then over them); read when the collection starts and recorded as its attributes
     and sha256"""
+    lane_change_duration: float = field(default=0.0, metadata={STORED_IF_SET: True})
+    """kind 'sumo': [s] how long a lane change takes (SUMO's ``--lanechange.duration``, for every vehicle
+    of the demonstrator's episodes): the lateral move spread over this time, as a driver steers; 0:
+    SUMO's default, a lane change within one simulation step (a jump of a lane width)"""
     file: str = ""
     """kind 'recording': the recording, SUMO's FCD output (.xml) or a columnar file (.csv, .parquet) on
     the scenario's network (docs/guide/demonstrators.md, "Recordings")"""
@@ -84,7 +88,15 @@ class DemonstratorConfig:
             math.isfinite(self.min_duration) and self.min_duration > 0,
             f"demonstrator.min_duration must be a number > 0 s, got {self.min_duration}",
         )
+        require(
+            math.isfinite(self.lane_change_duration) and self.lane_change_duration >= 0,
+            f"demonstrator.lane_change_duration must be a number >= 0 s, got {self.lane_change_duration}",
+        )
         if self.kind != SUMO:
+            require(
+                not self.lane_change_duration,
+                "demonstrator.lane_change_duration belongs to kind = 'sumo': set it, or drop it",
+            )
             require(
                 not self.params and not self.vtype_file,
                 "demonstrator.params / vtype_file belong to kind = 'sumo': set it, or drop them",
@@ -149,6 +161,8 @@ def resolve(
         "lane_change_model": out.lane_change_model,
         "params": params,
     }
+    if cfg.lane_change_duration:
+        record["lane_change_duration"] = cfg.lane_change_duration
     if cfg.vtype_file:
         data = Path(cfg.vtype_file).read_bytes()
         record["vtype_file"] = {"path": str(cfg.vtype_file), "sha256": hashlib.sha256(data).hexdigest()}
@@ -206,11 +220,20 @@ def describe(record: dict[str, Any] | None) -> str:
     if record.get("kind") == RECORDING:
         n = len(record.get("egos") or [])
         return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos)"
-    params = record.get("params") or {}
+    params = shown_params(record)
     text = ",".join(f"{k}={v}" for k, v in sorted(params.items()) if k != "maxSpeed")
     return f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}" + (
         f" {{{text}}}" if text else ""
     )
+
+
+def shown_params(record: dict[str, Any]) -> dict[str, Any]:
+    """A SUMO demonstrator's attributes as its name shows them: the vType's, and a lane change duration
+    other than SUMO's default as ``lanechange.duration`` (SUMO's option)."""
+    params = dict(record.get("params") or {})
+    if record.get("lane_change_duration"):
+        params["lanechange.duration"] = record["lane_change_duration"]
+    return params
 
 
 #: a SUMO demonstrator's identity longer than this is its models and a digest of its attributes
@@ -230,7 +253,7 @@ def identity(record: dict[str, Any] | None) -> str:
     if kind == RECORDING:
         return f"{RECORDING}:{str(rec.get('sha256'))[:12]}"
     models = f"{SUMO}:{rec.get('car_follow_model')}/{rec.get('lane_change_model')}"
-    params = rec.get("params") or {}
+    params = shown_params(rec)
     text = models + "{" + ",".join(f"{k}={_short(v)}" for k, v in sorted(params.items())) + "}"
     if len(text) <= MAX_IDENTITY:
         return text

@@ -269,12 +269,17 @@ def _simulation(
     """The episode's road, settings and simulation: the scenario's; on a recording (its egos resolved
     into ``cfg.demonstrator.ego``) ego number ``episode``'s route, start and time, the other vehicles
     replaying their recorded motion (non-reactive) or, ``reactive``, driven by SUMO from their first
-    recorded pose on."""
+    recorded pose on. A SUMO demonstrator's lane change duration holds for the other vehicles here too:
+    the learned reward drives in its demonstrator's traffic."""
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
     scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
     if cfg.demonstrator.kind != RECORDING:
-        return road, scenario, Simulation(road, scenario)
+        return (
+            road,
+            scenario,
+            Simulation(road, scenario, lane_change_duration=cfg.demonstrator.lane_change_duration),
+        )
     ego = cfg.demonstrator.ego.split(",")[episode]
     file = cfg.demonstrator.file
     _, road, scenario, sim = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)

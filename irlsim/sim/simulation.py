@@ -73,6 +73,7 @@ class Simulation:
         net_file: str | Path | None = None,
         vtypes_file: str | Path | None = None,
         demo_vtype: dict[str, str] | None = None,
+        lane_change_duration: float = 0.0,
     ):
         self.road = road if road is not None else load_road(net_file)
         self.cfg = cfg if cfg is not None else EpisodeConfig()
@@ -92,6 +93,8 @@ class Simulation:
         self.odometry: list[EgoState] = []
         self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
+        #: [s] SUMO's --lanechange.duration (0: its default, a lane change within one step)
+        self.lane_change_duration = lane_change_duration
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
@@ -123,6 +126,11 @@ class Simulation:
             "--collision.check-junctions": "true",
             "--collision.mingap-factor": "0",
             "--time-to-teleport": "-1",
+            **(
+                {"--lanechange.duration": f"{self.lane_change_duration:g}"}
+                if self.lane_change_duration
+                else {}
+            ),
         }
         cmd = [binary, *(x for kv in options.items() for x in kv)]
         if self.gui:

@@ -14,6 +14,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from irlsim.cli import main
+from irlsim.data.demonstrator import identity
 
 BASE = """
 seed = 0
@@ -138,6 +139,8 @@ def test_resume_as_another_demonstrator_is_refused(sumo_sets, capsys, section):
         ("params = {foo = 3}", "attribute 'foo' is not declared for element 'vType'"),
         ('params = {tau = "abc"}', "tau"),
         ('kind = "human"', "demonstrator.kind must be one of expert, sumo"),
+        ("lane_change_duration = -1.0", "lane_change_duration must be a number >= 0 s"),
+        ('kind = "expert"\nlane_change_duration = 3.0', "lane_change_duration belongs to kind = 'sumo'"),
     ],
 )
 def test_unknown_model_or_attribute_is_one_line_before_any_work(tmp_path, capsys, section, needle):
@@ -180,3 +183,32 @@ def test_the_guides_sumo_config_loads():
     cfg.validate()
     assert (cfg.demonstrator.kind, cfg.demonstrator.car_follow_model) == ("sumo", "IDM")
     assert cfg.demonstrator.lane_change_model == "SL2015" and cfg.demonstrator.params["tau"] == 1.5
+
+
+EAGER = (
+    '[demonstrator]\nkind = "sumo"\ncar_follow_model = "IDM"\n'
+    "params = {lcSpeedGain = 5.0, lcKeepRight = 0.3, lcAssertive = 2.0}\n"
+)
+
+
+def test_a_lane_change_duration_spreads_the_lateral_move(tmp_path):
+    """SUMO's lane changes are a jump of a lane width within one step; with a duration the odometry
+    moves across as a driver steers, and the manifest names the duration."""
+    base = BASE.replace("max_cycles = 30", "max_cycles = 90").replace("n_vehicles = 4", "n_vehicles = 12")
+    moves = {}
+    for lc in (0.0, 3.0):
+        cfg = tmp_path / f"lc{lc:g}.toml"
+        cfg.write_text(base + EAGER + f"lane_change_duration = {lc}\n")
+        assert main(["collect", "--config", str(cfg), "--out", str(tmp_path / f"lc{lc:g}")]) == 0
+        cycles = _cycles(tmp_path / f"lc{lc:g}")
+        assert (np.diff(cycles["ego_lane"].to_numpy()) != 0).any()  # the driver changed lanes
+        moves[lc] = np.abs(np.diff(cycles["ego_d"].to_numpy())).max()
+    assert moves[0.0] > 2.5 and moves[3.0] < 1.0  # [m] per 0.2 s planning cycle
+    man = json.loads((tmp_path / "lc3" / "manifest.json").read_text())
+    assert man["demonstrator"]["lane_change_duration"] == 3.0
+    lc0 = json.loads((tmp_path / "lc0" / "manifest.json").read_text())["demonstrator"]
+    assert identity(man["demonstrator"]) != identity(lc0)  # another demonstrator than lc0's
+    assert (
+        "lane_change_duration"
+        not in json.loads((tmp_path / "lc0" / "manifest.json").read_text())["demonstrator"]
+    )
