@@ -40,8 +40,10 @@ the rewards of the demonstrators other than the expert with every demonstration 
 (``safe_demos = false``: the training's rule that moves a demonstration labelled as a predicted
 collision to the closest unlabelled policy fits the expert's planner, whose choice is never labelled
 so, not a driver who followed closely and did not collide; their runs, drives and table named
-``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all), ``--models`` the
-learned rewards driven (default: both; both are always trained).
+``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all; fewer: the
+table's file named by them too), ``--models`` the learned rewards driven (default: both; both are always
+trained). ``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
+(``demonstrator.lane_change_duration``).
 """
 
 from __future__ import annotations
@@ -475,6 +477,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     name = "styles" + ("" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}")
     name += "" if a.rule == "default" else f"-{a.rule}"
+    name += "" if a.rows == a.demonstrators else "-" + "-".join(a.rows)  # a part of the table: its own file
     (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
     (out / f"{name}.md").write_text(markdown(tables))
     print(f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
