@@ -27,7 +27,7 @@ from irlsim.data.demonstrator import (
     DemonstratorConfig,
     SumoDemonstrator,
     as_recorded,
-    demo_vtype,
+    demonstrator_simulation,
     recorded_ego,
 )
 from irlsim.data.demos import DemoConfig as DemoConfig  # re-exported: a field of CollectConfig
@@ -462,10 +462,7 @@ def collect_episode(
             setup = time.perf_counter() - t_start
 
     source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    lc = demonstrator.lane_change_duration
-    with replay or Simulation(
-        road, scenario, demo_vtype=demo_vtype(demonstrator, scenario), lane_change_duration=lc
-    ) as sim:
+    with replay or demonstrator_simulation(road, scenario, demonstrator) as sim:
         record = episode_record(job.seed, cfg, job.scenario, scenarios)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()

@@ -33,6 +33,7 @@ from irlsim.road import Road, load_road
 from irlsim.road.scenario import Scenario
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SumoDriver
+from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
 from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_attributes
 
@@ -293,3 +294,16 @@ def demo_vtype(cfg: DemonstratorConfig, scenario: EpisodeConfig) -> dict[str, st
     if cfg.kind != SUMO:
         return None
     return vtype_attributes(cfg.attributes(), scenario.ego_target_speed)
+
+
+def demonstrator_simulation(
+    road: Road, scenario: EpisodeConfig, demonstrator: DemonstratorConfig
+) -> Simulation:
+    """An episode's simulation: a SUMO demonstrator's vehicle type and lane change duration (none of
+    either for the expert)."""
+    return Simulation(
+        road,
+        scenario,
+        demo_vtype=demo_vtype(demonstrator, scenario),
+        lane_change_duration=demonstrator.lane_change_duration,
+    )

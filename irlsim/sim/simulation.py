@@ -93,8 +93,7 @@ class Simulation:
         self.odometry: list[EgoState] = []
         self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
-        #: [s] SUMO's --lanechange.duration (0: its default, a lane change within one step)
-        self.lane_change_duration = lane_change_duration
+        self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
@@ -126,12 +125,9 @@ class Simulation:
             "--collision.check-junctions": "true",
             "--collision.mingap-factor": "0",
             "--time-to-teleport": "-1",
-            **(
-                {"--lanechange.duration": f"{self.lane_change_duration:g}"}
-                if self.lane_change_duration
-                else {}
-            ),
         }
+        if self.lane_change_duration:  # [s] lane changes that take time (SUMO's default: one step)
+            options["--lanechange.duration"] = f"{self.lane_change_duration:g}"
         cmd = [binary, *(x for kv in options.items() for x in kv)]
         if self.gui:
             cmd += ["--start", "true", "--delay", str(int(self.cfg.step * 1000))]
