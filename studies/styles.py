@@ -209,12 +209,12 @@ def train(data: list[Path], runs: Path, seed: int, a: Any, rule: list[str]) -> N
     )
 
 
-def learner(d: str, seed: int, a: Any) -> tuple[str, list[str]]:
-    """The folder name of demonstrator ``d``'s learned rewards of training seed ``seed`` under ``--rule``
-    (``<d>[-<rule>]-seed<seed>``), and the rule's training settings; the expert's always the default."""
+def learner(d: str, a: Any) -> tuple[str, list[str]]:
+    """The name of demonstrator ``d``'s learned rewards under ``--rule`` (``<d>[-<rule>]``: their rows'
+    label, and with ``-seed<s>`` their folders), and the rule's training settings; the expert's always
+    the default."""
     rule = "default" if d == "expert" else a.rule
-    tag = "" if rule == "default" else f"-{rule}"
-    return f"{d}{tag}-seed{seed}", RULES[rule]
+    return d + ("" if rule == "default" else f"-{rule}"), RULES[rule]
 
 
 def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict[str, Any]]:
@@ -374,18 +374,15 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
                 refs[d], own[d] = collected_style(folder), collected_bounds(folder)
         learned: dict[str, dict[str, Any]] = {}
         for d in (d for d in sumo_demos if d in a.rows):
+            tag, rule = learner(d, a)
             for seed in a.seeds:
-                name, rule = learner(d, seed, a)
-                runs = out / "runs" / name
+                runs = out / "runs" / f"{tag}-seed{seed}"
                 train(data[d], runs, seed, a, rule)
-                t1 = table_one(data[d], runs, out / "eval" / name, a)
-                dj = drive(a.configs[d], road, a.models, runs, out / f"drive{at}" / road / name, a)
+                t1 = table_one(data[d], runs, out / "eval" / runs.name, a)
+                dj = drive(a.configs[d], road, a.models, runs, out / f"drive{at}" / road / runs.name, a)
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
-                    learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {
-                        **row,
-                        "safety": safety(dj, m),
-                    }
+                    learned[f"{m} / {tag} / seed {seed}"] = {**row, "safety": safety(dj, m)}
         tables[road] = {"rows": table_rows(learned, refs), "demonstrators": own}
     if rec is not None and RECORDING in a.rows:
         tables[f"{DEFAULT_SCENARIO}, where the recording was made"] = recording_rows(out, rec, data, a)
@@ -401,16 +398,16 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
     refs = {RECORDING: collected_style(folder), "expert": driven_styles(expert)["expert"]}
     own = {RECORDING: collected_bounds(folder), "expert": safety(expert, "expert")}
     learned: dict[str, dict[str, Any]] = {}
+    tag, rule = learner(RECORDING, a)
     for seed in a.seeds:
-        name, rule = learner(RECORDING, seed, a)
-        runs = out / "runs" / name
+        runs = out / "runs" / f"{tag}-seed{seed}"
         train(data[RECORDING], runs, seed, a, rule)
-        t1 = table_one(data[RECORDING], runs, out / "eval" / name, a)
-        tag = name.replace(f"{RECORDING}-", "").replace(f"{RECORDING}", "")
-        dj = drive(rec[1], None, a.models, runs, out / "drive" / RECORDING / tag, a)
+        t1 = table_one(data[RECORDING], runs, out / "eval" / runs.name, a)
+        drives = out / "drive" / RECORDING / runs.name.removeprefix(f"{RECORDING}-")  # seed<s>, kept-seed<s>
+        dj = drive(rec[1], None, a.models, runs, drives, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
-            learned[f"{m} / {name.rsplit('-seed', 1)[0]} / seed {seed}"] = {**row, "safety": safety(dj, m)}
+            learned[f"{m} / {tag} / seed {seed}"] = {**row, "safety": safety(dj, m)}
     return {"rows": table_rows(learned, refs), "demonstrators": own}
 
 
