@@ -43,7 +43,8 @@ so, not a driver who followed closely and did not collide; their runs, drives an
 ``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all; fewer: the
 table's file named by them too), ``--models`` the learned rewards driven (default: both; both are always
 trained). ``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
-(``demonstrator.lane_change_duration``).
+(``demonstrator.lane_change_duration``); ``assertive-eidm`` that driver with SUMO's Extended IDM, whose
+acceleration has a human driver's reaction time and jerk limit.
 """
 
 from __future__ import annotations
@@ -71,6 +72,8 @@ CONFIGS = {
     "assertive": "configs/collect/styles/assertive.toml",
     # development: the assertive driver's lane changes take 3 s, not one step (a jump of a lane width)
     "assertive-lc3": "configs/collect/styles/assertive_lc3.toml",
+    # development: that driver with SUMO's Extended IDM (a reaction time and a jerk limit) for the IDM
+    "assertive-eidm": "configs/collect/styles/assertive_eidm.toml",
 }
 RECORDING = "recording"
 MODELS = ("PACNN+S", "LIRL")
