@@ -60,18 +60,25 @@ def shared_rounds(schedule: tuple[int, ...], own: tuple[int, ...]) -> int:
     return n
 
 
-def schedule_run(folder: Path, data: Path, schedule: tuple[int, ...], own: tuple[int, ...]) -> Path:
+def schedule_run(
+    folder: Path, data: Path, schedule: tuple[int, ...], own: tuple[int, ...], stage2_last: bool = False
+) -> Path:
     """The schedule's DAgger folder under ``folder``: the rounds it shares with the recipe's own linked,
     each other round's steps run (or resumed) as ``irlsim dagger`` runs them, one timed command each
-    (:func:`irlsim.workflows.dagger.round_commands`); returns it."""
-    here = folder / f"rounds-{'-'.join(map(str, schedule))}"
+    (:func:`irlsim.workflows.dagger.round_commands`); returns it. ``stage2_last``: PTACNN+S in the last
+    round only (``stage2_every_round = false``; the rounds' PACNN+S and the last PTACNN+S are the same)."""
+    name = f"rounds-{'-'.join(map(str, schedule))}" + ("-s2last" if stage2_last else "")
+    here = folder / name
     here.mkdir(exist_ok=True)
     shared = shared_rounds(schedule, own)
     for r in range(1, shared + 1):
         link = here / f"round_{r}"
         if not link.exists():
             link.symlink_to((folder / "dagger" / f"round_{r}").resolve(), target_is_directory=True)
-    overrides = {"rounds": len(schedule), "episodes": list(schedule), "epochs": [5] * len(schedule)}
+    overrides: dict[str, Any] = {"rounds": len(schedule), "episodes": list(schedule)}
+    overrides["epochs"] = [5] * len(schedule)
+    if stage2_last:
+        overrides["stage2_every_round"] = False
     cfg = load_config(DaggerConfig, DAGGER_CONFIG, {**overrides, "seed": _seed(folder)})
     run = DaggerRun(cfg, data, folder / "runs", here)
     for r in range(shared + 1, len(schedule) + 1):
@@ -106,7 +113,12 @@ def choose(rows: list[dict[str, Any]]) -> str | None:
     for r in rows:
         ok[r["schedule"]] = ok.get(r["schedule"], True) and bool(r["bar"])
     passing = [s for s, good in ok.items() if good]
-    return min(passing, key=lambda s: (sum(parse_schedule(s)), len(parse_schedule(s)))) if passing else None
+
+    def size(s: str) -> tuple[int, int]:
+        sched = parse_schedule(s.split(" ")[0])
+        return sum(sched), len(sched)
+
+    return min(passing, key=size) if passing else None
 
 
 def table(rows: list[dict[str, Any]]) -> str:
@@ -133,6 +145,10 @@ def main() -> int:
         "stop bound allows no miss in fewer than 100)",
     )  # fmt: skip
     p.add_argument("--laps", type=int, default=2, help="laps per episode")
+    p.add_argument(
+        "--stage2-last", action="store_true",
+        help="PTACNN+S in the last round only (the same models, without the earlier rounds' stage 2)",
+    )  # fmt: skip
     p.add_argument("--workers", type=int, default=2, help="episodes driven in parallel")
     a = p.parse_args()
     a.out = Path(a.out)
@@ -145,14 +161,15 @@ def main() -> int:
     rows = []
     for f in folders:
         for sched in schedules:
-            here = schedule_run(f, a.out / "data", sched, own_schedule(f))
+            here = schedule_run(f, a.out / "data", sched, own_schedule(f), a.stage2_last)
             last = here / f"round_{len(sched)}" / "runs"
             eps = dev_drive(here / f"dev{a.episodes}", last, recipe.MODELS, a)
             for m in recipe.MODELS:
                 s = summarize([e for e in eps if e["drive/model"] == m])
                 kmh = expert["drive/mean_speed_kmh"]
                 rows.append({
-                    "schedule": ",".join(map(str, sched)), "seed": _seed(f), "model": m,
+                    "schedule": ",".join(map(str, sched)) + (" (stage 2 last)" if a.stage2_last else ""),
+                    "seed": _seed(f), "model": m,
                     "episodes": sum(sched), "dagger_s": dagger_seconds(here), "drive": s,
                     "speed_ratio": s["drive/mean_speed_kmh"] / kmh,
                     "bar": recipe.meets_bar(s, kmh) and recipe.in_lane(s) >= recipe.MISSION_BAR,
