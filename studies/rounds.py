@@ -91,10 +91,18 @@ def _seed(folder: Path) -> int:
     return int(folder.name.rsplit("seed", 1)[1])
 
 
-def dagger_seconds(here: Path) -> float:
+def dagger_seconds(here: Path, stage2_last: bool = False) -> float:
     """The schedule's DAgger wall time: the recorded times of the rounds it shares with the recipe
-    (their ``round.json``) and of the steps it ran itself (its ``times.json``)."""
-    linked = sum(float(json.loads(p.read_text()).get("wall_s", 0.0)) for p in here.glob("round_*/round.json"))
+    (their ``round.json``) and of the steps it ran itself (its ``times.json``). ``stage2_last``: a
+    linked round before the last counts without its stage 2 (the schedule would not have run it)."""
+    records = sorted(here.glob("round_*/round.json"))
+    last = max((int(p.name.split("_")[1]) for p in here.glob("round_*")), default=0)
+    linked = 0.0
+    for p in records:
+        rec = json.loads(p.read_text())
+        linked += float(rec.get("wall_s", 0.0))
+        if stage2_last and int(p.parent.name.split("_")[1]) < last:
+            linked -= float(rec.get("steps_s", {}).get("train stage 2", 0.0))
     times = here / "times.json"
     steps = json.loads(times.read_text()) if times.is_file() else {}
     return round(linked + sum(v for k, v in steps.items() if k.startswith("round ")), 1)
@@ -170,7 +178,7 @@ def main() -> int:
                 rows.append({
                     "schedule": ",".join(map(str, sched)) + (" (stage 2 last)" if a.stage2_last else ""),
                     "seed": _seed(f), "model": m,
-                    "episodes": sum(sched), "dagger_s": dagger_seconds(here), "drive": s,
+                    "episodes": sum(sched), "dagger_s": dagger_seconds(here, a.stage2_last), "drive": s,
                     "speed_ratio": s["drive/mean_speed_kmh"] / kmh,
                     "bar": recipe.meets_bar(s, kmh) and recipe.in_lane(s) >= recipe.MISSION_BAR,
                 })  # fmt: skip

@@ -57,3 +57,15 @@ def test_the_rule_takes_the_fewest_episodes_that_pass_everywhere():
     rows[1]["bar"] = False  # one model of one seed fails with one round: the schedule fails
     assert study.choose(rows) == "6,10"
     assert study.choose([r | {"bar": False} for r in rows]) is None
+
+
+def test_with_stage2_last_a_linked_earlier_round_counts_without_its_stage2(tmp_path):
+    (tmp_path / "round_1").mkdir()  # linked: the recipe's own round 1, which trained PTACNN+S too
+    steps_1 = {"collect": 53.2, "train stage 1": 110.7, "train stage 2": 118.4}
+    record = {"round": 1, "wall_s": 282.4, "steps_s": steps_1}
+    (tmp_path / "round_1" / "round.json").write_text(json.dumps(record))
+    (tmp_path / "round_2").mkdir()  # run here: its steps in times.json
+    steps = {"round 2 collect": 55.0, "round 2 train stage 1": 130.0, "round 2 train stage 2": 200.0}
+    (tmp_path / "times.json").write_text(json.dumps(steps))
+    assert study.dagger_seconds(tmp_path) == 667.4
+    assert study.dagger_seconds(tmp_path, stage2_last=True) == 549.0  # without round 1's 118.4
