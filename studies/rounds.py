@@ -75,10 +75,12 @@ def schedule_run(
         link = here / f"round_{r}"
         if not link.exists():
             link.symlink_to((folder / "dagger" / f"round_{r}").resolve(), target_is_directory=True)
-    overrides: dict[str, Any] = {"rounds": len(schedule), "episodes": list(schedule)}
-    overrides["epochs"] = [5] * len(schedule)
-    if stage2_last:
-        overrides["stage2_every_round"] = False
+    overrides: dict[str, Any] = {
+        "rounds": len(schedule),
+        "episodes": list(schedule),
+        "epochs": [5] * len(schedule),
+        "stage2_every_round": not stage2_last,
+    }
     cfg = load_config(DaggerConfig, DAGGER_CONFIG, {**overrides, "seed": _seed(folder)})
     run = DaggerRun(cfg, data, folder / "runs", here)
     for r in range(shared + 1, len(schedule) + 1):
@@ -95,14 +97,14 @@ def dagger_seconds(here: Path, stage2_last: bool = False) -> float:
     """The schedule's DAgger wall time: the recorded times of the rounds it shares with the recipe
     (their ``round.json``) and of the steps it ran itself (its ``times.json``). ``stage2_last``: a
     linked round before the last counts without its stage 2 (the schedule would not have run it)."""
-    records = sorted(here.glob("round_*/round.json"))
-    last = max((int(p.name.split("_")[1]) for p in here.glob("round_*")), default=0)
+    rounds = {int(d.name.split("_")[1]): d / "round.json" for d in here.glob("round_*")}
     linked = 0.0
-    for p in records:
-        rec = json.loads(p.read_text())
-        linked += float(rec.get("wall_s", 0.0))
-        if stage2_last and int(p.parent.name.split("_")[1]) < last:
-            linked -= float(rec.get("steps_s", {}).get("train stage 2", 0.0))
+    for r, record in rounds.items():
+        if record.is_file():
+            rec = json.loads(record.read_text())
+            linked += float(rec.get("wall_s", 0.0))
+            if stage2_last and r < max(rounds):
+                linked -= float(rec.get("steps_s", {}).get("train stage 2", 0.0))
     times = here / "times.json"
     steps = json.loads(times.read_text()) if times.is_file() else {}
     return round(linked + sum(v for k, v in steps.items() if k.startswith("round ")), 1)
@@ -121,12 +123,7 @@ def choose(rows: list[dict[str, Any]]) -> str | None:
     for r in rows:
         ok[r["schedule"]] = ok.get(r["schedule"], True) and bool(r["bar"])
     passing = [s for s, good in ok.items() if good]
-
-    def size(s: str) -> tuple[int, int]:
-        sched = parse_schedule(s.split(" ")[0])
-        return sum(sched), len(sched)
-
-    return min(passing, key=size) if passing else None
+    return min(passing, key=lambda s: (sum(parse_schedule(s)), len(parse_schedule(s)))) if passing else None
 
 
 def table(rows: list[dict[str, Any]]) -> str:
@@ -135,7 +132,8 @@ def table(rows: list[dict[str, Any]]) -> str:
     lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
     for r in rows:
         s = r["drive"]
-        cells = [r["schedule"], r["seed"], r["model"], r["episodes"], f"{r['dagger_s'] / 60:.1f}"]
+        label = r["schedule"] + (" (stage 2 last)" if r.get("stage2_last") else "")
+        cells = [label, r["seed"], r["model"], r["episodes"], f"{r['dagger_s'] / 60:.1f}"]
         cells += [*recipe.closed_loop_cells(s), f"{r['speed_ratio']:.3f}", "yes" if r["bar"] else "no"]
         lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"
@@ -176,7 +174,7 @@ def main() -> int:
                 s = summarize([e for e in eps if e["drive/model"] == m])
                 kmh = expert["drive/mean_speed_kmh"]
                 rows.append({
-                    "schedule": ",".join(map(str, sched)) + (" (stage 2 last)" if a.stage2_last else ""),
+                    "schedule": ",".join(map(str, sched)), "stage2_last": a.stage2_last,
                     "seed": _seed(f), "model": m,
                     "episodes": sum(sched), "dagger_s": dagger_seconds(here, a.stage2_last), "drive": s,
                     "speed_ratio": s["drive/mean_speed_kmh"] / kmh,
