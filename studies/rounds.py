@@ -10,6 +10,8 @@ rounds of 6 and 20). For every run folder ``<out>/new-seed<s>/`` of ``studies/re
   linked, not run again;
 - drives the last round's PACNN+S and PTACNN+S ``--episodes`` episodes of ``--laps`` laps on the
   development seeds (2000, 2001, ...; never the evaluation seeds), beside the expert on the same seeds;
+  ``--dev-seeds 2000 2020`` adds a second sample of as many episodes (2020, 2021, ...), and a row counts
+  every sample's episodes;
 - writes ``<out>/rounds.md`` and ``<out>/rounds.json``: learner episodes, DAgger wall time (the sum of
   the rounds' recorded times), the closed-loop summary and the bar of each (schedule, seed, model).
 
@@ -111,9 +113,26 @@ def dagger_seconds(here: Path, stage2_last: bool = False) -> float:
 
 
 def dev_drive(out: Path, runs: Path | None, models: tuple[str, ...], a: Any) -> list[dict[str, Any]]:
-    """``models`` on the development seeds into ``out`` (kept); their episodes."""
-    times, step = out.parent / "times.json", f"development drive {out.name}"
-    return recipe.drive(out, runs, models, a, times, seed=DEV_SEED, step=step)
+    """``models`` on every development sample of ``a.dev_seeds`` (``a.episodes`` episodes from each seed)
+    into ``out`` (one folder a sample, kept); their episodes, every sample's together."""
+    eps = []
+    for seed in a.dev_seeds:
+        here = out.with_name(out.name + ("" if seed == DEV_SEED else f"-s{seed}"))
+        times, step = out.parent / "times.json", f"development drive {here.name}"
+        eps += recipe.drive(here, runs, models, a, times, seed=seed, step=step)
+    return eps
+
+
+def check_dev_seeds(starts: list[int], episodes: int) -> None:
+    """Refuse development samples outside the development seeds (2000-2999; the evaluations use 1000-1999
+    and 3000-) or overlapping one another (an episode counted twice)."""
+    seeds = sorted(starts)
+    if seeds[0] < DEV_SEED or seeds[-1] + episodes > DEV_SEED + 1000:
+        raise SystemExit(
+            f"--dev-seeds: every sample must lie in the development seeds {DEV_SEED}-{DEV_SEED + 999}"
+        )
+    if any(b < a + episodes for a, b in zip(seeds, seeds[1:], strict=False)):
+        raise SystemExit(f"--dev-seeds: samples of {episodes} episodes overlap; start them {episodes} apart")
 
 
 def choose(rows: list[dict[str, Any]]) -> str | None:
@@ -150,6 +169,10 @@ def main() -> int:
         help="development episodes per model (20 of 2 laps: 80 stops, as many as the evaluation's; the 99 %% "
         "stop bound allows no miss in fewer than 100)",
     )  # fmt: skip
+    p.add_argument(
+        "--dev-seeds", type=int, nargs="+", default=[DEV_SEED],
+        help="first seed of each development sample of --episodes episodes (a row sums every sample)",
+    )  # fmt: skip
     p.add_argument("--laps", type=int, default=2, help="laps per episode")
     p.add_argument(
         "--stage2-last", action="store_true",
@@ -158,6 +181,7 @@ def main() -> int:
     p.add_argument("--workers", type=int, default=2, help="episodes driven in parallel")
     a = p.parse_args()
     a.out = Path(a.out)
+    check_dev_seeds(a.dev_seeds, a.episodes)
     schedules = [parse_schedule(s) for s in a.schedules]
     folders = [a.out / f"new-seed{s}" for s in a.seeds]
     for f in folders:

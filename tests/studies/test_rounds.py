@@ -69,3 +69,12 @@ def test_with_stage2_last_a_linked_earlier_round_counts_without_its_stage2(tmp_p
     (tmp_path / "times.json").write_text(json.dumps(steps))
     assert study.dagger_seconds(tmp_path) == 667.4
     assert study.dagger_seconds(tmp_path, stage2_last=True) == 549.0  # without round 1's 118.4
+
+
+def test_development_samples_stay_in_the_development_seeds_and_apart():
+    study.check_dev_seeds([2000], 20)
+    study.check_dev_seeds([2020, 2000], 20)  # two samples of 20: 2000-2039
+    for starts in ([1990], [2990], [3000], [2000, 2010]):  # evaluation seeds, past 2999, overlapping
+        with pytest.raises(SystemExit) as e:
+            study.check_dev_seeds(starts, 20)
+        assert "\n" not in str(e.value)
