@@ -78,3 +78,21 @@ def test_development_samples_stay_in_the_development_seeds_and_apart():
         with pytest.raises(SystemExit) as e:
             study.check_dev_seeds(starts, 20)
         assert "\n" not in str(e.value)
+
+
+_tq = importlib.util.spec_from_file_location(
+    "time_quality", Path(__file__).parents[2] / "studies" / "time_quality.py"
+)
+time_quality = importlib.util.module_from_spec(_tq)
+_tq.loader.exec_module(time_quality)  # type: ignore[union-attr]
+
+
+def test_time_quality_takes_every_schedule_that_drove_the_first_development_sample(tmp_path):
+    for folder in ("accept-round2-s2000-e20", "rounds-6-10-10-s2last/dev20", "rounds-6-20-10/dev20"):
+        (tmp_path / folder).mkdir(parents=True)
+        (tmp_path / folder / "drive.json").write_text("{}")
+    (tmp_path / "rounds-6-6-6-s2last").mkdir()  # no drive: not a point
+    (tmp_path / "rounds-6-10" / "dev20-s2020").mkdir(parents=True)  # another sample only: not a point
+    (tmp_path / "rounds-6-10" / "dev20-s2020" / "drive.json").write_text("{}")
+    labels = [label for label, _, _ in time_quality.schedule_folders(tmp_path)]
+    assert labels == [time_quality.OWN, "6,10,10", "6,20,10"]
