@@ -43,6 +43,8 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from irlsim.drive.metrics import summarize
 
 RECIPES = {
@@ -241,6 +243,31 @@ def table(rows: list[dict[str, Any]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def spread(rows: list[dict[str, Any]]) -> str:
+    """Each recipe over its training seeds: time to a reward and every model's checkpoints in lane as mean
+    and range, and the time's ratio to the old recipe's (mean over mean, the same run) when it ran."""
+    by: dict[str, list[dict[str, Any]]] = {}
+    for r in rows:
+        by.setdefault(r["recipe"], []).append(r)
+    minutes = {k: [(r["times"].get("stage 1", 0) + r["dagger_s"]) / 60 for r in rs] for k, rs in by.items()}
+    lines = []
+    for k, rs in by.items():
+        t = minutes[k]
+        text = f"- {k} ({len(rs)} training seeds): to a reward {_mean_range(t, '.1f')} min"
+        if "old" in minutes and k != "old":
+            text += f", {np.mean(minutes['old']) / np.mean(t):.2f}x faster than the old recipe"
+        for m in MODELS:
+            share = [100 * in_lane(r["drive"][m]) for r in rs]
+            bar = sum(meets_bar(r["drive"][m], r["drive"]["expert"]["drive/mean_speed_kmh"]) for r in rs)
+            text += f"; {m} in lane {_mean_range(share, '.1f')} %, the bar met with {bar} of {len(rs)}"
+        lines.append(text)
+    return "\n".join(lines) + "\n"
+
+
+def _mean_range(xs: list[float], fmt: str) -> str:
+    return f"{np.mean(xs):{fmt}} ({min(xs):{fmt}}-{max(xs):{fmt}})"
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="runs/recipe")
@@ -266,8 +293,10 @@ def main() -> int:
     rows = [{**r, **accept(r, a), "folder": str(r["folder"])} for r in runs]
     name = "recipe" if a.drive_seed == EVAL_SEED else f"recipe-s{a.drive_seed}"
     (a.out / f"{name}.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (a.out / f"{name}.md").write_text(table(rows))
-    print(table(rows) + f"wrote {a.out / (name + '.md')} and {a.out / (name + '.json')}")
+    (a.out / f"{name}.md").write_text(table(rows) + "\n" + spread(rows))
+    print(
+        table(rows) + "\n" + spread(rows) + f"wrote {a.out / (name + '.md')} and {a.out / (name + '.json')}"
+    )
     return 0
 
 

@@ -68,3 +68,28 @@ def test_a_recorded_step_is_not_run_again(tmp_path, capsys):
     study.run(["no-such-command"], times, "stage 1")  # would fail if it ran
     assert "finished before (354.3 s" in capsys.readouterr().out
     assert times.read_text() == '{"stage 1": 354.3}\n'
+
+
+def test_the_spread_is_mean_and_range_over_seeds_with_the_ratio_to_old():
+    def row(recipe, seed, stage1, dagger, lane):
+        s = _summary(**{"drive/checkpoints_in_lane": lane})
+        drive = {"expert": _summary(**{"drive/mean_speed_kmh": 50.0}), "PACNN+S": s, "PTACNN+S": s}
+        return {
+            "recipe": recipe,
+            "seed": seed,
+            "dagger_s": dagger,
+            "times": {"stage 1": stage1},
+            "drive": drive,
+        }
+
+    rows = [
+        row("old", 1, 1200.0, 3000.0, 160),
+        row("new", 1, 300.0, 600.0, 152),
+        row("new", 2, 300.0, 900.0, 140),
+    ]
+    lines = study.spread(rows).splitlines()
+    assert lines[0].startswith(
+        "- old (1 training seeds): to a reward 70.0 (70.0-70.0) min; PACNN+S in lane 100.0"
+    )
+    assert lines[1].startswith("- new (2 training seeds): to a reward 17.5 (15.0-20.0) min, 4.00x faster")
+    assert "PACNN+S in lane 91.2 (87.5-95.0) %, the bar met with 1 of 2" in lines[1]
