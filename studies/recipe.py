@@ -14,6 +14,8 @@ config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` la
 - ``new``: ``configs/train/stage1_sampled.toml`` (the same, each step on a sample of every cycle's
   policies), ``configs/dagger/paper_fast.toml`` (the same rounds, each fine-tuning the reward that drove
   it for 5 epochs).
+- ``new3``: the new recipe with a third round of 10 learner episodes, PTACNN+S in the last round only
+  (``configs/dagger/paper_fast3.toml``).
 
 Development variants of the new recipe, each one lever changed (``--recipes new-ft10 new-ftall``; they
 share the new recipe's stage 1 of the same seed): ``new-ft10`` fine-tunes 10 epochs a round instead of 5,
@@ -50,6 +52,7 @@ from irlsim.drive.metrics import summarize
 RECIPES = {
     "old": ("configs/train/stage1.toml", "configs/dagger/paper.toml"),
     "new": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+    "new3": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3.toml"),
     # development variants of the new recipe: its stage 1 (shared with the "new" run of the same seed) and
     # its DAgger config with the overrides of VARIANT_SETS, each one lever of the recipe changed
     "new-ft10": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
