@@ -42,7 +42,10 @@ collision to the closest unlabelled policy fits the expert's planner, whose choi
 so, not a driver who followed closely and did not collide; their runs, drives and table named
 ``-kept``); ``--rows`` names the demonstrators whose learned rewards get rows (default: all; fewer: the
 table's file named by them too), ``--models`` the learned rewards driven (default: both; both are always
-trained). ``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
+trained). ``--safety`` drives the learned rewards within the planner's label filter (``irlsim drive
+--safety``: no policy predicted to collide, leave the road or take an exit; their drives and table named
+``-safe``), as a planner that uses a learned reward would; the references drive as before.
+``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
 (``demonstrator.lane_change_duration``); ``assertive-eidm`` that driver with SUMO's Extended IDM, whose
 acceleration has a human driver's reaction time and jerk limit.
 """
@@ -187,6 +190,7 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
     (``road`` None) reactive: SUMO drives the other cars, as a replayed car cannot see the ego."""
     if not set(models) <= driven_models(out / "drive.json"):  # a drive of fewer models is driven again
         where = ["--scenario", road] if road else ["--reactive"]
+        where += ["--safety"] if runs and a.safety else []  # learned rewards only: the expert has its own
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * SEED_STRIDE), "--config", config]
@@ -361,6 +365,7 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
         collect(rec[0], DEFAULT_SCENARIO, data[RECORDING][0], [], a)
     tables: dict[str, dict[str, Any]] = {}
     at = "" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}"  # development seeds: folders of their own
+    safe = "-safe" if a.safety else ""  # the learned rewards' drives within the planner's filter
     for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
         refs: dict[str, dict[str, Any]] = {}
         own: dict[str, dict[str, Any]] = {}
@@ -382,7 +387,7 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
                 runs = out / "runs" / f"{tag}-seed{seed}"
                 train(data[d], runs, seed, a, rule)
                 t1 = table_one(data[d], runs, out / "eval" / runs.name, a)
-                dj = drive(a.configs[d], road, a.models, runs, out / f"drive{at}" / road / runs.name, a)
+                dj = drive(a.configs[d], road, a.models, runs, out / f"drive{at}{safe}" / road / runs.name, a)
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
                     learned[f"{m} / {tag} / seed {seed}"] = {**row, "safety": safety(dj, m)}
@@ -406,7 +411,8 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         runs = out / "runs" / f"{tag}-seed{seed}"
         train(data[RECORDING], runs, seed, a, rule)
         t1 = table_one(data[RECORDING], runs, out / "eval" / runs.name, a)
-        drives = out / "drive" / RECORDING / runs.name.removeprefix(f"{RECORDING}-")  # seed<s>, kept-seed<s>
+        name = runs.name.removeprefix(f"{RECORDING}-")  # seed<s>, kept-seed<s>
+        drives = out / ("drive-safe" if a.safety else "drive") / RECORDING / name
         dj = drive(rec[1], None, a.models, runs, drives, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
@@ -450,6 +456,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--models", nargs="+", choices=MODELS, default=list(MODELS), help="the learned rewards driven"
     )
+    p.add_argument(
+        "--safety", action="store_true",
+        help="drive the learned rewards within the planner's label filter (irlsim drive --safety)",
+    )  # fmt: skip
     a = p.parse_args(argv)
     a.rows = a.rows or a.demonstrators
     if RECORDING in a.rows and a.eval_base != EVAL_BASE:
@@ -477,6 +487,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     name = "styles" + ("" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}")
     name += "" if a.rule == "default" else f"-{a.rule}"
+    name += "-safe" if a.safety else ""
     name += "" if a.rows == a.demonstrators else "-" + "-".join(a.rows)  # a part of the table: its own file
     (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
     (out / f"{name}.md").write_text(markdown(tables))
