@@ -97,7 +97,7 @@ def table(rows: list[dict[str, Any]]) -> str:
 
 def picture(rows: list[dict[str, Any]], path: Path) -> None:
     """Checkpoints in lane against time to a reward, one point per (schedule, seed, model); a ring marks
-    a point with a safety event."""
+    a point with a safety event; a hollow point is on evaluation seeds."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -120,6 +120,8 @@ def picture(rows: list[dict[str, Any]], path: Path) -> None:
     ax.scatter([], [], marker="o", c="grey", label="PACNN+S")
     ax.scatter([], [], marker="^", c="grey", label="PTACNN+S")
     ax.scatter([], [], marker="o", s=190, facecolors="none", edgecolors="red", label="a safety event")
+    if any(r["seeds"] == "evaluation" for r in rows):
+        ax.scatter([], [], marker="o", facecolors="none", edgecolors="grey", label="hollow: evaluation seeds")
     ax.axhline(100 * recipe.MISSION_BAR, color="k", lw=0.8, ls="--")
     ax.axvline(20, color="k", lw=0.8, ls=":")
     ax.set_xlabel("time to a reward on 2 CPU cores [min] (stage 1 + DAgger)")
