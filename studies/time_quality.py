@@ -54,12 +54,13 @@ def points(run: Path) -> list[dict[str, Any]]:
         eps = json.loads((dev / "drive.json").read_text())["episodes"]
         minutes = (stage1 + rounds.dagger_seconds(here, stage2_last=True)) / 60
         for m in recipe.MODELS:
-            rows.append(row(label, int(run.name.rsplit("seed", 1)[1]), m, minutes, "development", eps))
+            s = summarize([e for e in eps if e["drive/model"] == m])
+            rows.append(row(label, int(run.name.rsplit("seed", 1)[1]), m, minutes, "development", s))
     return rows
 
 
-def row(label: str, seed: int, model: str, minutes: float, seeds: str, eps: list[Any]) -> dict[str, Any]:
-    s = summarize([e for e in eps if e["drive/model"] == model])
+def row(label: str, seed: int, model: str, minutes: float, seeds: str, s: dict[str, Any]) -> dict[str, Any]:
+    """One point: a schedule's model, its time to a reward and the summary ``s`` of its drives."""
     missed = s["drive/stop_lines_passed"] - s["drive/stop_lines_compliant"]
     return {
         "schedule": label, "seed": seed, "model": model, "minutes": round(minutes, 2), "seeds": seeds,
@@ -73,14 +74,7 @@ def acceptance_rows(path: Path) -> list[dict[str, Any]]:
     rows = []
     for r in json.loads(path.read_text()):
         minutes = (r["times"].get("stage 1", 0.0) + r["dagger_s"]) / 60
-        for m in recipe.MODELS:
-            s = r["drive"][m]
-            missed = s["drive/stop_lines_passed"] - s["drive/stop_lines_compliant"]
-            rows.append({
-                "schedule": r["recipe"], "seed": r["seed"], "model": m, "minutes": round(minutes, 2),
-                "seeds": "evaluation", "in_lane": recipe.in_lane(s), "score": s["score/score"],
-                "events": s["drive/collisions"] + s["drive/exits"] + missed, "drive": s,
-            })  # fmt: skip
+        rows += [row(r["recipe"], r["seed"], m, minutes, "evaluation", r["drive"][m]) for m in recipe.MODELS]
     return rows
 
 
