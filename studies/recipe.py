@@ -20,7 +20,9 @@ config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` la
 Development variants of the new recipe, each one lever changed (``--recipes new-ft10 new-ftall``; they
 share the new recipe's stage 1 of the same seed): ``new-ft10`` fine-tunes 10 epochs a round instead of 5,
 ``new-ftall`` fine-tunes on every policy of a cycle instead of a sample of 256, ``new-ft10-val`` fine-tunes
-10 epochs and chooses the epoch on a validation split with 2 learner-driven episodes a round. Choose
+10 epochs and chooses the epoch on a validation split with 2 learner-driven episodes a round;
+``new3-short`` is new3 with half the training: stage 1 for 10 epochs instead of 20 (its own stage 1)
+and PTACNN+S for 5 instead of 10. Choose
 among them on development seeds (``--drive-seed 2000``: the drives, their folders and the table say the
 seed), and judge the choice once on the evaluation seeds.
 
@@ -58,7 +60,11 @@ RECIPES = {
     "new-ft10": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
     "new-ftall": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
     "new-ft10-val": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
+    # a development variant of new3 with its own (shorter) stage 1: STAGE1_SETS and VARIANT_SETS
+    "new3-short": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3.toml"),
 }
+#: the stage-1 overrides of a variant with a stage 1 of its own: 10 epochs on the expert's data, not 20
+STAGE1_SETS = {"new3-short": ["--set", "epochs=10"]}
 #: the DAgger overrides of the variants: 10 fine-tuning epochs a round instead of 5; the rounds'
 #: fine-tuning on every policy of a cycle instead of a sample of 256; 10 epochs with the model chosen on
 #: a validation split that holds 2 learner-driven episodes a round beside the expert's (with the expert's
@@ -67,6 +73,7 @@ VARIANT_SETS = {
     "new-ft10": ["--set", "epochs=[10, 10]"],
     "new-ftall": ["--set", 'stage1_config="configs/train/stage1.toml"'],
     "new-ft10-val": ["--set", "epochs=[10, 10]", "--set", "validation_episodes=2"],
+    "new3-short": ["--set", "stage2_epochs=5"],
 }
 MODELS = ("PACNN+S", "PTACNN+S")
 EVAL_SEED = 1000
@@ -97,7 +104,7 @@ def recipe_run(
     here.mkdir(parents=True, exist_ok=True)
     times = here / "times.json"
     common = ["--set", f"seed={seed}", "--set", f"threads={threads}"]
-    if recipe in VARIANT_SETS:  # the new recipe's stage 1 of this seed, run once for every variant
+    if recipe in VARIANT_SETS and recipe not in STAGE1_SETS:  # the new recipe's stage 1, run once for all
         base = recipe_run(out, data, "new", seed, threads, dagger=False)
         stage1_runs = Path(base["folder"]) / "runs"
         spent = json.loads(times.read_text()) if times.is_file() else {}
@@ -106,7 +113,7 @@ def recipe_run(
         stage1_runs = here / "runs"
         run(
             ["train", "--stage", "1", "--config", stage1, "--data", str(data), "--out", str(stage1_runs)]
-            + ["--set", 'models=["PACNN+S"]', *common],
+            + ["--set", 'models=["PACNN+S"]', *common, *STAGE1_SETS.get(recipe, [])],
             times,
             "stage 1",
         )

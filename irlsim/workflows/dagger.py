@@ -82,6 +82,8 @@ class DaggerConfig:
     epochs: list[int] = dataclasses.field(default_factory=list)
     """stage-1 epochs of each round's retraining, one per round (empty: the stage-1 config's ``epochs``
     in every round)"""
+    stage2_epochs: int = 0
+    """stage-2 epochs of every round's stage-2 training (0: the stage-2 config's ``epochs``)"""
     fine_tune: bool = False
     """each round's stage-1 retraining starts from the previous round's stage-1 reward (round 1: the one
     in ``--runs``) instead of random weights, so ``epochs`` can be few; False: from scratch"""
@@ -122,6 +124,10 @@ class DaggerConfig:
             )
         for n in self.epochs:
             require(1 <= n <= 100_000, f"epochs must be in 1..100000, got {n}")
+        require(
+            0 <= self.stage2_epochs <= 100_000,
+            f"stage2_epochs must be in 0..100000 (0: the stage-2 config's), got {self.stage2_epochs}",
+        )
         on_base = [k for k, v in STAGE2_BASE.items() if v == self.stage1_model]
         for m in self.stage2_models:
             require(
@@ -172,6 +178,8 @@ class DaggerConfig:
         out: dict[str, Any] = {}
         if stage == 1 and self.epochs:
             out["epochs"] = self.epochs[r - 1]
+        if stage == 2 and self.stage2_epochs:
+            out["epochs"] = self.stage2_epochs
         if self.seed is not None:
             out["seed"] = self.seed
         return out

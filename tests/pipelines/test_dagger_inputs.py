@@ -59,6 +59,16 @@ def test_dagger_config_per_round_recipe(tmp_path):
         ]
         assert stage2[:3] == ["train", "--stage", "2"] and "models=['PTACNN+S']" in stage2
         assert "seed=1" in stage2 and not any(a.startswith("epochs=") for a in stage2)
+    # stage2_epochs sets every round's stage-2 epochs, and the stage-1 epochs stay the rounds' own
+    short = DaggerRun(
+        load_config(DaggerConfig, "configs/dagger/paper.toml", {"stage2_epochs": 5}),
+        Path("D"),
+        Path("R"),
+        Path("O"),
+    )
+    for r, epochs in enumerate([20, 10], start=1):
+        _, stage1, stage2 = round_commands(short, r)
+        assert f"epochs={epochs}" in stage1 and "epochs=5" in stage2
     # one number is every round's; no epochs list leaves the stage config's epochs alone
     plain = DaggerConfig(rounds=3, episodes=5)
     plain.validate()
@@ -74,6 +84,7 @@ def test_dagger_config_per_round_recipe(tmp_path):
         ({"episodes": [6, 0]}, "episodes must be in 1..10000, got 0"),
         ({"stage2_models": ["PTACNN"]}, "stage2_models entry 'PTACNN'"),
         ({"seed": -1}, "seed must be in"),
+        ({"stage2_epochs": -1}, "stage2_epochs must be in 0..100000"),
     ]:
         with pytest.raises(IrlsimError, match=needle):
             load_config(DaggerConfig, "configs/dagger/paper.toml", overrides)
