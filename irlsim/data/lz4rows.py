@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from irlsim.data.npy import flat_rows
+from irlsim.data.npy import flat_rows, per_row_index
 from irlsim.errors import IrlsimError
 from irlsim.utils import atomic_path, naming
 
@@ -103,6 +103,16 @@ class Lz4Rows:
         rows, flat = flat_rows(np.asarray(rows), len(self))
         out = self._read(flat, rest)
         return out.reshape(*rows.shape, *out.shape[1:])
+
+    def take_per_row(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """``out[i, j] = self[rows[i], cols[i, j]]`` (:func:`irlsim.data.npy.take_per_row`): each row
+        decompressed and its columns taken at once, without copying the whole row out."""
+        flat, cols = per_row_index(rows, cols, len(self))
+        out = np.empty((len(flat), cols.shape[1], *self.shape[2:]), self.dtype)
+        starts, ends = self.offsets[flat], self.offsets[flat + 1]
+        for j in range(len(flat)):
+            out[j] = self._row(int(starts[j]), int(ends[j])).view(self.dtype).reshape(self.shape[1:])[cols[j]]
+        return out
 
     def _row(self, a: int, b: int) -> np.ndarray:
         """The row stored in bytes a..b, decompressed; a row that cannot be decoded is one line naming the

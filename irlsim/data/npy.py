@@ -143,6 +143,16 @@ class RowConcat:
             out = np.asarray(self.parts[0][(flat, *empty)])
         return out.reshape(*rows.shape, *out.shape[1:])
 
+    def take_per_row(self, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+        """``out[i, j] = self[rows[i], cols[i, j]]`` (see :func:`take_per_row`): one call per part."""
+        flat, cols = per_row_index(rows, cols, len(self))
+        which = np.searchsorted(self.bounds, flat, side="right") - 1
+        out = np.empty((len(flat), cols.shape[1], *self.shape[2:]), self.dtype)
+        for p in np.unique(which):
+            m = which == p
+            out[m] = take_per_row(self.parts[p], flat[m] - self.bounds[p], cols[m])
+        return out
+
 
 def _check_basic(rest: tuple[Any, ...]) -> None:
     """Only ints, slices and Ellipsis for the axes after the rows."""
@@ -166,3 +176,28 @@ def flat_rows(rows: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     if flat.size and (flat.min() < 0 or flat.max() >= n):
         raise IndexError(f"a row index is out of bounds for {n} rows")
     return rows, flat
+
+
+def take_per_row(a: Any, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """``a[rows[:, None], cols]`` of a [C, N, ...] array: ``out[i, j] = a[rows[i], cols[i, j]]``, a few
+    columns (policies) of each row, [len(rows), cols.shape[1], ...].
+
+    A :class:`RowConcat` or :class:`irlsim.data.lz4rows.Lz4Rows` takes the columns as it reads each row
+    (a compressed row is decompressed once and never copied whole); any other array is indexed by numpy.
+    The values are numpy's, byte for byte."""
+    if hasattr(a, "take_per_row"):
+        return np.asarray(a.take_per_row(rows, cols))
+    flat, cols = per_row_index(rows, cols, len(a))
+    return np.asarray(a[flat[:, None], cols])
+
+
+def per_row_index(rows: np.ndarray, cols: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(1-D rows in range, [len(rows), k] int columns) of :func:`take_per_row`'s arguments."""
+    rows, flat = flat_rows(np.asarray(rows), n)
+    cols = np.asarray(cols)
+    if rows.ndim != 1 or cols.ndim != 2 or len(cols) != len(flat) or cols.dtype.kind not in "iu":
+        raise IndexError(
+            f"take_per_row takes 1-D rows and a [rows, k] int array of columns, got rows {rows.shape} and "
+            f"columns {cols.dtype}{list(cols.shape)}"
+        )
+    return flat, cols

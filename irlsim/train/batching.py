@@ -12,6 +12,7 @@ from torch import nn
 
 from irlsim import FEATURE_NAMES
 from irlsim.data.demos import safe_demo_index
+from irlsim.data.npy import take_per_row
 from irlsim.data.reader import open_dataset
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.data.tensors import SplitTensors
@@ -117,12 +118,11 @@ def gather_batch(
             "demo_index": to_tensor(demo, torch.int64),
         }
     policies, demo, log_w = sample_policies(n, sample, demo, rng)
-    at = (np.arange(len(rows))[:, None], policies)
-    return {
-        "features": to_tensor(np.asarray(split.features[rows])[at]),
-        "control_points": to_tensor(np.asarray(split.control_points[rows])[at]),
-        "actions": to_tensor(np.asarray(split.actions[rows])[at]),
-        "distances": to_tensor(np.asarray(split.distances[rows])[at]),
+    return {  # each row's sampled policies taken as the row is read (a compressed row is not copied whole)
+        "features": to_tensor(take_per_row(split.features, rows, policies)),
+        "control_points": to_tensor(take_per_row(split.control_points, rows, policies)),
+        "actions": to_tensor(take_per_row(split.actions, rows, policies)),
+        "distances": to_tensor(take_per_row(split.distances, rows, policies)),
         "demo_index": to_tensor(demo, torch.int64),
         "log_weights": to_tensor(log_w),
     }

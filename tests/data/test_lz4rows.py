@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from irlsim.data.lz4rows import Lz4Rows, Lz4RowsWriter, files
+from irlsim.data.npy import RowConcat, take_per_row
 
 
 def _write(folder: Path, arrays: dict[str, np.ndarray], block: int = 3) -> dict[str, Lz4Rows]:
@@ -46,6 +47,24 @@ def test_rows_read_back_byte_for_byte(arrays):
         assert isinstance(view, Lz4Rows) and view.shape == a[4:8].shape
         assert np.asarray(view).tobytes() == a[4:8].tobytes() and view[1:3][0].tobytes() == a[5].tobytes()
         assert r[5:5].shape == (0, *a.shape[1:]) and r[np.array([], int)].shape == (0, *a.shape[1:])
+
+
+def test_a_few_columns_of_each_row_are_numpys(arrays, tmp_path):
+    """take_per_row (a training step's policy sample) gives numpy's a[rows[:, None], cols], byte for byte,
+    from compressed rows, a concatenation of them and a plain array alike."""
+    want, got = arrays
+    rows = np.array([10, 0, 4, 4, -1])
+    cols = np.random.default_rng(1).integers(0, 7, size=(5, 3))
+    for k in want:
+        a = want[k]
+        expect = a[rows[:, None], cols].tobytes()
+        whole = RowConcat([got[k][:6], a[6:]])  # a compressed part and a plain one
+        for r in (got[k], whole, a):
+            assert take_per_row(r, rows, cols).tobytes() == expect
+    with pytest.raises(IndexError, match="take_per_row takes 1-D rows"):
+        take_per_row(got["f"], rows, cols[:4])
+    with pytest.raises(IndexError, match="out of bounds"):
+        take_per_row(got["f"], np.array([11]), cols[:1])
 
 
 def test_bad_indexes_are_refused(arrays):
