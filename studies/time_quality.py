@@ -12,8 +12,9 @@ beside them in ``rounds-<schedule>/``), each schedule whose last round drove the
   and the closed-loop score (mean over the episodes).
 
 ``--acceptance <out>/recipe.json`` adds the rows of a ``studies/recipe.py`` run (its own seeds, each
-recipe's time as it ran). The table goes to ``<out>/time-quality.md`` and ``.json``, the picture to
-``--picture``:
+recipe's time as it ran); ``--development`` the rows of development variants' runs on the first
+development sample (their ``recipe-s2000.json``, copied aside). The table goes to
+``<out>/time-quality.md`` and ``.json``, the picture to ``--picture``:
 
     .venv/bin/python studies/time_quality.py --out runs/recipe --seeds 10 11 \
         --picture docs/img/recipe_time_quality.png
@@ -69,12 +70,13 @@ def row(label: str, seed: int, model: str, minutes: float, seeds: str, s: dict[s
     }  # fmt: skip
 
 
-def acceptance_rows(path: Path) -> list[dict[str, Any]]:
-    """The rows of a studies/recipe.py run (its ``recipe.json``): each recipe as it ran."""
+def acceptance_rows(path: Path, seeds: str = "evaluation") -> list[dict[str, Any]]:
+    """The rows of a studies/recipe.py run (its ``recipe.json``, or ``recipe-s<seed>.json`` on
+    ``seeds="development"``): each recipe as it ran."""
     rows = []
     for r in json.loads(path.read_text()):
         minutes = (r["times"].get("stage 1", 0.0) + r["dagger_s"]) / 60
-        rows += [row(r["recipe"], r["seed"], m, minutes, "evaluation", r["drive"][m]) for m in recipe.MODELS]
+        rows += [row(r["recipe"], r["seed"], m, minutes, seeds, r["drive"][m]) for m in recipe.MODELS]
     return rows
 
 
@@ -132,6 +134,11 @@ def main() -> int:
     p.add_argument("--out", default="runs/recipe", help="the recipe study's folder (studies/recipe.py)")
     p.add_argument("--seeds", type=int, nargs="+", default=[10, 11], help="training seeds of the runs")
     p.add_argument("--acceptance", help="a studies/recipe.py run's recipe.json to add (evaluation seeds)")
+    p.add_argument(
+        "--development", nargs="+", default=[],
+        help="studies/recipe.py runs of development variants on the first development sample to add "
+        "(their recipe-s2000.json, kept under another name: every run writes that name)",
+    )  # fmt: skip
     p.add_argument("--picture", help="where to draw the picture (default <out>/time-quality.png)")
     a = p.parse_args()
     out = Path(a.out)
@@ -143,7 +150,11 @@ def main() -> int:
         raise SystemExit(
             f"--acceptance: {a.acceptance} is not a file: give a studies/recipe.py run's recipe.json"
         )
+    for path in a.development:
+        if not Path(path).is_file():
+            raise SystemExit(f"--development: {path} is not a file: give a studies/recipe.py run's json")
     rows = [r for run in runs for r in points(run)]
+    rows += [r for path in a.development for r in acceptance_rows(Path(path), "development")]
     rows += acceptance_rows(Path(a.acceptance)) if a.acceptance else []
     pic = Path(a.picture) if a.picture else out / "time-quality.png"
     (out / "time-quality.json").write_text(json.dumps(rows, indent=1) + "\n")
