@@ -146,13 +146,9 @@ def main() -> int:
     for run in runs:
         if not (run / "times.json").is_file():
             raise SystemExit(f"{run} has no recorded stage 1: run studies/recipe.py --recipes new first")
-    if a.acceptance and not Path(a.acceptance).is_file():
-        raise SystemExit(
-            f"--acceptance: {a.acceptance} is not a file: give a studies/recipe.py run's recipe.json"
-        )
-    for path in a.development:
-        if not Path(path).is_file():
-            raise SystemExit(f"--development: {path} is not a file: give a studies/recipe.py run's json")
+    for option, path in [("--acceptance", a.acceptance)] + [("--development", d) for d in a.development]:
+        if path and not Path(path).is_file():
+            raise SystemExit(f"{option}: {path} is not a file: give a studies/recipe.py run's json")
     rows = [r for run in runs for r in points(run)]
     rows += [r for path in a.development for r in acceptance_rows(Path(path), "development")]
     rows += acceptance_rows(Path(a.acceptance)) if a.acceptance else []
