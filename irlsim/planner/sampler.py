@@ -352,9 +352,11 @@ class Sampler:
         c0 = float(road.lane_centres[lo])
         if d0 > c0 + road.lane_width / 2:  # only from that lane
             return None
-        p, v, a, j = _quintic(d0, dd0, ddd0, c0, self._exit_grid)
         s_abs = ex.s_start - rel + lon.s  # [L, T] in the exit's own unwrapped frame (ego at s_start - rel)
         ramp = np.interp(s_abs, ex.ramp_s, ex.ramp_d, left=c0, right=ex.ramp_d[-1]) - c0
+        # the quintic moves the ego's offset from the ramp's centre (not from the lane's) to 0, so that
+        # every profile starts at the ego also inside the ramp zone, where the ramp has left the lane
+        p, v, a, j = _quintic(d0 - ramp[:, :1], dd0, ddd0, c0, self._exit_grid)
         d = p + ramp
         dd = np.gradient(d, cfg.dt, axis=1)
         ddd = np.gradient(dd, cfg.dt, axis=1)

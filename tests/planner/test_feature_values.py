@@ -380,6 +380,28 @@ def test_exit_profiles_start_at_the_ego(road, planner):
     np.testing.assert_allclose(ps.d[exits, 0], -LANE_WIDTH, atol=1e-6)
 
 
+@pytest.mark.parametrize("past", [3.0, 15.0])
+def test_exit_profiles_start_at_the_ego_inside_the_ramp_zone(road, planner, past):
+    """Inside an exit's ramp zone, still in lane 0, where the ramp's centre has already left the lane's:
+    the exit profiles start at the ego too, and end on the ramp's centre (they were laid from the ego's
+    offset to the lane instead of to the ramp, so they started metres off the ego, and a drive executed
+    that jump as an exit)."""
+    ex = road.exits[0]
+    s0, d0 = ex.s_start + past, -LANE_WIDTH + 0.3
+    ramp0 = float(np.interp(s0, ex.ramp_s, ex.ramp_d))
+    assert ramp0 < -LANE_WIDTH  # the ramp has diverged from lane 0 here
+    obs = make_obs(road, s0, d0, 11.0)
+    from irlsim.planner.planner import stop_distances
+
+    e = obs.ego
+    lon = planner.sampler.lon_bank(e.v, e.a, stop_distances(obs, planner.cfg, road), None)
+    bank = planner.sampler.exit_bank(e.d, e.d_dot, e.d_ddot, e.s, lon)
+    assert bank is not None and len(bank.d)
+    np.testing.assert_allclose(bank.d[:, 0], d0, atol=1e-6)
+    s_end = s0 + lon.s[bank.bound_lon, -1]
+    np.testing.assert_allclose(bank.d[:, -1], np.interp(s_end, ex.ramp_s, ex.ramp_d), atol=1e-6)
+
+
 def test_stop_profiles_never_roll_back(road, planner):
     from .conftest import make_vehicles
 
