@@ -367,9 +367,9 @@ def test_end_heading_of_exit_profiles(road, planner, grid):
 
 
 # ------------------------------------------------------------------------------------ trajectories
-# Two sampler defects found while building the cases above. The features agree with their formulas on
-# these trajectories; the trajectories themselves are wrong. Strict xfails: fixing the sampler turns
-# them into failures, which is the reminder to drop the marker.
+# Sampler defects, each fixed, pinned by the trajectory property it broke (the features agreed with their
+# formulas on the wrong trajectories): two found while building the cases above, and exit profiles that
+# started off the ego inside a ramp zone, found in a closed-loop drive that was moved onto the ramp.
 
 
 def test_exit_profiles_start_at_the_ego(road, planner):
