@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from irlsim import FEATURE_NAMES
+from irlsim.planner.planner import stop_distances
 from irlsim.road import HALF_ROAD, LANE_WIDTH
 
 from .conftest import make_obs
@@ -391,8 +392,6 @@ def test_exit_profiles_start_at_the_ego_inside_the_ramp_zone(road, planner, past
     ramp0 = float(np.interp(s0, ex.ramp_s, ex.ramp_d))
     assert ramp0 < -LANE_WIDTH  # the ramp has diverged from lane 0 here
     obs = make_obs(road, s0, d0, 11.0)
-    from irlsim.planner.planner import stop_distances
-
     e = obs.ego
     lon = planner.sampler.lon_bank(e.v, e.a, stop_distances(obs, planner.cfg, road), None)
     bank = planner.sampler.exit_bank(e.d, e.d_dot, e.d_ddot, e.s, lon)
