@@ -16,6 +16,8 @@ config's ``rounds``) of every run drive ``--episodes`` episodes of ``--laps`` la
   it for 5 epochs).
 - ``new3``: the new recipe with a third round of 10 learner episodes, PTACNN+S in the last round only
   (``configs/dagger/paper_fast3.toml``).
+- ``new3p``: three rounds of 6, 10 and 10, PTACNN+S trained with the paper's plain NLL for 5 epochs
+  (``configs/dagger/paper_fast3p.toml``).
 
 Development variants of the new recipe, each one lever changed (``--recipes new-ft10 new-ftall``; they
 share the new recipe's stage 1 of the same seed): ``new-ft10`` fine-tunes 10 epochs a round instead of 5,
@@ -55,6 +57,7 @@ RECIPES = {
     "old": ("configs/train/stage1.toml", "configs/dagger/paper.toml"),
     "new": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
     "new3": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3.toml"),
+    "new3p": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3p.toml"),
     # development variants of the new recipe: its stage 1 (shared with the "new" run of the same seed) and
     # its DAgger config with the overrides of VARIANT_SETS, each one lever of the recipe changed
     "new-ft10": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
