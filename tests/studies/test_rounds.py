@@ -96,3 +96,20 @@ def test_time_quality_takes_every_schedule_that_drove_the_first_development_samp
     (tmp_path / "rounds-6-10" / "dev20-s2020" / "drive.json").write_text("{}")
     labels = [label for label, _, _ in time_quality.schedule_folders(tmp_path)]
     assert labels == [time_quality.OWN, "6,10,10", "6,20,10"]
+
+
+def test_points_round_trip_through_their_csv_and_a_foreign_csv_is_refused(tmp_path):
+    s = {"drive/collisions": 0, "drive/exits": 1, "drive/stop_lines_compliant": 79}
+    s |= {"drive/stop_lines_passed": 80, "drive/checkpoints_in_lane": 150, "drive/checkpoints_passed": 160}
+    s["score/score"] = 93.25
+    rows = [time_quality.row("new3p", 26, "PACNN+S", 17.654, "evaluation", s)]
+    rows.append({**rows[0], "seed": 27, "model": "PTACNN+S", "score": None})  # published without a score
+    time_quality.write_points(rows, tmp_path / "p.csv")
+    back = time_quality.read_points(tmp_path / "p.csv")
+    assert back == rows
+    assert time_quality.events(back[0]) == 2 and time_quality.in_lane(back[0]) == 150 / 160
+    assert "| - |" in time_quality.table(back).splitlines()[-1]
+    (tmp_path / "other.csv").write_text("vehicle,time,x,y\n0,0.0,1.0,2.0\n")
+    with pytest.raises(SystemExit) as e:
+        time_quality.read_points(tmp_path / "other.csv")
+    assert "not a points file" in str(e.value) and "\n" not in str(e.value)
