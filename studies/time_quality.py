@@ -37,7 +37,15 @@ import rounds  # noqa: E402  (studies/rounds.py: a schedule's DAgger time)
 
 from irlsim.drive.metrics import summarize  # noqa: E402
 
-OWN = "6,20 (the recipe)"
+#: the picture's name of each recipe of studies/recipe.py: its name and DAgger schedule
+RECIPE_LABELS = {
+    "old": "old (6,20, retrained)",
+    "new": "new (6,20)",
+    "new3": "new3 (6,20,10)",
+    "new3p": "new3p (6,10,10, plain NLL)",
+}
+#: the faster recipe's own two rounds, beside the schedules tried on its stage 1
+OWN = RECIPE_LABELS["new"]
 
 
 def schedule_folders(run: Path) -> list[tuple[str, Path, Path]]:
@@ -108,6 +116,15 @@ def read_points(path: Path) -> list[dict[str, Any]]:
     return rows
 
 
+def merge(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One point per (schedule, drive seeds, training seed, model): a later row replaces an earlier one in
+    its place, so adding a run's points to a file that holds them already changes nothing."""
+    kept: dict[tuple[Any, ...], dict[str, Any]] = {}
+    for r in rows:
+        kept[(r["schedule"], r["seeds"], r["seed"], r["model"])] = r
+    return list(kept.values())
+
+
 def write_points(rows: list[dict[str, Any]], path: Path) -> None:
     with path.open("w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=FIELDS, lineterminator="\n")
@@ -122,7 +139,8 @@ def acceptance_rows(path: Path, seeds: str = "evaluation") -> list[dict[str, Any
     rows = []
     for r in json.loads(path.read_text()):
         minutes = (r["times"].get("stage 1", 0.0) + r["dagger_s"]) / 60
-        rows += [row(r["recipe"], r["seed"], m, minutes, seeds, r["drive"][m]) for m in recipe.MODELS]
+        label = RECIPE_LABELS.get(r["recipe"], r["recipe"])
+        rows += [row(label, r["seed"], m, minutes, seeds, r["drive"][m]) for m in recipe.MODELS]
     return rows
 
 
@@ -210,6 +228,7 @@ def main() -> int:
     rows += acceptance_rows(Path(a.acceptance)) if a.acceptance else []
     if not rows:
         raise SystemExit("no points: give --seeds, --acceptance, --development or --points")
+    rows = merge(rows)
     out.mkdir(parents=True, exist_ok=True)
     pic = Path(a.picture) if a.picture else out / "time-quality.png"
     (out / "time-quality.json").write_text(json.dumps(rows, indent=1) + "\n")

@@ -109,6 +109,7 @@ def test_points_round_trip_through_their_csv_and_a_foreign_csv_is_refused(tmp_pa
     assert back == rows
     assert time_quality.events(back[0]) == 2 and time_quality.in_lane(back[0]) == 150 / 160
     assert "| - |" in time_quality.table(back).splitlines()[-1]
+    assert time_quality.merge(back + [{**rows[0], "score": 50.0}]) == [{**rows[0], "score": 50.0}, rows[1]]
     (tmp_path / "other.csv").write_text("vehicle,time,x,y\n0,0.0,1.0,2.0\n")
     with pytest.raises(SystemExit) as e:
         time_quality.read_points(tmp_path / "other.csv")
