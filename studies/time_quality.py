@@ -111,7 +111,7 @@ def read_points(path: Path) -> list[dict[str, Any]]:
             ints = {k: int(r[k]) for k in FIELDS[2:] if k not in ("model", "minutes", "score")}
             score = float(r["score"]) if r["score"] else None
             rows.append({**r, **ints, "minutes": float(r["minutes"]), "score": score})
-        except ValueError as e:
+        except (TypeError, ValueError) as e:  # a short row reads None, a word where a number belongs
             raise SystemExit(f"{path}: a row that is not a point ({e}): {r}") from None
     return rows
 

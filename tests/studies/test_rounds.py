@@ -114,3 +114,8 @@ def test_points_round_trip_through_their_csv_and_a_foreign_csv_is_refused(tmp_pa
     with pytest.raises(SystemExit) as e:
         time_quality.read_points(tmp_path / "other.csv")
     assert "not a points file" in str(e.value) and "\n" not in str(e.value)
+    short = (tmp_path / "p.csv").read_text().splitlines()[:2]
+    (tmp_path / "short.csv").write_text(short[0] + "\n" + short[1].rsplit(",", 3)[0] + "\n")  # cut short
+    with pytest.raises(SystemExit) as e:
+        time_quality.read_points(tmp_path / "short.csv")
+    assert "a row that is not a point" in str(e.value) and "\n" not in str(e.value)
