@@ -71,32 +71,31 @@ def points(run: Path) -> list[dict[str, Any]]:
     return rows
 
 
-#: the columns of a point, as kept in a CSV (``--points``, ``--save-points``)
-FIELDS = [
-    "schedule", "seeds", "seed", "model", "minutes", "collisions", "exits", "stops_compliant",
-    "stops_passed", "checkpoints_in_lane", "checkpoints_passed", "score",
-]  # fmt: skip
+#: a point's figures: the CSV's column (``--points``, ``--save-points``) and the drive summary's key, which
+#: the point keeps so that studies/recipe.py's cells and share in lane read it as they read a summary
+FIGURES = {
+    "collisions": "drive/collisions", "exits": "drive/exits",
+    "stops_compliant": "drive/stop_lines_compliant", "stops_passed": "drive/stop_lines_passed",
+    "checkpoints_in_lane": "drive/checkpoints_in_lane", "checkpoints_passed": "drive/checkpoints_passed",
+    "score": "score/score",
+}  # fmt: skip
+#: the columns of a point, as kept in a CSV
+FIELDS = ["schedule", "seeds", "seed", "model", "minutes", *FIGURES]
 
 
 def row(label: str, seed: int, model: str, minutes: float, seeds: str, s: dict[str, Any]) -> dict[str, Any]:
     """One point: a schedule's model, its time to a reward and the figures of its drives' summary ``s``."""
-    return {
-        "schedule": label, "seeds": seeds, "seed": seed, "model": model, "minutes": round(minutes, 2),
-        "collisions": s["drive/collisions"], "exits": s["drive/exits"],
-        "stops_compliant": s["drive/stop_lines_compliant"], "stops_passed": s["drive/stop_lines_passed"],
-        "checkpoints_in_lane": s["drive/checkpoints_in_lane"],
-        "checkpoints_passed": s["drive/checkpoints_passed"], "score": s["score/score"],
-    }  # fmt: skip
+    point = {"schedule": label, "seeds": seeds, "seed": seed, "model": model, "minutes": round(minutes, 2)}
+    return point | {k: s[k] for k in FIGURES.values()}
 
 
-def in_lane(r: dict[str, Any]) -> float:
-    """The share of a point's checkpoints passed in the mission's lane (0 when none was passed)."""
-    return r["checkpoints_in_lane"] / r["checkpoints_passed"] if r["checkpoints_passed"] else 0.0
+in_lane = recipe.in_lane
 
 
 def events(r: dict[str, Any]) -> int:
     """A point's safety events: collisions, exits and stops not made."""
-    return r["collisions"] + r["exits"] + r["stops_passed"] - r["stops_compliant"]
+    missed = r["drive/stop_lines_passed"] - r["drive/stop_lines_compliant"]
+    return r["drive/collisions"] + r["drive/exits"] + missed
 
 
 def read_points(path: Path) -> list[dict[str, Any]]:
@@ -108,9 +107,10 @@ def read_points(path: Path) -> list[dict[str, Any]]:
     rows = []
     for r in found:
         try:
-            ints = {k: int(r[k]) for k in FIELDS[2:] if k not in ("model", "minutes", "score")}
+            figures = {FIGURES[k]: int(r[k]) for k in FIGURES if k != "score"}
             score = float(r["score"]) if r["score"] else None
-            rows.append({**r, **ints, "minutes": float(r["minutes"]), "score": score})
+            point = {k: r[k] for k in ("schedule", "seeds", "model")} | {"seed": int(r["seed"])}
+            rows.append(point | {"minutes": float(r["minutes"])} | figures | {"score/score": score})
         except (TypeError, ValueError) as e:  # a short row reads None, a word where a number belongs
             raise SystemExit(f"{path}: a row that is not a point ({e}): {r}") from None
     return rows
@@ -130,7 +130,8 @@ def write_points(rows: list[dict[str, Any]], path: Path) -> None:
         w = csv.DictWriter(f, fieldnames=FIELDS, lineterminator="\n")
         w.writeheader()
         for r in rows:
-            w.writerow({k: ("" if r[k] is None else r[k]) for k in FIELDS})
+            kept = {k: r[FIGURES.get(k, k)] for k in FIELDS}
+            w.writerow({k: "" if v is None else v for k, v in kept.items()})
 
 
 def acceptance_rows(path: Path, seeds: str = "evaluation") -> list[dict[str, Any]]:
@@ -149,10 +150,10 @@ def table(rows: list[dict[str, Any]]) -> str:
     head += " | checkpoints in lane | in lane [%] | score"
     lines = [f"| {head} |", "|" + "---|" * (head.count("|") + 1)]
     for r in rows:
-        cells = [r["schedule"], r["seeds"], r["seed"], r["model"], f"{r['minutes']:.1f}", r["collisions"]]
-        cells += [r["exits"], f"{r['stops_compliant']}/{r['stops_passed']}"]
-        cells += [f"{r['checkpoints_in_lane']}/{r['checkpoints_passed']}", f"{100 * in_lane(r):.1f}"]
-        cells += ["-" if r["score"] is None else f"{r['score']:.1f}"]
+        score = r["score/score"]
+        cells = [r["schedule"], r["seeds"], r["seed"], r["model"], f"{r['minutes']:.1f}"]
+        cells += [*recipe.closed_loop_cells(r), f"{100 * in_lane(r):.1f}"]
+        cells += ["-" if score is None else f"{score:.1f}"]
         lines.append("| " + " | ".join(map(str, cells)) + " |")
     return "\n".join(lines) + "\n"
 

@@ -103,13 +103,15 @@ def test_points_round_trip_through_their_csv_and_a_foreign_csv_is_refused(tmp_pa
     s |= {"drive/stop_lines_passed": 80, "drive/checkpoints_in_lane": 150, "drive/checkpoints_passed": 160}
     s["score/score"] = 93.25
     rows = [time_quality.row("new3p", 26, "PACNN+S", 17.654, "evaluation", s)]
-    rows.append({**rows[0], "seed": 27, "model": "PTACNN+S", "score": None})  # published without a score
+    unscored = {"seed": 27, "model": "PTACNN+S", "score/score": None}  # published without a score
+    rows.append({**rows[0], **unscored})
     time_quality.write_points(rows, tmp_path / "p.csv")
     back = time_quality.read_points(tmp_path / "p.csv")
     assert back == rows
     assert time_quality.events(back[0]) == 2 and time_quality.in_lane(back[0]) == 150 / 160
     assert "| - |" in time_quality.table(back).splitlines()[-1]
-    assert time_quality.merge(back + [{**rows[0], "score": 50.0}]) == [{**rows[0], "score": 50.0}, rows[1]]
+    again = {**rows[0], "score/score": 50.0}
+    assert time_quality.merge([*back, again]) == [again, rows[1]]
     (tmp_path / "other.csv").write_text("vehicle,time,x,y\n0,0.0,1.0,2.0\n")
     with pytest.raises(SystemExit) as e:
         time_quality.read_points(tmp_path / "other.csv")
