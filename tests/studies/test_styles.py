@@ -68,3 +68,33 @@ def test_safety_adds_the_filter_to_learned_drives_only(tmp_path, monkeypatch):
         study.drive("c.toml", "oval", ["PACNN+S"], tmp_path / "runs", tmp_path / f"learned{safety}", a)
         study.drive("c.toml", "oval", ["expert"], None, tmp_path / f"expert{safety}", a)
     assert ["--safety" in cmd for cmd in ran] == [False, False, True, False]
+
+
+_norms = importlib.util.spec_from_file_location(
+    "style_norms", Path(__file__).parents[2] / "studies" / "style_norms.py"
+)
+norms = importlib.util.module_from_spec(_norms)
+_norms.loader.exec_module(norms)  # type: ignore[union-attr]
+
+
+def _style(values: list[float], share: list[float]) -> dict:
+    from irlsim.rollout.style import STYLE_FIGURES
+
+    return {**dict(zip(STYLE_FIGURES, values, strict=True)), "style/lane_share": share}
+
+
+def test_per_episode_normaliser_against_a_closed_form_and_units():
+    import numpy as np
+
+    eps = [_style([10.0 + i, 2.0, 1.0, 3.0 + 2 * i, 1.0, 0.5, 0.9], [0.5, 0.5]) for i in range(4)]
+    spread = norms.episode_spread(eps, 2)
+    assert spread[0] == pytest.approx(np.std([10, 11, 12, 13])) and spread[1] == 0.0  # no spread: left out
+    ref = _style([11.0, 2.0, 1.0, 5.0, 1.0, 0.5, 0.9], [0.5, 0.5])
+    row = {**ref, "style/mean_speed": 11.0 + 2 * spread[0]}  # two spreads faster, all else the same
+    # two figures have a spread (speed, lane changes; the lane shares none): the RMS of (2, 0)
+    d = norms.episode_distances(row, [ref, row], spread)
+    assert d == pytest.approx([np.sqrt(4 / 2), 0.0])
+    # km/h for m/s in every record, the episodes too: the same distances
+    kmh = [{**e, "style/mean_speed": 3.6 * e["style/mean_speed"]} for e in (row, ref, *eps)]
+    d_kmh = norms.episode_distances(kmh[0], [kmh[1], kmh[0]], norms.episode_spread(kmh[2:], 2))
+    assert d_kmh == pytest.approx(d)

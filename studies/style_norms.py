@@ -1,0 +1,155 @@
+r"""The style study's table under two normalisations of the style distance (a development study).
+
+The style distance (:func:`irlsim.rollout.style.style_distances`, the one definition) divides each figure
+by its spread over the drivings compared: in the style table, the row's driving and the demonstrators'
+own (four pooled values). A figure on which the three demonstrators nearly agree (the stop rate, the
+middle lane's share) then counts as much as one on which they differ most, and a row that is alone on it
+gets the largest normalised difference there whatever its size. The alternative measured here divides
+each figure by its standard deviation over every *episode* of the demonstrators' own driving (the
+references' episodes pooled): a difference counts against how much the figure varies from one episode to
+the next among the drivers compared, and the normaliser is the same for every row of a table.
+
+Reads a ``studies/styles.py`` run (its drives and references; nothing is driven again) and writes, per
+road, each row's cells and nearest demonstrator under both, with each figure's two normalisers:
+
+    .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
+        --demonstrators expert cautious assertive --rows cautious assertive [--safety]
+
+to ``<out>/style-norms[-s<base>][-safe]-<rows>.md`` and ``.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+import styles  # noqa: E402  (studies/styles.py: the study's folders and pooled styles)
+
+from irlsim.rollout.style import STYLE_FIGURES, pool_styles, style_distances, style_vector  # noqa: E402
+
+#: the two spreads of a figure the table shows: over the references' episodes, over their pooled values
+#: (the distance as defined adds the row to these)
+EPISODES, POOLED = "references' episodes", "references pooled"
+
+
+def figure_names(n_lanes: int) -> list[str]:
+    return [f.removeprefix("style/") for f in STYLE_FIGURES] + [f"lane {i} share" for i in range(n_lanes)]
+
+
+def episode_spread(episodes: list[dict[str, Any]], n_lanes: int) -> np.ndarray:
+    """[F] each figure's standard deviation over ``episodes`` (style summaries of single episodes)."""
+    x = np.stack([style_vector(e, n_lanes) for e in episodes])
+    with np.errstate(invalid="ignore"):
+        return np.nanstd(x, axis=0)
+
+
+def episode_distances(row: dict[str, Any], refs: list[dict[str, Any]], spread: np.ndarray) -> np.ndarray:
+    """[len(refs)] the RMS over the figures of the row's difference from each reference, each figure divided
+    by ``spread`` (:func:`episode_spread` of the references' episodes); a figure without spread, or NaN in
+    either driving, is left out, as in :func:`irlsim.rollout.style.style_distances`."""
+    n_lanes = len(spread) - len(STYLE_FIGURES)
+    x = np.stack([style_vector(r, n_lanes) for r in (row, *refs)])
+    z = x / np.where(spread > 0, spread, np.nan)
+    diff = z[1:] - z[0]
+    ok = np.isfinite(diff)
+    count = ok.sum(axis=1)
+    sq = np.where(ok, diff, 0.0) ** 2
+    return np.sqrt(np.divide(sq.sum(axis=1), count, out=np.zeros(len(refs)), where=count > 0))
+
+
+def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
+    """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
+    if d == "expert":
+        eps = json.loads((out / f"drive{at}" / road / "expert" / "drive.json").read_text())["episodes"]
+    else:
+        stats = sorted((out / f"reference{at}" / d / road).glob("*/*.stats.json"))
+        eps = [json.loads(p.read_text()) for p in stats]
+    return [e for e in eps if e.get("style/time_s", 0) > 0]
+
+
+def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
+    at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
+    safe = "-safe" if a.safety else ""
+    episodes = {d: reference_episodes(out, d, road, at) for d in a.demonstrators}
+    refs = {d: pool_styles(e) for d, e in episodes.items()}
+    n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
+    spread = episode_spread([e for eps in episodes.values() for e in eps], n_lanes)
+    rows = []
+    for d in a.rows:
+        tag, _ = styles.learner(d, a)
+        for seed in a.seeds:
+            dj = out / f"drive{at}{safe}" / road / f"{tag}-seed{seed}" / "drive.json"
+            if not dj.is_file():
+                raise SystemExit(f"style_norms: {dj} is missing: run studies/styles.py with the same options")
+            for m, style in styles.driven_styles(dj).items():
+                cols = list(refs)
+                pooled = style_distances([style, *refs.values()])[0, 1:]
+                per_ep = episode_distances(style, list(refs.values()), spread)
+                rows.append({
+                    "row": f"{m} / {tag} / seed {seed}", "demonstrator": d,
+                    "pooled": dict(zip(cols, map(float, pooled), strict=True)),
+                    "episodes": dict(zip(cols, map(float, per_ep), strict=True)),
+                })  # fmt: skip
+    names = figure_names(n_lanes)
+    pooled_spread = np.nanstd(np.stack([style_vector(r, n_lanes) for r in refs.values()]), axis=0)
+    both = zip(names, spread, pooled_spread, strict=True)
+    figures = {k: {EPISODES: float(s), POOLED: float(p)} for k, s, p in both}
+    return {"rows": rows, "spread": figures}
+
+
+def markdown(tables: dict[str, dict[str, Any]]) -> str:
+    parts = []
+    for road, t in tables.items():
+        cols = list(t["rows"][0]["pooled"]) if t["rows"] else []
+        head = ["learned reward", *(f"{c} (as defined)" for c in cols), "own nearest (as defined)"]
+        head += [*(f"{c} (per episode)" for c in cols), "own nearest (per episode)"]
+        lines = [f"## {road}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+        for r in t["rows"]:
+            cells = [r["row"]]
+            for kind in ("pooled", "episodes"):
+                near = min(r[kind], key=r[kind].get)
+                cells += [f"**{v:.3f}**" if c == near else f"{v:.3f}" for c, v in r[kind].items()]
+                cells.append("yes" if near == r["demonstrator"] else "no")
+            lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", "| figure | spread over the references' episodes | over the references, pooled |"]
+        lines.append("|---|---|---|")
+        for k, v in t["spread"].items():
+            lines.append(f"| {k} | {v[EPISODES]:.3f} | {v[POOLED]:.3f} |")
+        parts.append("\n".join(lines) + "\n")
+    return "\n".join(parts)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/styles", help="a studies/styles.py run's folder")
+    p.add_argument("--roads", nargs="+", default=[styles.DEFAULT_SCENARIO, "motorway"])
+    p.add_argument("--demonstrators", nargs="+", default=["expert", "cautious", "assertive"])
+    p.add_argument("--rows", nargs="+", help="demonstrators whose learned rewards get rows (default: all)")
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds")
+    p.add_argument("--eval-base", type=int, default=styles.EVAL_BASE, help="the drives' episode seed base")
+    p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
+    p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
+    a = p.parse_args(argv)
+    a.rows = a.rows or a.demonstrators
+    unknown = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
+    if unknown:
+        sys.exit(f"style_norms: unknown demonstrator {unknown[0]}: choose from {', '.join(styles.CONFIGS)}")
+    out = Path(a.out)
+    tables = {road: road_table(out, road, a) for road in a.roads}
+    name = "style-norms" + ("" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}")
+    name += ("" if a.rule == "default" else f"-{a.rule}") + ("-safe" if a.safety else "")
+    name += "-" + "-".join(a.rows)
+    (out / f"{name}.json").write_text(json.dumps(tables, indent=1) + "\n")
+    (out / f"{name}.md").write_text(markdown(tables))
+    print(markdown(tables) + f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
