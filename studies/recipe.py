@@ -24,7 +24,7 @@ share the new recipe's stage 1 of the same seed): ``new-ft10`` fine-tunes 10 epo
 ``new-ftall`` fine-tunes on every policy of a cycle instead of a sample of 256, ``new-ft10-val`` fine-tunes
 10 epochs and chooses the epoch on a validation split with 2 learner-driven episodes a round;
 ``new3-short`` is new3 with half the training: stage 1 for 10 epochs instead of 20 (its own stage 1)
-and PTACNN+S for 5 instead of 10. Choose
+and PTACNN+S for 5 instead of 10; ``new2p`` is new3p without its third round (rounds of 6 and 10). Choose
 among them on development seeds (``--drive-seed 2000``: the drives, their folders and the table say the
 seed), and judge the choice once on the evaluation seeds.
 
@@ -65,6 +65,8 @@ RECIPES = {
     "new-ft10-val": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast.toml"),
     # a development variant of new3 with its own (shorter) stage 1: STAGE1_SETS and VARIANT_SETS
     "new3-short": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3.toml"),
+    # a development variant of new3p without its third round: rounds of 6 and 10 (VARIANT_SETS)
+    "new2p": ("configs/train/stage1_sampled.toml", "configs/dagger/paper_fast3p.toml"),
 }
 #: the stage-1 overrides of a variant with a stage 1 of its own: 10 epochs on the expert's data, not 20
 STAGE1_SETS = {"new3-short": ["--set", "epochs=10"]}
@@ -77,6 +79,7 @@ VARIANT_SETS = {
     "new-ftall": ["--set", 'stage1_config="configs/train/stage1.toml"'],
     "new-ft10-val": ["--set", "epochs=[10, 10]", "--set", "validation_episodes=2"],
     "new3-short": ["--set", "stage2_epochs=5"],
+    "new2p": ["--set", "rounds=2", "--set", "episodes=[6, 10]", "--set", "epochs=[5, 5]"],
 }
 MODELS = ("PACNN+S", "PTACNN+S")
 EVAL_SEED = 1000
@@ -133,8 +136,11 @@ def recipe_run(
 
 
 def recipe_rounds(recipe: str) -> int:
-    """The DAgger rounds of ``recipe``: its DAgger config's ``rounds``."""
-    return int(tomllib.loads(Path(RECIPES[recipe][1]).read_text())["rounds"])
+    """The DAgger rounds of ``recipe``: its DAgger config's ``rounds``, or its variant's override."""
+    sets = VARIANT_SETS.get(recipe, [])
+    override = [s.removeprefix("rounds=") for s in sets if s.startswith("rounds=")]
+    config = tomllib.loads(Path(RECIPES[recipe][1]).read_text())
+    return int(override[-1]) if override else int(config["rounds"])
 
 
 def last_round(folder: Path, n: int) -> Path:

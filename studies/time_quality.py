@@ -43,6 +43,7 @@ RECIPE_LABELS = {
     "new": "new (6,20)",
     "new3": "new3 (6,20,10)",
     "new3p": "new3p (6,10,10, plain NLL)",
+    "new2p": "new2p (6,10, plain NLL)",
 }
 #: the faster recipe's own two rounds, beside the schedules tried on its stage 1
 OWN = RECIPE_LABELS["new"]

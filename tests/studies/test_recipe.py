@@ -34,6 +34,7 @@ def test_the_bar_at_its_edges():
 
 def test_the_recipe_rounds_and_their_time(tmp_path):
     assert study.recipe_rounds("old") == 2
+    assert study.recipe_rounds("new3p") == 3 and study.recipe_rounds("new2p") == 2  # a variant's override
     for r, wall in ((1, 316.2), (2, 532.0)):
         (tmp_path / "dagger" / f"round_{r}").mkdir(parents=True)
         (tmp_path / "dagger" / f"round_{r}" / "round.json").write_text(json.dumps({"wall_s": wall}))
