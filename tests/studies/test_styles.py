@@ -98,3 +98,18 @@ def test_per_episode_normaliser_against_a_closed_form_and_units():
     kmh = [{**e, "style/mean_speed": 3.6 * e["style/mean_speed"]} for e in (row, ref, *eps)]
     d_kmh = norms.episode_distances(kmh[0], [kmh[1], kmh[0]], norms.episode_spread(kmh[2:], 2))
     assert d_kmh == pytest.approx(d)
+
+
+def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
+    spec = importlib.util.spec_from_file_location(
+        "style_openloop", Path(__file__).parents[2] / "studies" / "style_openloop.py"
+    )
+    openloop = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(openloop)  # type: ignore[union-attr]
+    with pytest.raises(SystemExit) as e:
+        openloop.main(["--data", str(tmp_path / "no-data"), "--runs", str(tmp_path)])
+    assert "no-data is not a folder" in str(e.value) and "\n" not in str(e.value)
+    (tmp_path / "data" / "test").mkdir(parents=True)
+    with pytest.raises(SystemExit) as e:  # a run folder without the model: irlsim's one line, not a traceback
+        openloop.main(["--data", str(tmp_path / "data"), "--runs", str(tmp_path)])
+    assert str(e.value).startswith("style_openloop: ") and "\n" not in str(e.value)
