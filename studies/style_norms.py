@@ -50,27 +50,17 @@ def episode_spread(episodes: list[dict[str, Any]], n_lanes: int) -> np.ndarray:
 
 
 def episode_distances(row: dict[str, Any], refs: list[dict[str, Any]], spread: np.ndarray) -> np.ndarray:
-    """[len(refs)] the RMS over the figures of the row's difference from each reference, each figure divided
-    by ``spread`` (:func:`episode_spread` of the references' episodes); a figure without spread, or NaN in
-    either driving, is left out, as in :func:`irlsim.rollout.style.style_distances`."""
-    n_lanes = len(spread) - len(STYLE_FIGURES)
-    x = np.stack([style_vector(r, n_lanes) for r in (row, *refs)])
-    z = x / np.where(spread > 0, spread, np.nan)
-    diff = z[1:] - z[0]
-    ok = np.isfinite(diff)
-    count = ok.sum(axis=1)
-    sq = np.where(ok, diff, 0.0) ** 2
-    return np.sqrt(np.divide(sq.sum(axis=1), count, out=np.zeros(len(refs)), where=count > 0))
+    """[len(refs)] the style distance of the row from each reference with each figure divided by ``spread``
+    (:func:`episode_spread` of the references' episodes) instead of its spread over the drivings compared."""
+    return style_distances([row, *refs], spread)[0, 1:]
 
 
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
     """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
     if d == "expert":
         eps = json.loads((out / f"drive{at}" / road / "expert" / "drive.json").read_text())["episodes"]
-    else:
-        stats = sorted((out / f"reference{at}" / d / road).glob("*/*.stats.json"))
-        eps = [json.loads(p.read_text()) for p in stats]
-    return [e for e in eps if e.get("style/time_s", 0) > 0]
+        return [e for e in eps if e.get("style/time_s", 0) > 0]
+    return styles.collected_episodes(out / f"reference{at}" / d / road)
 
 
 def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:

@@ -134,10 +134,15 @@ def collect(config: str, road: str, out: Path, sets: list[str], a: Any) -> None:
         )
 
 
+def collected_episodes(folder: Path) -> list[dict[str, Any]]:
+    """The style figures of every episode a collection recorded (those that drove)."""
+    stats = [json.loads(p.read_text()) for p in sorted(folder.glob("*/*.stats.json"))]
+    return [s for s in stats if s.get("style/time_s", 0) > 0]
+
+
 def collected_style(folder: Path) -> dict[str, Any]:
     """The pooled style of every episode a collection recorded."""
-    stats = [json.loads(p.read_text()) for p in sorted(folder.glob("*/*.stats.json"))]
-    return pool_styles([s for s in stats if "style/time_s" in s])
+    return pool_styles(collected_episodes(folder))
 
 
 def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:

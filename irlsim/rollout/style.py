@@ -128,16 +128,20 @@ def style_vector(record: dict[str, Any], n_lanes: int) -> np.ndarray:
     return np.concatenate([[float(record.get(k, np.nan)) for k in STYLE_FIGURES], share])
 
 
-def style_distances(records: Sequence[dict[str, Any]]) -> np.ndarray:
+def style_distances(records: Sequence[dict[str, Any]], spread: np.ndarray | None = None) -> np.ndarray:
     """[n, n] the style distance between every two of ``records`` (style summaries): the RMS over the
     figures of their difference divided by the figure's standard deviation across all ``records``;
     figures without spread or NaN in either driving are left out (0 when none is left). Zero on the
-    diagonal, symmetric, unchanged when a figure is scaled (units) in every record."""
+    diagonal, symmetric, unchanged when a figure is scaled (units) in every record. ``spread`` [F] (a
+    development study's alternative normaliser, ``style_vector``'s figures) replaces that deviation."""
     n_lanes = max((len(r.get("style/lane_share", [])) for r in records), default=0)
+    if spread is not None:
+        n_lanes = len(spread) - len(STYLE_FIGURES)
     x = np.stack([style_vector(r, n_lanes) for r in records]) if records else np.zeros((0, 0))
     with warnings.catch_warnings():  # a figure NaN in every driving (no leader: no headway) has no spread
         warnings.simplefilter("ignore", RuntimeWarning)
-        spread = np.nanstd(x, axis=0) if len(x) else np.zeros(0)
+        if spread is None:
+            spread = np.nanstd(x, axis=0) if len(x) else np.zeros(0)
     z = x / np.where(spread > 0, spread, np.nan)
     diff = z[:, None, :] - z[None, :, :]  # [n, n, F]
     ok = np.isfinite(diff)
