@@ -140,11 +140,6 @@ def collected_episodes(folder: Path) -> list[dict[str, Any]]:
     return [s for s in stats if s.get("style/time_s", 0) > 0]
 
 
-def collected_style(folder: Path) -> dict[str, Any]:
-    """The pooled style of every episode a collection recorded."""
-    return pool_styles(collected_episodes(folder))
-
-
 def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:
     """model -> the pooled style of its episodes in a drive.json."""
     eps = json.loads(drive_json.read_text())["episodes"]
@@ -384,7 +379,7 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
                 sets += ["--set", "validation_episodes=0", "--set", "test_episodes=0"]
                 sets += ["--set", f"max_cycles={a.max_cycles}", "--set", f"scenario.laps={a.laps}"]
                 collect(a.configs[d], road, folder, sets, a)
-                refs[d], own[d] = collected_style(folder), collected_bounds(folder)
+                refs[d], own[d] = pool_styles(collected_episodes(folder)), collected_bounds(folder)
         learned: dict[str, dict[str, Any]] = {}
         for d in (d for d in sumo_demos if d in a.rows):
             tag, rule = learner(d, a)
@@ -408,7 +403,7 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
     folder = out / "reference" / RECORDING
     collect(str(out / RECORDING / "reference.toml"), DEFAULT_SCENARIO, folder, [], a)
     expert = drive(rec[1], None, ["expert"], None, out / "drive" / RECORDING / "expert", a)
-    refs = {RECORDING: collected_style(folder), "expert": driven_styles(expert)["expert"]}
+    refs = {RECORDING: pool_styles(collected_episodes(folder)), "expert": driven_styles(expert)["expert"]}
     own = {RECORDING: collected_bounds(folder), "expert": safety(expert, "expert")}
     learned: dict[str, dict[str, Any]] = {}
     tag, rule = learner(RECORDING, a)
