@@ -10,7 +10,9 @@ references' episodes pooled): a difference counts against how much the figure va
 the next among the drivers compared, and the normaliser is the same for every row of a table.
 
 Reads a ``studies/styles.py`` run (its drives and references; nothing is driven again) and writes, per
-road, each row's cells and nearest demonstrator under both, with each figure's two normalisers:
+road, each row's cells and nearest demonstrator under both, with each figure's two normalisers, and for
+every row not nearest its own demonstrator per episode, each figure's signed normalised difference from
+its own and from the nearest (what keeps it from its own; the distance is the RMS of these):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
         --demonstrators expert cautious assertive --rows cautious assertive [--safety]
@@ -55,6 +57,15 @@ def episode_distances(row: dict[str, Any], refs: list[dict[str, Any]], spread: n
     return style_distances([row, *refs], spread)[0, 1:]
 
 
+def figure_gaps(row: dict[str, Any], ref: dict[str, Any], spread: np.ndarray) -> np.ndarray:
+    """[F] each figure's (row - ref) / spread (NaN where the spread is 0 or either value is NaN): the
+    terms whose RMS :func:`episode_distances` is."""
+    n_lanes = len(spread) - len(STYLE_FIGURES)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        gap = (style_vector(row, n_lanes) - style_vector(ref, n_lanes)) / np.where(spread > 0, spread, np.nan)
+    return gap
+
+
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
     """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
     if d == "expert":
@@ -81,10 +92,16 @@ def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
                 cols = list(refs)
                 pooled = style_distances([style, *refs.values()])[0, 1:]
                 per_ep = episode_distances(style, list(refs.values()), spread)
+                near = cols[int(np.argmin(per_ep))]
+                gaps = {
+                    c: [None if np.isnan(x) else float(x) for x in figure_gaps(style, refs[c], spread)]
+                    for c in dict.fromkeys([d, near])
+                }
                 rows.append({
                     "row": f"{m} / {tag} / seed {seed}", "demonstrator": d,
                     "pooled": dict(zip(cols, map(float, pooled), strict=True)),
                     "episodes": dict(zip(cols, map(float, per_ep), strict=True)),
+                    "gaps": gaps,
                 })  # fmt: skip
     names = figure_names(n_lanes)
     pooled_spread = np.nanstd(np.stack([style_vector(r, n_lanes) for r in refs.values()]), axis=0)
@@ -111,6 +128,15 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
         lines.append("|---|---|---|")
         for k, v in t["spread"].items():
             lines.append(f"| {k} | {v[EPISODES]:.3f} | {v[POOLED]:.3f} |")
+        missed = [r for r in t["rows"] if len(r["gaps"]) > 1]
+        if missed:
+            names = list(t["spread"])
+            head = ["row not nearest its own (per episode)", "(row - driver) / spread, driver", *names]
+            lines += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+            for r in missed:
+                for c, g in r["gaps"].items():
+                    cells = ["-" if x is None else f"{x:+.2f}" for x in g]
+                    lines.append(f"| {r['row']} | {c} | " + " | ".join(cells) + " |")
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
 

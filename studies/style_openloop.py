@@ -1,11 +1,18 @@
-r"""Open loop on a demonstrator's own cycles: what a learned reward chooses where its demonstrator drove.
+r"""Open loop on a demonstrator's own cycles: where a learned reward's style parts from its demonstrator's.
 
-For every cycle of a dataset's test split that has a demonstration, the reward's choice (argmax of
-V = -theta^T f over the cycle's policy set) against the demonstrated policy: the route progress over the
-horizon, the proximity cost and the velocity cost (distance to the scenario's target speed) of each,
-averaged over the cycles. It tells whether a reward that drives unlike its demonstrator in closed loop
-already chooses unlike it on the demonstrator's own states (the learning) or only drifts there in closed
-loop. The demonstration is the collected one, before the training's demonstration rules.
+For every cycle of a dataset's test split that has a demonstration, four policies of the cycle's set are
+compared on the figures that carry a driving style: the demonstration as collected (the odometry's
+projection), the demonstration after the training's rules (:func:`irlsim.data.demos.safe_demo_index`:
+moved off a policy labelled as a predicted collision, or one crossing an active stop line without
+standing; what the reward is trained on), what the reward expects (the mean under its maximum-entropy
+distribution p ~ exp(-theta^T f) over the set: what maximum-entropy IRL fits to the demonstrations) and
+what it chooses (argmax, what the planner drives). Each step of that chain says where a style is lost: in
+the rules, in the learning, or in taking the most likely policy instead of the distribution. The
+figures, averaged over the cycles (those the rules drop left out of their column): route progress over
+the horizon [m], the proximity, velocity and lane-change delay costs, and the share of cycles whose policy
+ends over 2 m sideways (a lane change: the planner's swerves are 0.8 and 1.6 m). Beside them, the reward's
+weights theta (mean over the cycles) of those features: which weight carries a style shows as a
+difference between the rewards of two demonstrators.
 
     .venv/bin/python studies/style_openloop.py --data runs/styles/data/assertive/oval \
         --runs runs/styles/runs/assertive-seed0/stage1 runs/styles/runs/assertive-seed1/stage1
@@ -14,6 +21,7 @@ loop. The demonstration is the collected one, before the training's demonstratio
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -22,18 +30,37 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from irlsim import FEATURE_NAMES
+from irlsim.data.demos import safe_demo_index
 from irlsim.errors import IrlsimError
 from irlsim.reward import load_reward
 
 IDX = {n: i for i, n in enumerate(FEATURE_NAMES)}
+#: the feature costs compared (and whose weights are shown)
+COSTS = ("proximity", "velocity", "lc_delay")
+#: the policies compared in every cycle, in the chain's order
+WHICH = ("demonstrated", "after the rules", "expected", "chosen")
+#: [m] a policy ending farther sideways than this over the horizon changes lanes
+SIDEWAYS = 2.0
+
+
+def cycle_figures(
+    feats: np.ndarray, sideways: np.ndarray, progress: np.ndarray, theta: np.ndarray, demo: int, ruled: int
+) -> np.ndarray:
+    """[len(WHICH), 2 + len(COSTS)] progress, share sideways and the costs of one cycle's demonstration,
+    ruled demonstration (-1: dropped by the rules, NaN), the reward's expectation and its choice."""
+    f = np.column_stack([progress, sideways, feats[:, [IDX[c] for c in COSTS]]]).astype(np.float64)
+    value = -feats.astype(np.float64) @ theta
+    p = np.exp(value - value.max())
+    p /= p.sum()
+    ruled_row = f[ruled] if ruled >= 0 else np.full(f.shape[1], np.nan)
+    return np.stack([f[demo], ruled_row, p @ f, f[int(np.argmax(value))]])
 
 
 def compare(data: Path, runs: Path, model: str = "PACNN+S") -> dict[str, Any]:
-    """The reward's choice against the demonstration over the test split of ``data``: mean progress [m],
-    proximity and velocity costs of each, and the shares of the cycles where the choice progresses more
-    (or less) than the demonstration by over half a metre."""
+    """The chain demonstrated -> after the rules -> expected -> chosen over the test split of ``data``
+    (means over the cycles with a demonstration) and the reward's mean weights of ``COSTS``."""
     reward = load_reward(model, runs=str(runs))
-    got = []
+    got, thetas = [], []
     for f in sorted((data / "test").glob("*.policies.parquet")):
         cycles = pq.read_table(f.with_name(f.name.replace("policies", "cycles"))).to_pandas()
         demos = cycles[cycles.has_demo].set_index("cycle").demo_index
@@ -42,23 +69,52 @@ def compare(data: Path, runs: Path, model: str = "PACNN+S") -> dict[str, Any]:
             feats = np.stack(g.features.to_numpy()).astype(np.float32)
             points = np.stack(g.control_points.to_numpy()).astype(np.float32).reshape(len(g), -1, 3)
             actions = np.stack(g.actions.to_numpy()).astype(np.float32).reshape(len(g), -1, 2)
-            theta = reward.predict(feats, points, actions)
-            k, d = int(np.argmax(-feats.astype(np.float64) @ theta)), int(demos[c])
-            progress = g.progress.to_numpy()
-            got.append(
-                [progress[k], progress[d], *feats[[k, d]][:, [IDX["proximity"], IDX["velocity"]]].T.ravel()]
+            theta = np.asarray(reward.predict(feats, points, actions), dtype=np.float64)
+            demo = int(demos[c])
+            ruled = int(
+                safe_demo_index(
+                    np.array([demo]),
+                    g.distance.to_numpy(np.float32)[None],
+                    g.collision.to_numpy(bool)[None],
+                    stop_line=feats[None, :, IDX["stop_line"]],
+                )[0]
             )
+            sideways = (np.abs(points[:, -1, 0]) > SIDEWAYS).astype(np.float64)
+            got.append(cycle_figures(feats, sideways, g.progress.to_numpy(), theta, demo, ruled))
+            thetas.append(theta[[IDX[c] for c in COSTS]])
     if not got:
         raise SystemExit(
             f"style_openloop: {data}/test has no cycle with a demonstration: give a dataset folder"
         )
-    x = np.asarray(got, dtype=np.float64)
-    means = {
-        k: (x[:, i].mean(), x[:, i + 1].mean())
-        for k, i in (("progress", 0), ("proximity", 2), ("velocity", 4))
+    x = np.stack(got)  # [C, len(WHICH), F]
+    means = np.nanmean(x, axis=0)
+    names = ("progress", "sideways", *COSTS)
+    return {
+        "cycles": len(x),
+        "dropped by the rules": int(np.isnan(x[:, 1, 0]).sum()),
+        "moved by the rules": float(np.mean(np.any(x[:, 0] != x[:, 1], axis=1) & ~np.isnan(x[:, 1, 0]))),
+        **{n: dict(zip(WHICH, means[:, i].tolist(), strict=True)) for i, n in enumerate(names)},
+        "theta": dict(zip(COSTS, np.mean(thetas, axis=0).tolist(), strict=True)),
     }
-    more, less = float(np.mean(x[:, 0] > x[:, 1] + 0.5)), float(np.mean(x[:, 0] < x[:, 1] - 0.5))
-    return {"cycles": len(x), **means, "more": more, "less": less}
+
+
+def markdown(results: dict[str, dict[str, Any]]) -> str:
+    """One table of the chain per figure (a row per reward), then the rewards' weights."""
+    fmt = {"progress": "{:.2f}", "sideways": "{:.3f}", "proximity": "{:.3f}", "velocity": "{:.1f}"}
+    lines = [
+        "| reward | cycles (moved / dropped by the rules) | figure | " + " | ".join(WHICH) + " |",
+        "|---|---|---|" + "---|" * len(WHICH),
+    ]
+    for runs, r in results.items():
+        for n in ("progress", "sideways", *COSTS):
+            cells = [fmt.get(n, "{:.3f}").format(r[n][w]) for w in WHICH]
+            head = f"{r['cycles']} ({r['moved by the rules']:.3f} / {r['dropped by the rules']})"
+            lines.append(f"| {runs} | {head} | {n} | " + " | ".join(cells) + " |")
+    lines += ["", "| reward | " + " | ".join(f"theta {c}" for c in COSTS) + " |"]
+    lines.append("|---|" + "---|" * len(COSTS))
+    for runs, r in results.items():
+        lines.append(f"| {runs} | " + " | ".join(f"{r['theta'][c]:.4g}" for c in COSTS) + " |")
+    return "\n".join(lines)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,28 +122,21 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--data", required=True, help="a dataset folder (its test split is read)")
     p.add_argument("--runs", nargs="+", required=True, help="stage-1 run folders of the rewards to compare")
     p.add_argument("--model", default="PACNN+S")
+    p.add_argument("--json", help="also write the figures to this JSON file")
     a = p.parse_args(argv)
     for where in [a.data, *a.runs]:
         if not Path(where).is_dir():
             sys.exit(f"style_openloop: {where} is not a folder: give a dataset and stage-1 run folders")
-    head = (
-        "| reward | cycles | progress [m] chosen / demonstrated | chosen more / less | proximity | velocity |"
-    )
-    lines = [head, "|---|---|---|---|---|---|"]
+    results = {}
     for runs in a.runs:
         try:
-            r = compare(Path(a.data), Path(runs), a.model)
+            results[runs] = compare(Path(a.data), Path(runs), a.model)
         except IrlsimError as e:  # no such model in the run folder: irlsim's own one line
             sys.exit(f"style_openloop: {e}")
-        cells = [
-            runs,
-            r["cycles"],
-            "{:.2f} / {:.2f}".format(*r["progress"]),
-            f"{r['more']:.2f} / {r['less']:.2f}",
-        ]
-        cells += ["{:.3f} / {:.3f}".format(*r["proximity"]), "{:.1f} / {:.1f}".format(*r["velocity"])]
-        lines.append("| " + " | ".join(map(str, cells)) + " |")
-    print("\n".join(lines))
+    print(markdown(results))
+    if a.json:
+        Path(a.json).write_text(json.dumps({"data": a.data, "model": a.model, "rewards": results}, indent=1))
+        print(f"wrote {a.json}")
     return 0
 
 

@@ -9,6 +9,7 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 _spec = importlib.util.spec_from_file_location("styles", Path(__file__).parents[2] / "studies" / "styles.py")
@@ -84,8 +85,6 @@ def _style(values: list[float], share: list[float]) -> dict:
 
 
 def test_per_episode_normaliser_against_a_closed_form_and_units():
-    import numpy as np
-
     eps = [_style([10.0 + i, 2.0, 1.0, 3.0 + 2 * i, 1.0, 0.5, 0.9], [0.5, 0.5]) for i in range(4)]
     spread = norms.episode_spread(eps, 2)
     assert spread[0] == pytest.approx(np.std([10, 11, 12, 13])) and spread[1] == 0.0  # no spread: left out
@@ -98,14 +97,43 @@ def test_per_episode_normaliser_against_a_closed_form_and_units():
     kmh = [{**e, "style/mean_speed": 3.6 * e["style/mean_speed"]} for e in (row, ref, *eps)]
     d_kmh = norms.episode_distances(kmh[0], [kmh[1], kmh[0]], norms.episode_spread(kmh[2:], 2))
     assert d_kmh == pytest.approx(d)
+    # the per-figure gaps are the distance's terms: +2 on speed, 0 on lane changes, the rest left out
+    gaps = norms.figure_gaps(row, ref, spread)
+    assert gaps[0] == pytest.approx(2.0) and gaps[3] == 0.0 and np.isnan(gaps[1])
+    assert np.sqrt(np.nanmean(gaps**2)) == pytest.approx(d[0])
 
 
-def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
+def _openloop():
     spec = importlib.util.spec_from_file_location(
         "style_openloop", Path(__file__).parents[2] / "studies" / "style_openloop.py"
     )
     openloop = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(openloop)  # type: ignore[union-attr]
+    return openloop
+
+
+def test_open_loop_chain_against_closed_form():
+    """Three policies whose only cost is proximity 0 / 1 / 2 under theta_proximity = ln 2: the
+    maximum-entropy distribution is (4, 2, 1) / 7, so the expected proximity is 4/7 and the expected
+    progress (4 * 10 + 2 * 20 + 30) / 7; the choice is the first policy."""
+    openloop = _openloop()
+    feats = np.zeros((3, len(openloop.FEATURE_NAMES)), np.float32)
+    feats[:, openloop.IDX["proximity"]] = [0, 1, 2]
+    theta = np.zeros(len(openloop.FEATURE_NAMES))
+    theta[openloop.IDX["proximity"]] = math.log(2)
+    sideways = np.array([0.0, 1.0, 1.0])
+    x = openloop.cycle_figures(feats, sideways, np.array([10.0, 20.0, 30.0]), theta, demo=2, ruled=-1)
+    progress, side, prox = 0, 1, 2
+    assert x.shape == (len(openloop.WHICH), 2 + len(openloop.COSTS))
+    assert x[0, prox] == 2 and x[0, progress] == 30  # the demonstration
+    assert np.isnan(x[1]).all()  # dropped by the rules
+    assert x[2, prox] == pytest.approx(4 / 7) and x[2, progress] == pytest.approx(110 / 7)
+    assert x[2, side] == pytest.approx(3 / 7)
+    assert x[3, prox] == 0 and x[3, progress] == 10  # the choice: argmax of -theta^T f
+
+
+def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
+    openloop = _openloop()
     with pytest.raises(SystemExit) as e:
         openloop.main(["--data", str(tmp_path / "no-data"), "--runs", str(tmp_path)])
     assert "no-data is not a folder" in str(e.value) and "\n" not in str(e.value)
