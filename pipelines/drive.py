@@ -11,8 +11,9 @@ import argparse
 from pathlib import Path
 
 from irlsim import devices
-from irlsim.config import MAX_SEED, int_in
+from irlsim.config import MAX_SEED, float_in, int_in
 from irlsim.errors import IrlsimError
+from irlsim.planner.choice import CHOICES
 from irlsim.workflows.drive import DriveRun, drive_models
 from pipelines.collect import add_executor_arguments
 
@@ -57,6 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         action="store_true",
         help="learned models drop policies labelled collision / off-road / exit (model-based check)",
     )
+    add_choice_arguments(p)
     p.add_argument(
         "--out", type=Path, default=None, help="output folder (default: <runs>/drive, or runs/drive)"
     )
@@ -92,6 +94,25 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
+def add_choice_arguments(p: argparse.ArgumentParser) -> None:
+    """--choice and --lane-change-bias: how a learned reward picks its policy (irlsim.planner.choice)."""
+    p.add_argument(
+        "--choice",
+        choices=CHOICES,
+        default="argmax",
+        help="how a learned model picks its policy: 'argmax' of its reward (the paper's; default) or "
+        "'expected': the maneuver and policy its maximum-entropy distribution expects",
+    )
+    p.add_argument(
+        "--lane-change-bias",
+        type=float_in(1.0),
+        default=1.0,
+        help="with --choice expected: a lane change's probability mass is multiplied by this (>= 1) "
+        "before the maneuver is chosen (calibrated on a reward's training data by "
+        "irlsim.reward.choice.lane_change_bias; default: 1)",
+    )
+
+
 def request(args: argparse.Namespace) -> DriveRun:
     """The parsed arguments as the library's request (one-line errors for a bad --model list)."""
     specs = [m.strip() for m in args.model.split(",") if m.strip()]
@@ -119,6 +140,8 @@ def request(args: argparse.Namespace) -> DriveRun:
         args.precision,
         args.scenario,
         reactive=args.reactive,
+        choice=args.choice,
+        lane_change_bias=args.lane_change_bias,
     )
 
 

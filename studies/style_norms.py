@@ -15,7 +15,7 @@ every row not nearest its own demonstrator per episode, each figure's signed nor
 its own and from the nearest (what keeps it from its own; the distance is the RMS of these):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
-        --demonstrators expert cautious assertive --rows cautious assertive [--safety]
+        --demonstrators expert cautious assertive --rows cautious assertive [--safety] [--choice]
 
 to ``<out>/style-norms[-s<base>][-safe]-<rows>.md`` and ``.json``.
 """
@@ -76,7 +76,7 @@ def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, 
 
 def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    safe = "-safe" if a.safety else ""
+    safe = ("-safe" if a.safety else "") + ("-choice" if a.choice else "")
     episodes = {d: reference_episodes(out, d, road, at) for d in a.demonstrators}
     refs = {d: pool_styles(e) for d, e in episodes.items()}
     n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
@@ -101,7 +101,7 @@ def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
                     "row": f"{m} / {tag} / seed {seed}", "demonstrator": d,
                     "pooled": dict(zip(cols, map(float, pooled), strict=True)),
                     "episodes": dict(zip(cols, map(float, per_ep), strict=True)),
-                    "gaps": gaps,
+                    "gaps": gaps, "bounds": styles.safety(dj, m),
                 })  # fmt: skip
     names = figure_names(n_lanes)
     pooled_spread = np.nanstd(np.stack([style_vector(r, n_lanes) for r in refs.values()]), axis=0)
@@ -115,7 +115,7 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
     for road, t in tables.items():
         cols = list(t["rows"][0]["pooled"]) if t["rows"] else []
         head = ["learned reward", *(f"{c} (as defined)" for c in cols), "own nearest (as defined)"]
-        head += [*(f"{c} (per episode)" for c in cols), "own nearest (per episode)"]
+        head += [*(f"{c} (per episode)" for c in cols), "own nearest (per episode)", *styles.BOUNDS_HEAD]
         lines = [f"## {road}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in t["rows"]:
             cells = [r["row"]]
@@ -123,7 +123,7 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
                 near = min(r[kind], key=r[kind].get)
                 cells += [f"**{v:.3f}**" if c == near else f"{v:.3f}" for c, v in r[kind].items()]
                 cells.append("yes" if near == r["demonstrator"] else "no")
-            lines.append("| " + " | ".join(cells) + " |")
+            lines.append("| " + " | ".join([*cells, *styles.bounds_cells(r["bounds"])]) + " |")
         lines += ["", "| figure | spread over the references' episodes | over the references, pooled |"]
         lines.append("|---|---|---|")
         for k, v in t["spread"].items():
@@ -151,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-base", type=int, default=styles.EVAL_BASE, help="the drives' episode seed base")
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
+    p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
     a = p.parse_args(argv)
     a.rows = a.rows or a.demonstrators
     unknown = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
@@ -160,6 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     tables = {road: road_table(out, road, a) for road in a.roads}
     name = "style-norms" + ("" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}")
     name += ("" if a.rule == "default" else f"-{a.rule}") + ("-safe" if a.safety else "")
+    name += "-choice" if a.choice else ""
     name += "-" + "-".join(a.rows)
     (out / f"{name}.json").write_text(json.dumps(tables, indent=1) + "\n")
     (out / f"{name}.md").write_text(markdown(tables))

@@ -32,34 +32,49 @@ import pyarrow.parquet as pq
 from irlsim import FEATURE_NAMES
 from irlsim.data.demos import safe_demo_index
 from irlsim.errors import IrlsimError
+from irlsim.planner.choice import SIDEWAYS, expected_choice
 from irlsim.reward import load_reward
+from irlsim.reward.choice import lane_change_bias
 
 IDX = {n: i for i, n in enumerate(FEATURE_NAMES)}
 #: the feature costs compared (and whose weights are shown)
 COSTS = ("proximity", "velocity", "lc_delay")
-#: the policies compared in every cycle, in the chain's order
-WHICH = ("demonstrated", "after the rules", "expected", "chosen")
-#: [m] a policy ending farther sideways than this over the horizon changes lanes
-SIDEWAYS = 2.0
+#: the policies compared in every cycle, in the chain's order ("chosen": argmax; "expected choice":
+#: irlsim.planner.choice.expected_choice with the reward's calibrated lane-change bias)
+WHICH = ("demonstrated", "after the rules", "expected", "chosen", "expected choice")
 
 
 def cycle_figures(
-    feats: np.ndarray, sideways: np.ndarray, progress: np.ndarray, theta: np.ndarray, demo: int, ruled: int
+    feats: np.ndarray,
+    points: np.ndarray,
+    progress: np.ndarray,
+    theta: np.ndarray,
+    demo: int,
+    ruled: int,
+    bias: float = 1.0,
 ) -> np.ndarray:
     """[len(WHICH), 2 + len(COSTS)] progress, share sideways and the costs of one cycle's demonstration,
-    ruled demonstration (-1: dropped by the rules, NaN), the reward's expectation and its choice."""
+    ruled demonstration (-1: dropped by the rules, NaN), the reward's expectation, its argmax and its
+    expected choice with lane-change bias ``bias``; ``points`` [N, K, 3] the control points."""
+    sideways = (np.abs(points[:, -1, 0]) > SIDEWAYS).astype(np.float64)
     f = np.column_stack([progress, sideways, feats[:, [IDX[c] for c in COSTS]]]).astype(np.float64)
     value = -feats.astype(np.float64) @ theta
     p = np.exp(value - value.max())
     p /= p.sum()
     ruled_row = f[ruled] if ruled >= 0 else np.full(f.shape[1], np.nan)
-    return np.stack([f[demo], ruled_row, p @ f, f[int(np.argmax(value))]])
+    choice = expected_choice(value, points, bias)
+    return np.stack([f[demo], ruled_row, p @ f, f[int(np.argmax(value))], f[choice]])
 
 
-def compare(data: Path, runs: Path, model: str = "PACNN+S") -> dict[str, Any]:
+def compare(
+    data: Path, runs: Path, model: str = "PACNN+S", calibrate_on: list[Path] | None = None
+) -> dict[str, Any]:
     """The chain demonstrated -> after the rules -> expected -> chosen over the test split of ``data``
-    (means over the cycles with a demonstration) and the reward's mean weights of ``COSTS``."""
+    (means over the cycles with a demonstration) and the reward's mean weights of ``COSTS``; the expected
+    choice's lane-change bias is calibrated on the train splits of ``calibrate_on`` (default: ``data``)."""
     reward = load_reward(model, runs=str(runs))
+    bias = lane_change_bias(reward, list(calibrate_on or [data]))
+    reward.reset()
     got, thetas = [], []
     for f in sorted((data / "test").glob("*.policies.parquet")):
         cycles = pq.read_table(f.with_name(f.name.replace("policies", "cycles"))).to_pandas()
@@ -79,8 +94,7 @@ def compare(data: Path, runs: Path, model: str = "PACNN+S") -> dict[str, Any]:
                     stop_line=feats[None, :, IDX["stop_line"]],
                 )[0]
             )
-            sideways = (np.abs(points[:, -1, 0]) > SIDEWAYS).astype(np.float64)
-            got.append(cycle_figures(feats, sideways, g.progress.to_numpy(), theta, demo, ruled))
+            got.append(cycle_figures(feats, points, g.progress.to_numpy(), theta, demo, ruled, bias))
             thetas.append(theta[[IDX[c] for c in COSTS]])
     if not got:
         raise SystemExit(
@@ -95,6 +109,7 @@ def compare(data: Path, runs: Path, model: str = "PACNN+S") -> dict[str, Any]:
         "moved by the rules": float(np.mean(np.any(x[:, 0] != x[:, 1], axis=1) & ~np.isnan(x[:, 1, 0]))),
         **{n: dict(zip(WHICH, means[:, i].tolist(), strict=True)) for i, n in enumerate(names)},
         "theta": dict(zip(COSTS, np.mean(thetas, axis=0).tolist(), strict=True)),
+        "lane_change_bias": bias,
     }
 
 
@@ -110,10 +125,11 @@ def markdown(results: dict[str, dict[str, Any]]) -> str:
             cells = [fmt.get(n, "{:.3f}").format(r[n][w]) for w in WHICH]
             head = f"{r['cycles']} ({r['moved by the rules']:.3f} / {r['dropped by the rules']})"
             lines.append(f"| {runs} | {head} | {n} | " + " | ".join(cells) + " |")
-    lines += ["", "| reward | " + " | ".join(f"theta {c}" for c in COSTS) + " |"]
-    lines.append("|---|" + "---|" * len(COSTS))
+    lines += ["", "| reward | " + " | ".join(f"theta {c}" for c in COSTS) + " | lane-change bias |"]
+    lines.append("|---|" + "---|" * (len(COSTS) + 1))
     for runs, r in results.items():
-        lines.append(f"| {runs} | " + " | ".join(f"{r['theta'][c]:.4g}" for c in COSTS) + " |")
+        cells = [f"{r['theta'][c]:.4g}" for c in COSTS] + [f"{r['lane_change_bias']:.3f}"]
+        lines.append(f"| {runs} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 
@@ -123,6 +139,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--runs", nargs="+", required=True, help="stage-1 run folders of the rewards to compare")
     p.add_argument("--model", default="PACNN+S")
     p.add_argument("--json", help="also write the figures to this JSON file")
+    p.add_argument(
+        "--calibrate-on", nargs="+", help="datasets whose train splits calibrate the expected choice's "
+        "lane-change bias (the reward's training data; default: --data)",
+    )  # fmt: skip
     a = p.parse_args(argv)
     for where in [a.data, *a.runs]:
         if not Path(where).is_dir():
@@ -130,7 +150,8 @@ def main(argv: list[str] | None = None) -> int:
     results = {}
     for runs in a.runs:
         try:
-            results[runs] = compare(Path(a.data), Path(runs), a.model)
+            calibrate_on = [Path(x) for x in a.calibrate_on] if a.calibrate_on else None
+            results[runs] = compare(Path(a.data), Path(runs), a.model, calibrate_on)
         except IrlsimError as e:  # no such model in the run folder: irlsim's own one line
             sys.exit(f"style_openloop: {e}")
     print(markdown(results))

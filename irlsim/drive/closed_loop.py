@@ -196,6 +196,8 @@ def drive_episode(
     show_progress: bool = True,
     expert_progress: tuple[Any, Any] | None = None,
     reactive: bool = False,
+    choice: str = "argmax",
+    lane_change_bias: float = 1.0,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -204,7 +206,8 @@ def drive_episode(
     the model was trained with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``).
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
-    ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`).
+    ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
+    ``choice``, ``lane_change_bias``: how a learned reward picks its policy (:mod:`irlsim.planner.choice`).
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
@@ -215,7 +218,7 @@ def drive_episode(
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
-    decider = RewardDriver(model, road, cfg.planner, safety)
+    decider = RewardDriver(model, road, cfg.planner, safety, choice=choice, lane_change_bias=lane_change_bias)
     recorder = (
         FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))
         if pictures is not None and pictures.frames > 0
@@ -223,13 +226,9 @@ def drive_episode(
     )
     t_start = time.perf_counter()
     bound = int(math.ceil(scenario.max_time / scenario.cycle))
-    bar = progress(
-        total=min(bound, max_cycles) if max_cycles else bound,
-        desc=f"drive {model.name} seed {seed}",
-        unit="cycle",
-        leave=False,
-        disable=not show_progress,
-    )
+    total = min(bound, max_cycles) if max_cycles else bound
+    desc = f"drive {model.name} seed {seed}"
+    bar = progress(total=total, desc=desc, unit="cycle", leave=False, disable=not show_progress)
     timing = _Timing(decider)
     observers: list[Observer] = [timing]
     if recorder is not None:

@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from irlsim import FEATURE_NAMES
+from irlsim.planner.choice import CHOICES, expected_choice
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.features import predicted_stop_distance
 from irlsim.planner.planner import Planner
@@ -292,14 +293,23 @@ class ThetaDriver:
 
     ``safe=True`` first drops policies labelled collision / off-road / exit (model-based safety, as the
     paper's planner does around a learned reward); when that drops all of them it uses all.
+    ``choice``: 'argmax' (the paper's), or 'expected' with ``lane_change_bias``
+    (:mod:`irlsim.planner.choice`).
     """
 
     def __init__(
-        self, planner: Planner, theta_fn: Callable[[PolicySet, Observation], Any], safe: bool = False
+        self,
+        planner: Planner,
+        theta_fn: Callable[[PolicySet, Observation], Any],
+        safe: bool = False,
+        choice: str = "argmax",
+        lane_change_bias: float = 1.0,
     ):
+        assert choice in CHOICES, choice
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
+        self.choice, self.lane_change_bias = choice, lane_change_bias
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
@@ -308,14 +318,29 @@ class ThetaDriver:
         ps = self.planner.plan(obs)
         theta = np.asarray(self.theta_fn(ps, obs), dtype=np.float64).reshape(-1)
         assert theta.shape == (len(FEATURE_NAMES),), theta.shape
-        value = ps.value(theta)
-        if self.safe:
-            bad = ps.labels.any(axis=1)
-            if not bad.all():
-                value = np.where(bad, -np.inf, value)
-        idx = int(np.argmax(value))
+        idx = choose_policy(ps, theta, self.safe, self.choice, self.lane_change_bias)
         self.last_policy_set, self.last_index, self.last_theta = ps, idx, theta
         return self.planner.trajectory(idx)
+
+
+def choose_policy(
+    ps: PolicySet,
+    theta: np.ndarray,
+    safe: bool = False,
+    choice: str = "argmax",
+    lane_change_bias: float = 1.0,
+) -> int:
+    """The policy a reward theta executes in ``ps``: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
+    (:func:`irlsim.planner.choice.expected_choice`); with ``safe`` among the policies without a label
+    (collision / off-road / exit), all of them when every one has one."""
+    value = ps.value(theta)
+    allowed: np.ndarray | None = None
+    if safe:
+        bad = np.asarray(ps.labels.any(axis=1))
+        allowed = None if bad.all() else np.logical_not(bad)
+    if choice == "expected":
+        return expected_choice(value, ps.control_points, lane_change_bias, allowed)
+    return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
 
 
 def planner_config_for(scenario_cfg: EpisodeConfig) -> PlannerConfig:

@@ -37,9 +37,13 @@ class RewardDriver:
         planner_cfg: PlannerConfig,
         safety: bool = False,
         planner: Planner | None = None,
+        choice: str = "argmax",
+        lane_change_bias: float = 1.0,
     ):
         """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
-        expert's, so the expert labels the very set the learner chose from); default: its own."""
+        expert's, so the expert labels the very set the learner chose from); default: its own.
+        ``choice``, ``lane_change_bias``: how a learned reward picks its policy
+        (:mod:`irlsim.planner.choice`; the expert keeps its own selection)."""
         self.reward = reward
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
@@ -53,7 +57,7 @@ class RewardDriver:
             self.planner = self.driver.planner
         else:
             self.planner = planner if planner is not None else Planner(road, planner_cfg)
-            self.driver = ThetaDriver(self.planner, self._theta, safe=safety)
+            self.driver = ThetaDriver(self.planner, self._theta, safety, choice, lane_change_bias)
 
     def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
         t0 = time.perf_counter()

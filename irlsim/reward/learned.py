@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.expert import THETA_EXPERT, choose_policy
 from irlsim.planner.policy_set import PolicySet
 
 EXPERT = "expert"
@@ -118,30 +118,40 @@ class LearnedReward:
         """V = -theta^T f of every policy of the set: [N] float64 (higher is better)."""
         return policy_set.value(self.theta(policy_set))
 
-    def choose(self, policy_set: PolicySet, safety: bool = False) -> int:
+    def choose(
+        self,
+        policy_set: PolicySet,
+        safety: bool = False,
+        choice: str = "argmax",
+        lane_change_bias: float = 1.0,
+    ) -> int:
         """The policy this reward executes: argmax V. ``safety``: first drop the policies labelled
-        collision / off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``."""
+        collision / off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``;
+        ``choice`` 'expected': the fit's expected maneuver and policy instead (:mod:`irlsim.planner.choice`,
+        ``irlsim drive --choice expected``)."""
         if self.is_expert:
             raise IrlsimError(
                 "'expert' chooses by a model-based rule on its own planner's internals, not by a reward: "
                 "drive it with irlsim.planner.expert.ExpertDriver, or load 'expert-theta' (its theta alone)"
             )
-        return choose_index(policy_set, self.theta(policy_set), safety)
+        return choose_index(policy_set, self.theta(policy_set), safety, choice, lane_change_bias)
 
     def __repr__(self) -> str:
         where = f", checkpoint={str(self.checkpoint)!r}" if self.checkpoint is not None else ""
         return f"LearnedReward({self.name!r}{where})"
 
 
-def choose_index(policy_set: PolicySet, theta: np.ndarray, safety: bool = False) -> int:
-    """argmax V = -theta^T f over the set, behind the label filter when ``safety`` (the rule of
-    :class:`irlsim.planner.expert.ThetaDriver`)."""
-    value = policy_set.value(theta)
-    if safety:
-        bad = policy_set.labels.any(axis=1)
-        if not bad.all():
-            value = np.where(bad, -np.inf, value)
-    return int(np.argmax(value))
+def choose_index(
+    policy_set: PolicySet,
+    theta: np.ndarray,
+    safety: bool = False,
+    choice: str = "argmax",
+    lane_change_bias: float = 1.0,
+) -> int:
+    """The policy theta executes in the set: argmax V = -theta^T f (or ``choice`` 'expected',
+    :mod:`irlsim.planner.choice`), behind the label filter when ``safety``; the rule of
+    :class:`irlsim.planner.expert.ThetaDriver`, which drives with it."""
+    return choose_policy(policy_set, theta, safety, choice, lane_change_bias)
 
 
 def model_names() -> tuple[str, ...]:

@@ -75,6 +75,12 @@ class DriveRun:
     reactive: bool = False
     """on a recording (the config's ``[demonstrator] kind = 'recording'``): SUMO drives the other
     vehicles from their first recorded pose on (False: they replay their recorded motion)"""
+    choice: str = "argmax"
+    """how a learned model's reward picks the policy: 'argmax' (the paper's) or 'expected' (the fit's
+    expected maneuver and policy, :mod:`irlsim.planner.choice`)"""
+    lane_change_bias: float = 1.0
+    """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias` calibrates
+    it on the reward's training data)"""
 
 
 @dataclass
@@ -105,6 +111,8 @@ class DriveJob:
     expert_progress: Any = None  # the expert's (t, s) on the same seed, for the scorecard
     reactive: bool = False  # on a recording: SUMO drives the other vehicles
     road: Any = None  # the Scenario of cfg.scenario.name, read once by the command (None: read here)
+    choice: str = "argmax"  # how a learned reward picks the policy (irlsim.planner.choice)
+    lane_change_bias: float = 1.0
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -141,6 +149,8 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         max_cycles=job.max_cycles,
         expert_progress=job.expert_progress,
         reactive=job.reactive,
+        choice=job.choice,
+        lane_change_bias=job.lane_change_bias,
     )
 
 
@@ -192,10 +202,25 @@ def _episode_jobs(
                 run.precision,
                 reactive=run.reactive,
                 road=road,
+                choice=run.choice,
+                lane_change_bias=run.lane_change_bias,
             )
             jobs.append(Job(f"{label}/{i}", job))
 
     return jobs, labels
+
+
+def _choice_record(run: DriveRun) -> dict[str, Any]:
+    """The choice in drive.json's config, left out for the default argmax (records unchanged)."""
+    if run.choice == "argmax":
+        return {}
+    return {"choice": run.choice, "lane_change_bias": run.lane_change_bias}
+
+
+def _choice_words(run: DriveRun) -> str:
+    if run.choice == "argmax":
+        return ""
+    return f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
 
 
 def _write_outputs(
@@ -214,7 +239,7 @@ def _write_outputs(
     md = (
         f"# Closed-loop driving\n\n{run.episodes} episode(s) per model, {run.laps} lap(s) each, seeds "
         f"{run.seed}..{run.seed + run.episodes - 1}; learned models {safety} the model-based safety "
-        "filter; "
+        f"filter{_choice_words(run)}; "
         f"{cfg.planner.n_policies} policies per cycle.\n\n{table}\n"
         "stop compliance: stop lines crossed after a full stop / crossed; checkpoints in lane: passed in the "
         "required lane / passed; RMS jerk of the executed odometry; inference: reward prediction per 0.2 s "
@@ -236,6 +261,7 @@ def _write_outputs(
                 "laps": run.laps,
                 "seed": run.seed,
                 "safety": run.safety,
+                **_choice_record(run),
                 "config_file": str(run.config_file) if run.config_file else None,
                 "n_policies": cfg.planner.n_policies,
                 "max_cycles": run.max_cycles,

@@ -165,3 +165,29 @@ def test_expert_lap_meets_the_expert_figures(road):
     assert rec["drive/stop_lines_passed"] == 2 and rec["drive/stop_compliance"] == 1.0
     assert rec["drive/checkpoints_passed"] == 4 and rec["drive/checkpoint_compliance"] == 1.0
     assert rec["drive/mean_speed_kmh"] >= 50.0
+
+
+def test_the_expected_choice_drives_through_the_cli_and_is_recorded(tiny_runs, tiny_dataset, tmp_path):
+    from irlsim.cli import main
+    from irlsim.reward.choice import lane_change_bias
+
+    reward = load_reward("PACNN+S", tiny_runs, n_policies=TINY_POLICIES)
+    bias = lane_change_bias(reward, [tiny_dataset])
+    assert bias >= 1.0 and np.isfinite(bias) and lane_change_bias(reward, [tiny_dataset]) == bias
+    cfg = tmp_path / "tiny.toml"
+    cfg.write_text(TINY_TOML)
+    common = ["drive", "--runs", str(tiny_runs), "--model", "PACNN+S", "--seed", "7", "--config", str(cfg)]
+    common += ["--max-cycles", "10", "--frames", "0"]
+    assert (
+        main([*common, "--choice", "expected", "--lane-change-bias", f"{bias}", "--out", str(tmp_path / "e")])
+        == 0
+    )
+    assert main([*common, "--out", str(tmp_path / "a")]) == 0
+    expected = json.loads((tmp_path / "e" / "drive.json").read_text())
+    argmax = json.loads((tmp_path / "a" / "drive.json").read_text())
+    assert expected["config"]["choice"] == "expected" and expected["config"]["lane_change_bias"] == bias
+    assert "choice" not in argmax["config"]  # the default's record is as before
+    assert "choosing the expected policy" in (tmp_path / "e" / "drive.md").read_text()
+    with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
+        main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
+    assert e.value.code == 2

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from irlsim.errors import IrlsimError
+from irlsim.planner.choice import expected_choice
 from irlsim.planner.expert import THETA_EXPERT, ThetaDriver
 from irlsim.planner.planner import Planner
 from irlsim.reward import LearnedReward, RewardDriver, load_reward
@@ -46,6 +47,13 @@ def test_values_and_choice_follow_theta(tiny_runs, policy_sets):
     bad = ps.labels.any(axis=1)
     expected = int(np.argmax(values if bad.all() else np.where(bad, -np.inf, values)))
     assert reward.choose(ps, safety=True) == expected
+    # the expected choice (irlsim.planner.choice) on the same values, behind the same filter
+    assert reward.choose(ps, choice="expected", lane_change_bias=2.0) == expected_choice(
+        values, ps.control_points, 2.0
+    )
+    allowed = None if bad.all() else ~bad
+    k = reward.choose(ps, safety=True, choice="expected")
+    assert k == expected_choice(values, ps.control_points, 1.0, allowed) and (allowed is None or allowed[k])
 
 
 def test_a_checkpoint_path_is_the_same_model(tiny_runs, policy_sets):

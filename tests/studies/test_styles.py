@@ -121,15 +121,22 @@ def test_open_loop_chain_against_closed_form():
     feats[:, openloop.IDX["proximity"]] = [0, 1, 2]
     theta = np.zeros(len(openloop.FEATURE_NAMES))
     theta[openloop.IDX["proximity"]] = math.log(2)
-    sideways = np.array([0.0, 1.0, 1.0])
-    x = openloop.cycle_figures(feats, sideways, np.array([10.0, 20.0, 30.0]), theta, demo=2, ruled=-1)
-    progress, side, prox = 0, 1, 2
+    points = np.zeros((3, 4, 3), np.float32)
+    points[1:, -1, 0] = 3.2  # policies 1 and 2 end a lane to the left
+    progress = np.array([10.0, 20.0, 30.0])
+    points[:, :, 2] = np.outer(progress, np.arange(1, 5) / 4)  # progress profiles ending at progress
+    x = openloop.cycle_figures(feats, points, progress, theta, demo=2, ruled=-1)
+    side, prox = 1, 2
     assert x.shape == (len(openloop.WHICH), 2 + len(openloop.COSTS))
-    assert x[0, prox] == 2 and x[0, progress] == 30  # the demonstration
+    assert x[0, prox] == 2 and x[0, 0] == 30  # the demonstration
     assert np.isnan(x[1]).all()  # dropped by the rules
-    assert x[2, prox] == pytest.approx(4 / 7) and x[2, progress] == pytest.approx(110 / 7)
+    assert x[2, prox] == pytest.approx(4 / 7) and x[2, 0] == pytest.approx(110 / 7)
     assert x[2, side] == pytest.approx(3 / 7)
-    assert x[3, prox] == 0 and x[3, progress] == 10  # the choice: argmax of -theta^T f
+    assert x[3, prox] == 0 and x[3, 0] == 10  # the choice: argmax of -theta^T f
+    # the expected choice: keeping the lane has mass 4/7 against 3/7; a bias above 4/3 changes lanes
+    assert x[4, side] == 0 and x[4, prox] == 0
+    y = openloop.cycle_figures(feats, points, progress, theta, demo=2, ruled=-1, bias=1.5)
+    assert y[4, side] == 1 and y[4, prox] == 1  # within it p is 2:1, the expected end 70/3: nearest 20
 
 
 def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
@@ -141,3 +148,17 @@ def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
     with pytest.raises(SystemExit) as e:  # a run folder without the model: irlsim's one line, not a traceback
         openloop.main(["--data", str(tmp_path / "data"), "--runs", str(tmp_path)])
     assert str(e.value).startswith("style_openloop: ") and "\n" not in str(e.value)
+
+
+def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
+    spec = importlib.util.spec_from_file_location(
+        "style_choice", Path(__file__).parents[2] / "studies" / "style_choice.py"
+    )
+    choice = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(choice)  # type: ignore[union-attr]
+    with pytest.raises(SystemExit) as e:
+        choice.main(["--out", str(tmp_path)])
+    assert "is missing: run studies/styles.py" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(SystemExit) as e:
+        choice.main(["--out", str(tmp_path), "--rows", "expert"])
+    assert "not a row" in str(e.value)
