@@ -12,6 +12,7 @@ pictures ``<out>/<model>/cycle_XXXX.png``, ``radar_XXXX.png``, ``temporal_XXXX.p
 from __future__ import annotations
 
 import hashlib
+import math
 import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -27,6 +28,7 @@ from irlsim.drive.scorecard import scorecard_table
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
+from irlsim.planner.choice import CHOICES
 from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.road.scenario import Scenario, Scenarios, recorded_name
@@ -317,6 +319,10 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
         raise IrlsimError(f"--model names a model twice: {','.join(specs)}")
     if run.seed + run.episodes - 1 > MAX_SEED:
         raise IrlsimError(f"--seed {run.seed} + --episodes {run.episodes} passes the largest seed {MAX_SEED}")
+    if run.choice not in CHOICES:
+        raise IrlsimError(f"--choice {run.choice!r} is not one of {', '.join(CHOICES)}")
+    if not (math.isfinite(run.lane_change_bias) and run.lane_change_bias >= 1.0):
+        raise IrlsimError(f"--lane-change-bias must be a finite number >= 1, got {run.lane_change_bias}")
     # the scorecard's progress term compares every model with the expert on the same seed: the expert
     # drives first when --model names it; without it progress is null (left out of the score)
     if "expert" in specs:

@@ -191,3 +191,14 @@ def test_the_expected_choice_drives_through_the_cli_and_is_recorded(tiny_runs, t
     with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
         main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
     assert e.value.code == 2
+    # the library refuses the same in one line, before any work
+    from dataclasses import replace
+
+    from irlsim.workflows.drive import DriveRun, drive_models
+
+    run = DriveRun(("PACNN+S",), tiny_runs, config_file=cfg, out=tmp_path / "x", choice="mode")
+    with pytest.raises(IrlsimError, match="--choice 'mode' is not one of argmax, expected"):
+        drive_models(run)
+    with pytest.raises(IrlsimError, match="--lane-change-bias must be a finite number >= 1, got 0.5"):
+        drive_models(replace(run, choice="expected", lane_change_bias=0.5))
+    assert not (tmp_path / "x").exists()
