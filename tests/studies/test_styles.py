@@ -162,3 +162,14 @@ def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
     with pytest.raises(SystemExit) as e:
         choice.main(["--out", str(tmp_path), "--rows", "expert"])
     assert "not a row" in str(e.value)
+
+
+def test_style_states_refuses_a_missing_folder_in_one_line(tmp_path):
+    spec = importlib.util.spec_from_file_location(
+        "style_states", Path(__file__).parents[2] / "studies" / "style_states.py"
+    )
+    states = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(states)  # type: ignore[union-attr]
+    with pytest.raises(SystemExit) as e:
+        states.main(["--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--calibrate-on", str(tmp_path)])
+    assert "r is not a folder" in str(e.value) and "\n" not in str(e.value)
