@@ -15,7 +15,7 @@ as defined and per episode, with the safety bounds):
     .venv/bin/python studies/style_choice.py --out runs/styles --eval-base 2000 --episodes 30 \
         --demonstrators expert cautious assertive --rows cautious assertive --workers 2
 
-The biases go to ``<out>/choice-biases[-s<base>].json``.
+The biases go to ``<out>/choice-biases[-s<base>][-<rule>].json``.
 """
 
 from __future__ import annotations
@@ -65,6 +65,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--max-cycles", type=int, default=800)
     p.add_argument("--workers", type=int, default=1, help="episodes driven in parallel")
     p.add_argument("--model", choices=styles.MODELS, default="PACNN+S", help="the learned reward driven")
+    p.add_argument("--rule", choices=sorted(styles.RULES), default="default", help="the rows' training rule")
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if bad or "expert" in a.rows:
@@ -76,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     for d in a.rows:
         data = [out / "data" / d / road for road in a.roads]
         for seed in a.seeds:
-            runs = out / "runs" / f"{d}-seed{seed}"
+            runs = out / "runs" / f"{styles.learner(d, a)[0]}-seed{seed}"
             missing = [str(x) for x in [*data, runs] if not x.is_dir()]
             if missing:
                 sys.exit(
@@ -86,9 +87,11 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{runs.name}: {a.model}'s lane-change bias {biases[runs.name]:.3f}", flush=True)
             for road in a.roads:
                 drive(d, road, runs, biases[runs.name], out / f"drive{at}-choice" / road / runs.name, a)
-    (out / f"choice-biases{at}.json").write_text(json.dumps(biases, indent=1) + "\n")
+    rule = "" if a.rule == "default" else f"-{a.rule}"
+    (out / f"choice-biases{at}{rule}.json").write_text(json.dumps(biases, indent=1) + "\n")
     norms = ["--out", str(out), "--roads", *a.roads, "--demonstrators", *a.demonstrators]
     norms += ["--rows", *a.rows, "--seeds", *map(str, a.seeds), "--eval-base", str(a.eval_base), "--choice"]
+    norms += ["--rule", a.rule]
     return style_norms.main(norms)
 
 
