@@ -25,36 +25,21 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.planner.choice import SIDEWAYS, expected_choice, maneuver_masses
 from irlsim.reward import load_reward
-from irlsim.reward.choice import lane_change_bias
+from irlsim.reward.choice import cycle_values, lane_change_bias
 
 
 def shares(reward: Any, data: Path, bias: float) -> dict[str, float]:
     """Over the train split of ``data``: the shares of cycles whose argmax, expected choice change
     lanes, and the distribution's expected share of lane-changing policies."""
-    tensors = open_datasets([data]).split_tensors("train")
-    got, episode = [], None
-    for c in range(len(tensors.demo_index)):
-        if tensors.episode[c] != episode:
-            reward.reset()
-            episode = tensors.episode[c]
-        features, points = np.asarray(tensors.features[c]), np.asarray(tensors.control_points[c])
-        value = -(
-            features.astype(np.float64) @ reward.predict(features, points, np.asarray(tensors.actions[c]))
-        )
+    got = []
+    for value, points in cycle_values(reward, [data]):
         side = np.abs(points[:, -1, 0]) > SIDEWAYS
         _, _, offsets, mass = maneuver_masses(value, points)
-        got.append(
-            [
-                side[int(np.argmax(value))],
-                mass[np.abs(offsets) > SIDEWAYS].sum(),
-                side[expected_choice(value, points, bias)],
-            ]
-        )
-    reward.reset()
+        choice = expected_choice(value, points, bias)
+        got.append([side[int(np.argmax(value))], mass[np.abs(offsets) > SIDEWAYS].sum(), side[choice]])
     x = np.asarray(got, dtype=np.float64)
     return {
         "cycles": len(x),

@@ -318,28 +318,29 @@ class ThetaDriver:
         ps = self.planner.plan(obs)
         theta = np.asarray(self.theta_fn(ps, obs), dtype=np.float64).reshape(-1)
         assert theta.shape == (len(FEATURE_NAMES),), theta.shape
-        idx = choose_policy(ps, theta, self.safe, self.choice, self.lane_change_bias)
+        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias)
         self.last_policy_set, self.last_index, self.last_theta = ps, idx, theta
         return self.planner.trajectory(idx)
 
 
-def choose_policy(
-    ps: PolicySet,
+def choose_index(
+    policy_set: PolicySet,
     theta: np.ndarray,
-    safe: bool = False,
+    safety: bool = False,
     choice: str = "argmax",
     lane_change_bias: float = 1.0,
 ) -> int:
-    """The policy a reward theta executes in ``ps``: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
-    (:func:`irlsim.planner.choice.expected_choice`); with ``safe`` among the policies without a label
-    (collision / off-road / exit), all of them when every one has one."""
-    value = ps.value(theta)
+    """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
+    (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
+    (collision / off-road / exit), all of them when every one has one. :class:`ThetaDriver` and
+    :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
+    value = policy_set.value(theta)
     allowed: np.ndarray | None = None
-    if safe:
-        bad = np.asarray(ps.labels.any(axis=1))
+    if safety:
+        bad = np.asarray(policy_set.labels.any(axis=1))
         allowed = None if bad.all() else np.logical_not(bad)
     if choice == "expected":
-        return expected_choice(value, ps.control_points, lane_change_bias, allowed)
+        return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
 
 

@@ -15,6 +15,7 @@ planning cycle, for theta, the policy values and its chosen policy.
 not imported here).
 """
 
+from irlsim.planner.expert import choose_index
 from irlsim.reward.driver import RewardDriver
 from irlsim.reward.learned import (
     EXPERT,
@@ -22,7 +23,6 @@ from irlsim.reward.learned import (
     FixedTheta,
     LearnedReward,
     ThetaPredictor,
-    choose_index,
     load_reward,
     model_names,
 )

@@ -20,7 +20,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT, choose_policy
+from irlsim.planner.expert import THETA_EXPERT, choose_index
 from irlsim.planner.policy_set import PolicySet
 
 EXPERT = "expert"
@@ -139,19 +139,6 @@ class LearnedReward:
     def __repr__(self) -> str:
         where = f", checkpoint={str(self.checkpoint)!r}" if self.checkpoint is not None else ""
         return f"LearnedReward({self.name!r}{where})"
-
-
-def choose_index(
-    policy_set: PolicySet,
-    theta: np.ndarray,
-    safety: bool = False,
-    choice: str = "argmax",
-    lane_change_bias: float = 1.0,
-) -> int:
-    """The policy theta executes in the set: argmax V = -theta^T f (or ``choice`` 'expected',
-    :mod:`irlsim.planner.choice`), behind the label filter when ``safety``; the rule of
-    :class:`irlsim.planner.expert.ThetaDriver`, which drives with it."""
-    return choose_policy(policy_set, theta, safety, choice, lane_change_bias)
 
 
 def model_names() -> tuple[str, ...]:

@@ -12,9 +12,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-_spec = importlib.util.spec_from_file_location("styles", Path(__file__).parents[2] / "studies" / "styles.py")
-study = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(study)  # type: ignore[union-attr]
+
+def _study(name: str):
+    """The script studies/<name>.py as a module."""
+    spec = importlib.util.spec_from_file_location(name, Path(__file__).parents[2] / "studies" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)  # type: ignore[union-attr]
+    return module
+
+
+study = _study("styles")
 
 
 @pytest.mark.slow
@@ -71,11 +78,7 @@ def test_safety_adds_the_filter_to_learned_drives_only(tmp_path, monkeypatch):
     assert ["--safety" in cmd for cmd in ran] == [False, False, True, False]
 
 
-_norms = importlib.util.spec_from_file_location(
-    "style_norms", Path(__file__).parents[2] / "studies" / "style_norms.py"
-)
-norms = importlib.util.module_from_spec(_norms)
-_norms.loader.exec_module(norms)  # type: ignore[union-attr]
+norms = _study("style_norms")
 
 
 def _style(values: list[float], share: list[float]) -> dict:
@@ -103,20 +106,11 @@ def test_per_episode_normaliser_against_a_closed_form_and_units():
     assert np.sqrt(np.nanmean(gaps**2)) == pytest.approx(d[0])
 
 
-def _openloop():
-    spec = importlib.util.spec_from_file_location(
-        "style_openloop", Path(__file__).parents[2] / "studies" / "style_openloop.py"
-    )
-    openloop = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(openloop)  # type: ignore[union-attr]
-    return openloop
-
-
 def test_open_loop_chain_against_closed_form():
     """Three policies whose only cost is proximity 0 / 1 / 2 under theta_proximity = ln 2: the
     maximum-entropy distribution is (4, 2, 1) / 7, so the expected proximity is 4/7 and the expected
     progress (4 * 10 + 2 * 20 + 30) / 7; the choice is the first policy."""
-    openloop = _openloop()
+    openloop = _study("style_openloop")
     feats = np.zeros((3, len(openloop.FEATURE_NAMES)), np.float32)
     feats[:, openloop.IDX["proximity"]] = [0, 1, 2]
     theta = np.zeros(len(openloop.FEATURE_NAMES))
@@ -140,7 +134,7 @@ def test_open_loop_chain_against_closed_form():
 
 
 def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
-    openloop = _openloop()
+    openloop = _study("style_openloop")
     with pytest.raises(SystemExit) as e:
         openloop.main(["--data", str(tmp_path / "no-data"), "--runs", str(tmp_path)])
     assert "no-data is not a folder" in str(e.value) and "\n" not in str(e.value)
@@ -151,11 +145,7 @@ def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
 
 
 def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
-    spec = importlib.util.spec_from_file_location(
-        "style_choice", Path(__file__).parents[2] / "studies" / "style_choice.py"
-    )
-    choice = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(choice)  # type: ignore[union-attr]
+    choice = _study("style_choice")
     with pytest.raises(SystemExit) as e:
         choice.main(["--out", str(tmp_path)])
     assert "is missing: run studies/styles.py" in str(e.value) and "\n" not in str(e.value)
@@ -165,11 +155,7 @@ def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
 
 
 def test_style_states_refuses_a_missing_folder_in_one_line(tmp_path):
-    spec = importlib.util.spec_from_file_location(
-        "style_states", Path(__file__).parents[2] / "studies" / "style_states.py"
-    )
-    states = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(states)  # type: ignore[union-attr]
+    states = _study("style_states")
     with pytest.raises(SystemExit) as e:
         states.main(["--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--calibrate-on", str(tmp_path)])
     assert "r is not a folder" in str(e.value) and "\n" not in str(e.value)
