@@ -95,7 +95,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_choice_arguments(p: argparse.ArgumentParser) -> None:
-    """--choice and --lane-change-bias: how a learned reward picks its policy (irlsim.planner.choice)."""
+    """--choice, --lane-change-bias and --commit: how a learned reward picks its policy
+    (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
     p.add_argument(
         "--choice",
         choices=CHOICES,
@@ -110,6 +111,13 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         help="with --choice expected: a lane change's probability mass is multiplied by this (>= 1) "
         "before the maneuver is chosen (calibrated on a reward's training data by "
         "irlsim.reward.choice.lane_change_bias; default: 1)",
+    )
+    p.add_argument(
+        "--commit",
+        action="store_true",
+        help="a learned model finishes the lane change it chose: while the ego heads to another lane it "
+        "picks among the policies that end there (unless each is a predicted collision), as the expert "
+        "keeps the lane it heads to (default: every cycle chooses afresh, the paper's)",
     )
 
 
@@ -142,6 +150,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         reactive=args.reactive,
         choice=args.choice,
         lane_change_bias=args.lane_change_bias,
+        commit=args.commit,
     )
 
 

@@ -15,9 +15,9 @@ every row not nearest its own demonstrator per episode, each figure's signed nor
 its own and from the nearest (what keeps it from its own; the distance is the RMS of these):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
-        --demonstrators expert cautious assertive --rows cautious assertive [--safety] [--choice]
+        --demonstrators expert cautious assertive --rows cautious assertive [--safety] [--commit] [--choice]
 
-to ``<out>/style-norms[-s<base>][-safe]-<rows>.md`` and ``.json``.
+to ``<out>/style-norms[-s<base>][-safe][-commit][-choice]-<rows>.md`` and ``.json``.
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, 
 
 def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    safe = ("-safe" if a.safety else "") + ("-choice" if a.choice else "")
+    safe = a.drive_tag
     episodes = {d: reference_episodes(out, d, road, at) for d in a.demonstrators}
     refs = {d: pool_styles(e) for d, e in episodes.items()}
     n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
@@ -152,7 +152,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
     p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
+    p.add_argument("--commit", action="store_true", help="the drives with committed lane changes")
     a = p.parse_args(argv)
+    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-choice" * a.choice  # the drives' folders
     a.rows = a.rows or a.demonstrators
     unknown = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if unknown:
@@ -160,8 +162,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     tables = {road: road_table(out, road, a) for road in a.roads}
     name = "style-norms" + ("" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}")
-    name += ("" if a.rule == "default" else f"-{a.rule}") + ("-safe" if a.safety else "")
-    name += "-choice" if a.choice else ""
+    name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag
     name += "-" + "-".join(a.rows)
     (out / f"{name}.json").write_text(json.dumps(tables, indent=1) + "\n")
     (out / f"{name}.md").write_text(markdown(tables))

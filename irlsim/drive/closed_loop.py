@@ -198,6 +198,7 @@ def drive_episode(
     reactive: bool = False,
     choice: str = "argmax",
     lane_change_bias: float = 1.0,
+    commit: bool = False,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -207,7 +208,8 @@ def drive_episode(
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
     ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
-    ``choice``, ``lane_change_bias``: how a learned reward picks its policy (:mod:`irlsim.planner.choice`).
+    ``choice``, ``lane_change_bias``, ``commit``: how a learned reward picks its policy
+    (:class:`~irlsim.reward.RewardDriver`).
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
@@ -218,17 +220,16 @@ def drive_episode(
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
-    decider = RewardDriver(model, road, cfg.planner, safety, choice=choice, lane_change_bias=lane_change_bias)
+    decider = RewardDriver(
+        model, road, cfg.planner, safety, choice=choice, lane_change_bias=lane_change_bias, commit=commit
+    )
     recorder = (
         FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))
         if pictures is not None and pictures.frames > 0
         else None
     )
     t_start = time.perf_counter()
-    bound = int(math.ceil(scenario.max_time / scenario.cycle))
-    total = min(bound, max_cycles) if max_cycles else bound
-    desc = f"drive {model.name} seed {seed}"
-    bar = progress(total=total, desc=desc, unit="cycle", leave=False, disable=not show_progress)
+    bar = _bar(scenario, max_cycles, f"drive {model.name} seed {seed}", show_progress)
     timing = _Timing(decider)
     observers: list[Observer] = [timing]
     if recorder is not None:
@@ -256,10 +257,17 @@ def drive_episode(
     # the radar's unit ring is the expert's weight of each feature
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
     rec["drive/checkpoints_missed"] = missed_checkpoints(sim.episode.events if sim.episode else [])
-    rec.update(_scores(scorer, dict(result.stats), model.is_expert, expert_progress))
-    rec.update(style.summary())
+    rec["drive/first_collision"] = sim.first_collision
+    rec.update({**_scores(scorer, dict(result.stats), model.is_expert, expert_progress), **style.summary()})
     rec["_inference_ms"] = timing.inference_ms
     return rec
+
+
+def _bar(scenario: EpisodeConfig, max_cycles: int, desc: str, show: bool) -> Any:
+    """The episode's progress bar over its planning cycles (the time-out's, or ``max_cycles``)."""
+    bound = int(math.ceil(scenario.max_time / scenario.cycle))
+    total = min(bound, max_cycles) if max_cycles else bound
+    return progress(total=total, desc=desc, unit="cycle", leave=False, disable=not show)
 
 
 def _simulation(

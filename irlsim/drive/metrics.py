@@ -24,6 +24,9 @@ Metric keys (namespaced ``drive/``; an episode record also keeps the simulator's
                                                               road's checkpoint order), time [s], lane driven
                                                               and lane required (-1: any of several); a
                                                               summary counts them per index
+    drive/first_collision                                     None, or the episode's first collision: time
+                                                              [s], the other vehicle, what (rear-end, side,
+                                                              ...) and where (sim.collision.first_collision)
 
 The nuPlan-style scorecard (``score/...`` keys, formulas in :mod:`irlsim.drive.scorecard`) follows in
 every episode record and every summary (means over the episodes, ``score/score_std`` the spread).

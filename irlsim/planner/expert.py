@@ -24,7 +24,8 @@
 When every policy is off-road or takes an exit (never seen), it falls back to the strongest braking.
 
 ``ThetaDriver(planner, theta_fn)`` executes argmax V for any theta (the learned models use it), with an
-optional model-based safety filter (the labels). Both expose ``last_policy_set`` and ``last_index``.
+optional model-based safety filter (the labels) and an optional commitment to a lane change under way
+(the expert's hysteresis as a rule without a score). Both expose ``last_policy_set`` and ``last_index``.
 """
 
 from __future__ import annotations
@@ -294,7 +295,9 @@ class ThetaDriver:
     ``safe=True`` first drops policies labelled collision / off-road / exit (model-based safety, as the
     paper's planner does around a learned reward); when that drops all of them it uses all.
     ``choice``: 'argmax' (the paper's), or 'expected' with ``lane_change_bias``
-    (:mod:`irlsim.planner.choice`).
+    (:mod:`irlsim.planner.choice`). ``commit=True``: once a chosen policy ends in another lane than the
+    ego's, the next cycles choose among the policies that end there (``choose_index``'s ``heading``)
+    until the ego is in it: no dithering between two lane changes. Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -304,21 +307,31 @@ class ThetaDriver:
         safe: bool = False,
         choice: str = "argmax",
         lane_change_bias: float = 1.0,
+        commit: bool = False,
     ):
         assert choice in CHOICES, choice
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
-        self.choice, self.lane_change_bias = choice, lane_change_bias
+        self.choice, self.lane_change_bias, self.commit = choice, lane_change_bias, commit
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
+        self.heading: int | None = None  # the lane a lane change under way heads to (with commit)
+
+    def reset(self) -> None:
+        self.heading = None
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
         theta = np.asarray(self.theta_fn(ps, obs), dtype=np.float64).reshape(-1)
         assert theta.shape == (len(FEATURE_NAMES),), theta.shape
-        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias)
+        if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
+            self.heading = None  # arrived: the lane change is done
+        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading)
+        if self.commit:
+            start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
+            self.heading = end if end >= 0 and end != start else None
         self.last_policy_set, self.last_index, self.last_theta = ps, idx, theta
         return self.planner.trajectory(idx)
 
@@ -329,16 +342,24 @@ def choose_index(
     safety: bool = False,
     choice: str = "argmax",
     lane_change_bias: float = 1.0,
+    heading: int | None = None,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
-    (collision / off-road / exit), all of them when every one has one. :class:`ThetaDriver` and
+    (collision / off-road / exit), all of them when every one has one. ``heading``: a lane change under
+    way to that lane; only the policies that end in it and are not labelled a predicted collision (nor,
+    with ``safety``, anything else) are chosen from, unless there is none. :class:`ThetaDriver` and
     :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta)
     allowed: np.ndarray | None = None
     if safety:
         bad = np.asarray(policy_set.labels.any(axis=1))
         allowed = None if bad.all() else np.logical_not(bad)
+    if heading is not None:
+        there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
+        if allowed is not None:
+            there &= allowed
+        allowed = there if there.any() else allowed
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))

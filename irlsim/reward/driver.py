@@ -39,11 +39,13 @@ class RewardDriver:
         planner: Planner | None = None,
         choice: str = "argmax",
         lane_change_bias: float = 1.0,
+        commit: bool = False,
     ):
         """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
         expert's, so the expert labels the very set the learner chose from); default: its own.
-        ``choice``, ``lane_change_bias``: how a learned reward picks its policy
-        (:mod:`irlsim.planner.choice`; the expert keeps its own selection)."""
+        ``choice``, ``lane_change_bias``, ``commit``: how a learned reward picks its policy
+        (:mod:`irlsim.planner.choice`, :class:`~irlsim.planner.expert.ThetaDriver`; the expert keeps its
+        own selection)."""
         self.reward = reward
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
@@ -57,7 +59,7 @@ class RewardDriver:
             self.planner = self.driver.planner
         else:
             self.planner = planner if planner is not None else Planner(road, planner_cfg)
-            self.driver = ThetaDriver(self.planner, self._theta, safety, choice, lane_change_bias)
+            self.driver = ThetaDriver(self.planner, self._theta, safety, choice, lane_change_bias, commit)
 
     def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
         t0 = time.perf_counter()
@@ -67,8 +69,10 @@ class RewardDriver:
         return theta
 
     def reset(self) -> None:
-        """A new episode: the reward's online history starts empty."""
+        """A new episode: the reward's online history starts empty, no lane change under way."""
         self.reward.reset()
+        if isinstance(self.driver, ThetaDriver):
+            self.driver.reset()
 
     def plan(self, obs: Observation) -> Trajectory:
         t0 = time.perf_counter()

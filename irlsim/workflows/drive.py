@@ -83,6 +83,8 @@ class DriveRun:
     lane_change_bias: float = 1.0
     """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias` calibrates
     it on the reward's training data)"""
+    commit: bool = False
+    """a learned model finishes the lane change it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
 
 
 @dataclass
@@ -115,6 +117,7 @@ class DriveJob:
     road: Any = None  # the Scenario of cfg.scenario.name, read once by the command (None: read here)
     choice: str = "argmax"  # how a learned reward picks the policy (irlsim.planner.choice)
     lane_change_bias: float = 1.0
+    commit: bool = False
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -153,6 +156,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         reactive=job.reactive,
         choice=job.choice,
         lane_change_bias=job.lane_change_bias,
+        commit=job.commit,
     )
 
 
@@ -206,6 +210,7 @@ def _episode_jobs(
                 road=road,
                 choice=run.choice,
                 lane_change_bias=run.lane_change_bias,
+                commit=run.commit,
             )
             jobs.append(Job(f"{label}/{i}", job))
 
@@ -213,16 +218,14 @@ def _episode_jobs(
 
 
 def _choice_record(run: DriveRun) -> dict[str, Any]:
-    """The choice in drive.json's config, left out for the default argmax (records unchanged)."""
-    if run.choice == "argmax":
-        return {}
-    return {"choice": run.choice, "lane_change_bias": run.lane_change_bias}
+    """The choice in drive.json's config, left out where it is the default (records unchanged)."""
+    rec = {"choice": run.choice, "lane_change_bias": run.lane_change_bias} if run.choice != "argmax" else {}
+    return {**rec, "commit": True} if run.commit else rec
 
 
 def _choice_words(run: DriveRun) -> str:
-    if run.choice == "argmax":
-        return ""
-    return f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
+    words = f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
+    return (words if run.choice != "argmax" else "") + (", lane changes committed" if run.commit else "")
 
 
 def _write_outputs(

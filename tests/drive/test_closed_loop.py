@@ -167,7 +167,7 @@ def test_expert_lap_meets_the_expert_figures(road):
     assert rec["drive/mean_speed_kmh"] >= 50.0
 
 
-def test_the_expected_choice_drives_through_the_cli_and_is_recorded(tiny_runs, tiny_dataset, tmp_path):
+def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, tiny_dataset, tmp_path):
     from irlsim.cli import main
     from irlsim.reward.choice import lane_change_bias
 
@@ -188,6 +188,10 @@ def test_the_expected_choice_drives_through_the_cli_and_is_recorded(tiny_runs, t
     assert expected["config"]["choice"] == "expected" and expected["config"]["lane_change_bias"] == bias
     assert "choice" not in argmax["config"]  # the default's record is as before
     assert "choosing the expected policy" in (tmp_path / "e" / "drive.md").read_text()
+    assert main([*common, "--commit", "--out", str(tmp_path / "c")]) == 0  # lane changes committed
+    committed = json.loads((tmp_path / "c" / "drive.json").read_text())
+    assert committed["config"]["commit"] is True and "commit" not in argmax["config"]
+    assert "lane changes committed" in (tmp_path / "c" / "drive.md").read_text()
     with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
         main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
     assert e.value.code == 2

@@ -1,4 +1,5 @@
-"""irlsim.planner.choice: the 'expected' choice and its lane-change bias, against closed forms."""
+"""irlsim.planner.choice: the 'expected' choice and its lane-change bias, against closed forms; the
+commitment to a lane change under way (irlsim.planner.expert.choose_index's heading)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,10 @@ import math
 import numpy as np
 import pytest
 
+from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import calibrate_lane_change_bias, change_ratio, expected_choice, maneuver_masses
+from irlsim.planner.expert import ThetaDriver, choose_index
+from irlsim.planner.policy_set import PolicySet
 
 
 def _points(lateral_end: list[float], progress_end: list[float], k: int = 4) -> np.ndarray:
@@ -76,3 +80,63 @@ def test_the_calibrated_bias_changes_lanes_in_the_expected_share_of_cycles():
     assert np.isfinite(calibrate_lane_change_bias(np.array([2.0, np.inf]), np.array([1.0, 1.0])))
     with pytest.raises(ValueError):
         calibrate_lane_change_bias(np.array([]), np.array([]))
+
+
+def _lanes_set(start: int, ends: list[int], value: list[float], collision: list[bool]) -> PolicySet:
+    """Policies from lane ``start`` to ``ends``, V = ``value`` under theta = e_0, labels as given."""
+    n, t = len(ends), 3
+    lane = np.array([[start, end, end] for end in ends], dtype=np.int8)
+    features = np.zeros((n, len(FEATURE_NAMES)), np.float32)
+    features[:, 0] = -np.asarray(value, np.float32)
+    zeros = np.zeros((n, t))
+    labels = np.zeros((n, 3), bool)
+    labels[:, 0] = collision
+    return PolicySet(
+        t=0.0, x=zeros, y=zeros, yaw=zeros, v=zeros, s=zeros, d=lane.astype(float), lane=lane,
+        progress=np.zeros(n, np.float32), features=features, control_points=np.zeros((n, 2, 3), np.float32),
+        actions=np.zeros((n, 2, 2), np.float32), labels=labels,
+    )  # fmt: skip
+
+
+E0 = np.eye(len(FEATURE_NAMES))[0]
+
+
+def test_a_lane_change_under_way_is_finished_unless_it_collides():
+    # from lane 1: keep (V 0), left to 2 (V 1), right to 0 (V 2)
+    ps = _lanes_set(1, [1, 2, 0], [0.0, 1.0, 2.0], [False, False, False])
+    assert choose_index(ps, E0) == 2
+    assert choose_index(ps, E0, heading=2) == 1  # heading left: the best policy that ends there
+    hit = _lanes_set(1, [1, 2, 0], [0.0, 1.0, 2.0], [False, True, False])
+    assert choose_index(hit, E0, heading=2) == 2  # every policy to the left collides: chosen afresh
+    # with the label filter, the commitment keeps within what it allows
+    off = _lanes_set(1, [1, 2, 2, 0], [0.0, 1.0, 0.5, 2.0], [False, False, False, False])
+    off.labels[1, 1] = True  # policy 1 leaves the road
+    assert choose_index(off, E0, safety=True, heading=2) == 2
+
+
+class _Planner:
+    """Hands out prepared policy sets in turn (the commitment's bookkeeping is pure logic)."""
+
+    def __init__(self, sets: list[PolicySet]):
+        self.sets = iter(sets)
+
+    def plan(self, obs):
+        return next(self.sets)
+
+    def trajectory(self, index):
+        return index
+
+
+def test_the_driver_keeps_its_lane_change_until_it_is_in_the_lane():
+    sets = [
+        _lanes_set(1, [1, 2, 0], [0.0, 2.0, 1.0], [False] * 3),  # chooses left
+        _lanes_set(1, [1, 2, 0], [0.0, 1.0, 2.0], [False] * 3),  # now right looks better: still left
+        _lanes_set(2, [2, 1], [0.0, 1.0], [False] * 2),  # in lane 2: chosen afresh (back to 1)
+    ]
+    committed = ThetaDriver(_Planner(sets), lambda ps, obs: E0, commit=True)  # type: ignore[arg-type]
+    assert [committed.plan(None) for _ in range(3)] == [1, 1, 1]  # type: ignore[arg-type]
+    assert committed.heading == 1  # the lane change back is under way
+    committed.reset()
+    assert committed.heading is None
+    free = ThetaDriver(_Planner(sets), lambda ps, obs: E0)  # type: ignore[arg-type]
+    assert [free.plan(None) for _ in range(3)] == [1, 2, 1]  # type: ignore[arg-type]
