@@ -295,9 +295,11 @@ class ThetaDriver:
     ``safe=True`` first drops policies labelled collision / off-road / exit (model-based safety, as the
     paper's planner does around a learned reward); when that drops all of them it uses all.
     ``choice``: 'argmax' (the paper's), or 'expected' with ``lane_change_bias``
-    (:mod:`irlsim.planner.choice`). ``commit=True``: once a chosen policy ends in another lane than the
-    ego's, the next cycles choose among the policies that end there (``choose_index``'s ``heading``)
-    until the ego is in it: no dithering between two lane changes. Call :meth:`reset` per episode.
+    (:mod:`irlsim.planner.choice`). ``commit=True`` finishes the maneuver chosen (``choose_index``'s
+    ``heading`` and ``stopping``): once a chosen policy ends in another lane than the ego's, the next
+    cycles choose among the policies that end there until the ego is in it (no dithering between two
+    lane changes); once a chosen policy comes to a stand, the next one does not cross an active stop
+    line without a full stop (no creeping up to the line and over it). Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -318,9 +320,10 @@ class ThetaDriver:
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
         self.heading: int | None = None  # the lane a lane change under way heads to (with commit)
+        self.stopping = False  # the last policy chosen comes to a stand (with commit)
 
     def reset(self) -> None:
-        self.heading = None
+        self.heading, self.stopping = None, False
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
@@ -328,10 +331,13 @@ class ThetaDriver:
         assert theta.shape == (len(FEATURE_NAMES),), theta.shape
         if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
             self.heading = None  # arrived: the lane change is done
-        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading)
+        idx = choose_index(
+            ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, self.stopping
+        )
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None
+            self.stopping = bool(ps.v[idx].min() < self.planner.cfg.v_stopped)
         self.last_policy_set, self.last_index, self.last_theta = ps, idx, theta
         return self.planner.trajectory(idx)
 
@@ -343,12 +349,15 @@ def choose_index(
     choice: str = "argmax",
     lane_change_bias: float = 1.0,
     heading: int | None = None,
+    stopping: bool = False,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
     (collision / off-road / exit), all of them when every one has one. ``heading``: a lane change under
     way to that lane; only the policies that end in it and are not labelled a predicted collision (nor,
-    with ``safety``, anything else) are chosen from, unless there is none. :class:`ThetaDriver` and
+    with ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under
+    way; only the policies that do not cross an active stop line without a full stop (``stop_line``
+    feature 0), unless there is none. :class:`ThetaDriver` and
     :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta)
     allowed: np.ndarray | None = None
@@ -360,6 +369,11 @@ def choose_index(
         if allowed is not None:
             there &= allowed
         allowed = there if there.any() else allowed
+    if stopping:
+        stops = policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0
+        if allowed is not None:
+            stops &= allowed
+        allowed = stops if stops.any() else allowed
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))

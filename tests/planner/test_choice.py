@@ -10,6 +10,7 @@ import pytest
 
 from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import calibrate_lane_change_bias, change_ratio, expected_choice, maneuver_masses
+from irlsim.planner.config import PlannerConfig
 from irlsim.planner.expert import ThetaDriver, choose_index
 from irlsim.planner.policy_set import PolicySet
 
@@ -117,6 +118,8 @@ def test_a_lane_change_under_way_is_finished_unless_it_collides():
 class _Planner:
     """Hands out prepared policy sets in turn (the commitment's bookkeeping is pure logic)."""
 
+    cfg = PlannerConfig()
+
     def __init__(self, sets: list[PolicySet]):
         self.sets = iter(sets)
 
@@ -140,3 +143,29 @@ def test_the_driver_keeps_its_lane_change_until_it_is_in_the_lane():
     assert committed.heading is None
     free = ThetaDriver(_Planner(sets), lambda ps, obs: E0)  # type: ignore[arg-type]
     assert [free.plan(None) for _ in range(3)] == [1, 2, 1]  # type: ignore[arg-type]
+
+
+def _stop_set(value: list[float], runs: list[bool], moving: list[bool]) -> PolicySet:
+    """Policies in one lane; ``runs``: crossing an active stop line without a full stop (the stop_line
+    feature > 0); ``moving``: never below the planner's standstill speed (else they come to a stand)."""
+    ps = _lanes_set(1, [1] * len(value), value, [False] * len(value))
+    ps.features[:, FEATURE_NAMES.index("stop_line")] = np.where(runs, 1.5, 0.0)
+    ps.v[:] = np.where(moving, 1.0, 0.0)[:, None]
+    return ps
+
+
+def test_a_stop_under_way_does_not_end_by_running_the_line():
+    ps = _stop_set([0.0, 1.0, 0.5], runs=[False, True, False], moving=[False, True, True])
+    assert choose_index(ps, E0) == 1  # the reward prefers running the line
+    assert choose_index(ps, E0, stopping=True) == 2  # a stop under way: the best policy that does not
+    every = _stop_set([0.0, 1.0], runs=[True, True], moving=[True, True])
+    assert choose_index(every, E0, stopping=True) == 1  # none stops: chosen afresh
+    sets = [
+        _stop_set([1.0, 0.0], runs=[False, True], moving=[False, True]),  # chooses to stand
+        _stop_set([0.0, 1.0], runs=[False, True], moving=[False, True]),  # then running looks better
+        _stop_set([0.0, 1.0], runs=[False, False], moving=[False, True]),  # stood: moving on is free
+    ]
+    committed = ThetaDriver(_Planner(sets), lambda ps, obs: E0, commit=True)  # type: ignore[arg-type]
+    assert [committed.plan(None) for _ in range(3)] == [0, 0, 1]  # type: ignore[arg-type]
+    free = ThetaDriver(_Planner(sets), lambda ps, obs: E0)  # type: ignore[arg-type]
+    assert [free.plan(None) for _ in range(3)] == [0, 1, 1]  # type: ignore[arg-type]
