@@ -24,8 +24,9 @@
 When every policy is off-road or takes an exit (never seen), it falls back to the strongest braking.
 
 ``ThetaDriver(planner, theta_fn)`` executes argmax V for any theta (the learned models use it), with an
-optional model-based safety filter (the labels) and an optional commitment to a lane change under way
-(the expert's hysteresis as a rule without a score). Both expose ``last_policy_set`` and ``last_index``.
+optional model-based safety filter (the labels) and an optional commitment to the maneuver under way, a
+lane change or a stop (the expert's hysteresis as a rule without a score). Both expose
+``last_policy_set`` and ``last_index``.
 """
 
 from __future__ import annotations
@@ -366,17 +367,18 @@ def choose_index(
         allowed = None if bad.all() else np.logical_not(bad)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
-        if allowed is not None:
-            there &= allowed
-        allowed = there if there.any() else allowed
+        allowed = _narrowed(allowed, there)
     if stopping:
-        stops = policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0
-        if allowed is not None:
-            stops &= allowed
-        allowed = stops if stops.any() else allowed
+        allowed = _narrowed(allowed, policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0)
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
+
+
+def _narrowed(allowed: np.ndarray | None, keep: np.ndarray) -> np.ndarray | None:
+    """``allowed`` (None: every policy) narrowed to ``keep``; unchanged when that leaves none."""
+    both = keep if allowed is None else keep & allowed
+    return both if both.any() else allowed
 
 
 def planner_config_for(scenario_cfg: EpisodeConfig) -> PlannerConfig:
