@@ -115,9 +115,10 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--commit",
         action="store_true",
-        help="a learned model finishes the lane change it chose: while the ego heads to another lane it "
-        "picks among the policies that end there (unless each is a predicted collision), as the expert "
-        "keeps the lane it heads to (default: every cycle chooses afresh, the paper's)",
+        help="a learned model finishes the maneuver it chose: while the ego heads to another lane it "
+        "picks among the policies that end there (unless each is a predicted collision), and once it chose "
+        "to come to a stand it does not run an active stop line (default: every cycle chooses afresh, the "
+        "paper's)",
     )
 
 

@@ -69,7 +69,7 @@ class RewardDriver:
         return theta
 
     def reset(self) -> None:
-        """A new episode: the reward's online history starts empty, no lane change under way."""
+        """A new episode: the reward's online history starts empty, no maneuver under way."""
         self.reward.reset()
         if isinstance(self.driver, ThetaDriver):
             self.driver.reset()

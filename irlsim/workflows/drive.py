@@ -84,7 +84,8 @@ class DriveRun:
     """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias` calibrates
     it on the reward's training data)"""
     commit: bool = False
-    """a learned model finishes the lane change it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
+    """a learned model finishes the maneuver it chose, a lane change or a stop
+    (:class:`irlsim.planner.expert.ThetaDriver`)"""
 
 
 @dataclass
@@ -225,7 +226,7 @@ def _choice_record(run: DriveRun) -> dict[str, Any]:
 
 def _choice_words(run: DriveRun) -> str:
     words = f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
-    return (words if run.choice != "argmax" else "") + (", lane changes committed" if run.commit else "")
+    return (words if run.choice != "argmax" else "") + (", maneuvers committed" if run.commit else "")
 
 
 def _write_outputs(

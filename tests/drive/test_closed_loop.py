@@ -191,7 +191,7 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
     assert main([*common, "--commit", "--out", str(tmp_path / "c")]) == 0  # lane changes committed
     committed = json.loads((tmp_path / "c" / "drive.json").read_text())
     assert committed["config"]["commit"] is True and "commit" not in argmax["config"]
-    assert "lane changes committed" in (tmp_path / "c" / "drive.md").read_text()
+    assert "maneuvers committed" in (tmp_path / "c" / "drive.md").read_text()
     with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
         main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
     assert e.value.code == 2
