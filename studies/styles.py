@@ -44,8 +44,8 @@ so, not a driver who followed closely and did not collide; their runs, drives an
 table's file named by them too), ``--models`` the learned rewards driven (default: both; both are always
 trained). ``--safety`` drives the learned rewards within the planner's label filter (``irlsim drive
 --safety``: no policy predicted to collide, leave the road or take an exit; their drives and table named
-``-safe``), as a planner that uses a learned reward would; the references drive as before. ``--commit``
-drives them finishing the lane changes they choose (``irlsim drive --commit``; named ``-commit``).
+``-safe``), as a planner that uses a learned reward would; the references drive as before; ``--commit``:
+the SUMO drivers' rewards finish their maneuvers (``irlsim drive --commit``, ``-commit``; not recordings).
 ``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
 (``demonstrator.lane_change_duration``); ``assertive-eidm`` that driver with SUMO's Extended IDM, whose
 acceleration has a human driver's reaction time and jerk limit.
@@ -191,7 +191,7 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
     (``road`` None) reactive: SUMO drives the other cars, as a replayed car cannot see the ego."""
     if not set(models) <= driven_models(out / "drive.json"):  # a drive of fewer models is driven again
         where = ["--scenario", road] if road else ["--reactive"]
-        where += a.learned_flags if runs else []  # learned rewards only: the expert has its own
+        where += ["--safety"] * a.safety + ["--commit"] * (a.commit and road is not None) if runs else []
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * SEED_STRIDE), "--config", config]
@@ -366,7 +366,7 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
         collect(rec[0], DEFAULT_SCENARIO, data[RECORDING][0], [], a)
     tables: dict[str, dict[str, Any]] = {}
     at = "" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}"  # development seeds: folders of their own
-    safe = a.drive_tag  # the learned rewards' drives within the planner's filter, committed lane changes
+    safe = a.drive_tag  # the learned rewards' drives within the planner's filter, committed maneuvers
     for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
         refs: dict[str, dict[str, Any]] = {}
         own: dict[str, dict[str, Any]] = {}
@@ -413,7 +413,7 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         train(data[RECORDING], runs, seed, a, rule)
         t1 = table_one(data[RECORDING], runs, out / "eval" / runs.name, a)
         name = runs.name.removeprefix(f"{RECORDING}-")  # seed<s>, kept-seed<s>
-        drives = out / f"drive{a.drive_tag}" / RECORDING / name
+        drives = out / f"drive{'-safe' * a.safety}" / RECORDING / name  # never committed (--commit)
         dj = drive(rec[1], None, a.models, runs, drives, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
@@ -460,8 +460,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--safety", action="store_true", help="learned rewards within the label filter (--safety)")
     p.add_argument("--commit", action="store_true", help="learned rewards commit to lane changes")
     a = p.parse_args(argv)
-    a.learned_flags = ["--safety"] * a.safety + ["--commit"] * a.commit  # the learned rewards' drives
-    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit  # ... and their folders' and table's names
+    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit  # the learned rewards' drives' and table's names
     a.rows = a.rows or a.demonstrators
     if RECORDING in a.rows and a.eval_base != EVAL_BASE:
         sys.exit(

@@ -67,15 +67,17 @@ def test_development_seeds_leave_the_recording_out_in_one_line(tmp_path):
     assert not any(tmp_path.iterdir())  # refused before any work
 
 
-def test_safety_adds_the_filter_to_learned_drives_only(tmp_path, monkeypatch):
+def test_safety_and_commit_go_to_learned_drives_only(tmp_path, monkeypatch):
     ran = []
     monkeypatch.setattr(study, "run", ran.append)  # the command line only (pure logic)
     a = type("A", (), {"episodes": 2, "eval_base": 1000, "laps": 1, "max_cycles": 10, "workers": 1})()
-    for safety in (False, True):
-        a.safety = safety
-        study.drive("c.toml", "oval", ["PACNN+S"], tmp_path / "runs", tmp_path / f"learned{safety}", a)
-        study.drive("c.toml", "oval", ["expert"], None, tmp_path / f"expert{safety}", a)
-    assert ["--safety" in cmd for cmd in ran] == [False, False, True, False]
+    for flag in (False, True):
+        a.safety = a.commit = flag
+        study.drive("c.toml", "oval", ["PACNN+S"], tmp_path / "runs", tmp_path / f"learned{flag}", a)
+        study.drive("c.toml", "oval", ["expert"], None, tmp_path / f"expert{flag}", a)
+        study.drive("r.toml", None, ["PACNN+S"], tmp_path / "runs", tmp_path / f"recording{flag}", a)
+    assert ["--safety" in cmd for cmd in ran] == [False, False, False, True, False, True]
+    assert ["--commit" in cmd for cmd in ran] == [False, False, False, True, False, False]  # not recordings
 
 
 norms = _study("style_norms")
