@@ -358,18 +358,18 @@ def choose_index(
     way to that lane; only the policies that end in it and are not labelled a predicted collision (nor,
     with ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under
     way; only the policies that do not cross an active stop line without a full stop (``stop_line``
-    feature 0), unless there is none. :class:`ThetaDriver` and
+    feature 0), unless there is none (applied first: a stop outranks a lane change). :class:`ThetaDriver` and
     :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta)
     allowed: np.ndarray | None = None
     if safety:
         bad = np.asarray(policy_set.labels.any(axis=1))
         allowed = None if bad.all() else np.logical_not(bad)
+    if stopping:  # first: a stop outranks a lane change
+        allowed = _narrowed(allowed, policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
         allowed = _narrowed(allowed, there)
-    if stopping:
-        allowed = _narrowed(allowed, policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0)
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))

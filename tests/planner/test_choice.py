@@ -160,6 +160,10 @@ def test_a_stop_under_way_does_not_end_by_running_the_line():
     assert choose_index(ps, E0, stopping=True) == 2  # a stop under way: the best policy that does not
     every = _stop_set([0.0, 1.0], runs=[True, True], moving=[True, True])
     assert choose_index(every, E0, stopping=True) == 1  # none stops: chosen afresh
+    # a stop outranks a lane change: the lane headed to only has a policy that runs the line
+    both = _stop_set([0.0, 1.0, 0.5], runs=[False, True, False], moving=[False, True, True])
+    both.lane[1, 1:] = 2
+    assert choose_index(both, E0, heading=2) == 1 and choose_index(both, E0, heading=2, stopping=True) == 2
     sets = [
         _stop_set([1.0, 0.0], runs=[False, True], moving=[False, True]),  # chooses to stand
         _stop_set([0.0, 1.0], runs=[False, True], moving=[False, True]),  # then running looks better
