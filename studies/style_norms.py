@@ -152,7 +152,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
     p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
-    p.add_argument("--commit", action="store_true", help="the drives with committed lane changes")
+    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
     a = p.parse_args(argv)
     a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-choice" * a.choice  # the drives' folders
     a.rows = a.rows or a.demonstrators

@@ -458,7 +458,7 @@ def main(argv: list[str] | None = None) -> int:
         "--models", nargs="+", choices=MODELS, default=list(MODELS), help="the learned rewards driven"
     )
     p.add_argument("--safety", action="store_true", help="learned rewards within the label filter (--safety)")
-    p.add_argument("--commit", action="store_true", help="learned rewards commit to lane changes")
+    p.add_argument("--commit", action="store_true", help="learned rewards finish their maneuvers")
     a = p.parse_args(argv)
     a.drive_tag = "-safe" * a.safety + "-commit" * a.commit  # the learned rewards' drives' and table's names
     a.rows = a.rows or a.demonstrators
