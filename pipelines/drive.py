@@ -95,7 +95,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_choice_arguments(p: argparse.ArgumentParser) -> None:
-    """--choice, --lane-change-bias and --commit: how a learned reward picks its policy
+    """--choice, --lane-change-bias, --commit and --full-stop: how a learned reward picks its policy
     (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
     p.add_argument(
         "--choice",
@@ -119,6 +119,12 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         "picks among the policies that end there (unless each is a predicted collision), and once it chose "
         "to come to a stand it does not run an active stop line (default: every cycle chooses afresh, the "
         "paper's)",
+    )
+    p.add_argument(
+        "--full-stop",
+        action="store_true",
+        help="a learned model never crosses an active stop line without a full stop while a policy that "
+        "stops exists (the expert's rule of the road; default: the reward alone decides, the paper's)",
     )
 
 
@@ -152,6 +158,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         choice=args.choice,
         lane_change_bias=args.lane_change_bias,
         commit=args.commit,
+        full_stop=args.full_stop,
     )
 
 

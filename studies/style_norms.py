@@ -15,9 +15,10 @@ every row not nearest its own demonstrator per episode, each figure's signed nor
 its own and from the nearest (what keeps it from its own; the distance is the RMS of these):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
-        --demonstrators expert cautious assertive --rows cautious assertive [--safety] [--commit] [--choice]
+        --demonstrators expert cautious assertive --rows cautious assertive \
+        [--safety] [--commit] [--full-stop] [--choice]
 
-to ``<out>/style-norms[-s<base>][-safe][-commit][-choice]-<rows>.md`` and ``.json``.
+to ``<out>/style-norms[-s<base>][-safe][-commit][-stop][-choice]-<rows>.md`` and ``.json``.
 """
 
 from __future__ import annotations
@@ -153,8 +154,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
     p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
     p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
+    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
     a = p.parse_args(argv)
-    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-choice" * a.choice  # the drives' folders
+    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-stop" * a.full_stop + "-choice" * a.choice
     a.rows = a.rows or a.demonstrators
     unknown = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if unknown:

@@ -300,7 +300,9 @@ class ThetaDriver:
     ``heading`` and ``stopping``): once a chosen policy ends in another lane than the ego's, the next
     cycles choose among the policies that end there until the ego is in it (no dithering between two
     lane changes); once a chosen policy comes to a stand, the next one does not cross an active stop
-    line without a full stop (no creeping up to the line and over it). Call :meth:`reset` per episode.
+    line without a full stop (no creeping up to the line and over it). ``full_stop=True``: the expert's
+    rule of the road, every cycle: no policy that crosses an active stop line without a full stop while
+    any other policy does not. Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -311,12 +313,14 @@ class ThetaDriver:
         choice: str = "argmax",
         lane_change_bias: float = 1.0,
         commit: bool = False,
+        full_stop: bool = False,
     ):
         assert choice in CHOICES, choice
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
         self.choice, self.lane_change_bias, self.commit = choice, lane_change_bias, commit
+        self.full_stop = full_stop
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
@@ -332,9 +336,8 @@ class ThetaDriver:
         assert theta.shape == (len(FEATURE_NAMES),), theta.shape
         if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
             self.heading = None  # arrived: the lane change is done
-        idx = choose_index(
-            ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, self.stopping
-        )
+        stopping = self.stopping or self.full_stop
+        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, stopping)
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None

@@ -81,11 +81,11 @@ class DriveRun:
     """how a learned model's reward picks the policy: 'argmax' (the paper's) or 'expected' (the fit's
     expected maneuver and policy, :mod:`irlsim.planner.choice`)"""
     lane_change_bias: float = 1.0
-    """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias` calibrates
-    it on the reward's training data)"""
+    """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias`)"""
     commit: bool = False
-    """a learned model finishes the maneuver it chose, a lane change or a stop
-    (:class:`irlsim.planner.expert.ThetaDriver`)"""
+    """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
+    full_stop: bool = False
+    """a learned model stops at every active stop line where it can (the expert's rule of the road)"""
 
 
 @dataclass
@@ -116,9 +116,7 @@ class DriveJob:
     expert_progress: Any = None  # the expert's (t, s) on the same seed, for the scorecard
     reactive: bool = False  # on a recording: SUMO drives the other vehicles
     road: Any = None  # the Scenario of cfg.scenario.name, read once by the command (None: read here)
-    choice: str = "argmax"  # how a learned reward picks the policy (irlsim.planner.choice)
-    lane_change_bias: float = 1.0
-    commit: bool = False
+    how: Any = None  # how a learned reward picks the policy: drive_episode's choice keywords (None: default)
 
 
 #: per process: models and the road, loaded once by the first episode that needs them
@@ -155,9 +153,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
         max_cycles=job.max_cycles,
         expert_progress=job.expert_progress,
         reactive=job.reactive,
-        choice=job.choice,
-        lane_change_bias=job.lane_change_bias,
-        commit=job.commit,
+        **(job.how or {}),
     )
 
 
@@ -209,24 +205,29 @@ def _episode_jobs(
                 run.precision,
                 reactive=run.reactive,
                 road=road,
-                choice=run.choice,
-                lane_change_bias=run.lane_change_bias,
-                commit=run.commit,
+                how=_how(run),
             )
             jobs.append(Job(f"{label}/{i}", job))
 
     return jobs, labels
 
 
+def _how(run: DriveRun) -> dict[str, Any]:
+    """:func:`drive_episode`'s keywords for how a learned reward picks its policy."""
+    keys = ("choice", "lane_change_bias", "commit", "full_stop")
+    return {k: getattr(run, k) for k in keys}
+
+
 def _choice_record(run: DriveRun) -> dict[str, Any]:
     """The choice in drive.json's config, left out where it is the default (records unchanged)."""
     rec = {"choice": run.choice, "lane_change_bias": run.lane_change_bias} if run.choice != "argmax" else {}
-    return {**rec, "commit": True} if run.commit else rec
+    return {**rec, **{k: True for k in ("commit", "full_stop") if getattr(run, k)}}
 
 
 def _choice_words(run: DriveRun) -> str:
     words = f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
-    return (words if run.choice != "argmax" else "") + (", maneuvers committed" if run.commit else "")
+    words = (words if run.choice != "argmax" else "") + (", maneuvers committed" if run.commit else "")
+    return words + (", a full stop at every stop line" if run.full_stop else "")
 
 
 def _write_outputs(

@@ -1,5 +1,5 @@
 """irlsim.planner.choice: the 'expected' choice and its lane-change bias, against closed forms; the
-commitment to a lane change under way (irlsim.planner.expert.choose_index's heading)."""
+commitment to a maneuver under way (irlsim.planner.expert.choose_index) and the full-stop rule."""
 
 from __future__ import annotations
 
@@ -173,3 +173,15 @@ def test_a_stop_under_way_does_not_end_by_running_the_line():
     assert [committed.plan(None) for _ in range(3)] == [0, 0, 1]  # type: ignore[arg-type]
     free = ThetaDriver(_Planner(sets), lambda ps, obs: E0)  # type: ignore[arg-type]
     assert [free.plan(None) for _ in range(3)] == [0, 1, 1]  # type: ignore[arg-type]
+
+
+def test_the_full_stop_rule_never_runs_a_line_while_a_policy_stops():
+    sets = [
+        _stop_set([0.0, 1.0], runs=[False, True], moving=[True, True]),  # no stop chosen yet: still held
+        _stop_set([0.0, 1.0, 2.0], runs=[False, True, True], moving=[True, True, True]),
+        _stop_set([0.0, 1.0], runs=[True, True], moving=[True, True]),  # none can stop: the reward's
+    ]
+    ruled = ThetaDriver(_Planner(sets), lambda ps, obs: E0, full_stop=True)  # type: ignore[arg-type]
+    assert [ruled.plan(None) for _ in range(3)] == [0, 0, 1]  # type: ignore[arg-type]
+    free = ThetaDriver(_Planner(sets), lambda ps, obs: E0, commit=True)  # type: ignore[arg-type]
+    assert [free.plan(None) for _ in range(3)] == [1, 2, 1]  # type: ignore[arg-type]
