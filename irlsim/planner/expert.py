@@ -300,9 +300,10 @@ class ThetaDriver:
     ``heading`` and ``stopping``): once a chosen policy ends in another lane than the ego's, the next
     cycles choose among the policies that end there until the ego is in it (no dithering between two
     lane changes); once a chosen policy comes to a stand, the next one does not cross an active stop
-    line without a full stop (no creeping up to the line and over it). ``full_stop=True``: the expert's
-    rule of the road, every cycle: no policy that crosses an active stop line without a full stop while
-    any other policy does not. Call :meth:`reset` per episode.
+    line without a full stop (no creeping up to the line and over it). ``full_stop=True``: a rule of the
+    road, every cycle: no policy that crosses an active stop line without a full stop, nor one above the
+    braking curve to it (:func:`within_braking_curve`), while any other policy keeps to them. Call
+    :meth:`reset` per episode.
     """
 
     def __init__(
@@ -337,7 +338,10 @@ class ThetaDriver:
         if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
             self.heading = None  # arrived: the lane change is done
         stopping = self.stopping or self.full_stop
-        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, stopping)
+        braking = within_braking_curve(ps, obs.stop_s, self.planner.cfg) if self.full_stop else None
+        idx = choose_index(
+            ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, stopping, braking
+        )
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None
@@ -354,6 +358,7 @@ def choose_index(
     lane_change_bias: float = 1.0,
     heading: int | None = None,
     stopping: bool = False,
+    braking: np.ndarray | None = None,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
@@ -361,7 +366,8 @@ def choose_index(
     way to that lane; only the policies that end in it and are not labelled a predicted collision (nor,
     with ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under
     way; only the policies that do not cross an active stop line without a full stop (``stop_line``
-    feature 0), unless there is none (applied first: a stop outranks a lane change). :class:`ThetaDriver` and
+    feature 0), unless there is none (applied first: a stop outranks a lane change); ``braking`` [N] bool:
+    then only these (:func:`within_braking_curve`), unless none. :class:`ThetaDriver` and
     :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta)
     allowed: np.ndarray | None = None
@@ -370,12 +376,37 @@ def choose_index(
         allowed = None if bad.all() else np.logical_not(bad)
     if stopping:  # first: a stop outranks a lane change
         allowed = _narrowed(allowed, policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0)
+    if braking is not None:
+        allowed = _narrowed(allowed, braking)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
         allowed = _narrowed(allowed, there)
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
+
+
+#: [m/s^2] the braking curve of ``full_stop``: above the planner's comfortable 2.5 (its stop profiles keep
+#: within it) and below the strongest sampled braking (4 and 6), so a stop from the curve stays sampled
+FULL_STOP_DECEL = 4.0
+
+
+def within_braking_curve(
+    policy_set: PolicySet, stop_s: float, cfg: PlannerConfig, decel: float = FULL_STOP_DECEL
+) -> np.ndarray:
+    """[N] bool: the policies that keep a full stop at the active stop line at ``stop_s`` (unwrapped route
+    position, inf: none) within reach: until a policy has stood (below ``v_stopped``), its speed never
+    exceeds sqrt(2 ``decel`` d) + ``v_stopped``, d its front bumper's distance to the stop point
+    (``stop_margin`` before the line). A policy that only stands in the last metre, braking at the limit,
+    passes the stop-line feature's test but not this one: the next cycle's set (sampled from the state
+    reached) may hold no stop at all, and a reward that values speed rides that limit (measured on the
+    recording's rewards). Every policy passes without an active line within ``stop_reach``."""
+    v, s = policy_set.v, policy_set.s
+    if not np.isfinite(stop_s) or stop_s - s[0, 0] >= cfg.stop_reach:
+        return np.ones(len(v), dtype=bool)
+    stood = np.logical_or.accumulate(v < cfg.v_stopped, axis=1)
+    over = v > np.sqrt(2.0 * decel * np.maximum(stop_s - cfg.stop_margin - s, 0.0)) + cfg.v_stopped
+    return np.logical_not((over & ~stood).any(axis=1))
 
 
 def _narrowed(allowed: np.ndarray | None, keep: np.ndarray) -> np.ndarray | None:

@@ -4,6 +4,8 @@ commitment to a maneuver under way (irlsim.planner.expert.choose_index) and the 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -11,7 +13,7 @@ import pytest
 from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import calibrate_lane_change_bias, change_ratio, expected_choice, maneuver_masses
 from irlsim.planner.config import PlannerConfig
-from irlsim.planner.expert import ThetaDriver, choose_index
+from irlsim.planner.expert import ThetaDriver, choose_index, within_braking_curve
 from irlsim.planner.policy_set import PolicySet
 
 
@@ -182,6 +184,40 @@ def test_the_full_stop_rule_never_runs_a_line_while_a_policy_stops():
         _stop_set([0.0, 1.0], runs=[True, True], moving=[True, True]),  # none can stop: the reward's
     ]
     ruled = ThetaDriver(_Planner(sets), lambda ps, obs: E0, full_stop=True)  # type: ignore[arg-type]
-    assert [ruled.plan(None) for _ in range(3)] == [0, 0, 1]  # type: ignore[arg-type]
+    no_line = SimpleNamespace(stop_s=math.inf)  # the braking curve is tested below
+    assert [ruled.plan(no_line) for _ in range(3)] == [0, 0, 1]  # type: ignore[arg-type]
     free = ThetaDriver(_Planner(sets), lambda ps, obs: E0, commit=True)  # type: ignore[arg-type]
     assert [free.plan(None) for _ in range(3)] == [1, 2, 1]  # type: ignore[arg-type]
+
+
+def _motion_set(v: np.ndarray, s: np.ndarray) -> PolicySet:
+    """Policies in one lane with the given speeds and route positions [N, T]."""
+    ps = _lanes_set(1, [1] * len(v), [0.0] * len(v), [False] * len(v))
+    lane = np.ones(v.shape, np.int8)
+    return replace(
+        ps, x=np.zeros(v.shape), y=np.zeros(v.shape), yaw=np.zeros(v.shape), v=v, s=s, d=lane * 1.0, lane=lane
+    )
+
+
+def test_the_braking_curve_keeps_a_stop_that_the_next_cycle_can_still_make():
+    cfg = PlannerConfig()
+    t = np.arange(26) * cfg.dt
+    line = 100.0 + cfg.stop_margin  # the stop point 100 m ahead: the curve allows sqrt(2 b 100) m/s now
+    allowed = math.sqrt(2 * 4.0 * 100.0)
+    v = np.array([np.full_like(t, allowed - 1.0), np.full_like(t, allowed + 1.0), np.full_like(t, 1.0)])
+    v[0] = np.maximum(allowed - 1.0 - 4.0 * t, 0.0)  # braking at 4 m/s^2 from below the curve
+    v[2, 3:] = 0.0  # policy 2 stands at step 3, then drives on fast: it has stood, so it may
+    v[2, 10:] = 30.0
+    s = np.concatenate([np.zeros((3, 1)), np.cumsum(v[:, 1:] * cfg.dt, axis=1)], axis=1)
+    ps = _motion_set(v, s)
+    assert within_braking_curve(ps, line, cfg, decel=4.0).tolist() == [True, False, True]
+    v[0] = allowed - 1.0  # below the curve now, but driving on at constant speed crosses it later
+    ps = _motion_set(v, np.concatenate([np.zeros((3, 1)), np.cumsum(v[:, 1:] * cfg.dt, axis=1)], axis=1))
+    assert within_braking_curve(ps, line, cfg, decel=4.0).tolist() == [False, False, True]
+    assert within_braking_curve(ps, math.inf, cfg).all()  # no active line: every policy
+    assert within_braking_curve(ps, cfg.stop_reach + 1.0, cfg).all()  # out of reach: every policy
+    # the driver narrows to the curve first, then to the reward's best
+    ps = replace(ps, features=ps.features.copy())
+    ps.features[:, 0] = [0.0, -5.0, 0.0]  # the reward prefers policy 1, above the curve
+    ruled = ThetaDriver(_Planner([ps]), lambda p, obs: E0, full_stop=True)  # type: ignore[arg-type]
+    assert ruled.plan(SimpleNamespace(stop_s=line)) == 2  # type: ignore[arg-type]
