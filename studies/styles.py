@@ -46,8 +46,8 @@ trained). ``--safety`` drives the learned rewards within the planner's label fil
 --safety``: no policy predicted to collide, leave the road or take an exit; their drives and table named
 ``-safe``), as a planner that uses a learned reward would; the references drive as before; ``--commit``:
 the SUMO drivers' rewards finish their maneuvers (``irlsim drive --commit``, ``-commit``; not recordings);
-``--full-stop``: every learned reward stops at every stop line it can (``irlsim drive --full-stop``,
-``-stop``).
+``--full-stop``: the SUMO drivers' rewards stop at every stop line they can (``irlsim drive --full-stop``,
+``-stop``; not recordings).
 ``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
 (``demonstrator.lane_change_duration``); ``assertive-eidm`` that driver with SUMO's Extended IDM, whose
 acceleration has a human driver's reaction time and jerk limit.
@@ -189,7 +189,7 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
     if not set(models) <= driven_models(out / "drive.json"):  # a drive of fewer models is driven again
         where = ["--scenario", road] if road else ["--reactive"]
         where += ["--safety"] * a.safety + ["--commit"] * (a.commit and road is not None) if runs else []
-        where += ["--full-stop"] * a.full_stop if runs else []
+        where += ["--full-stop"] * (a.full_stop and road is not None) if runs else []
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * SEED_STRIDE), "--config", config]
@@ -411,7 +411,7 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         train(data[RECORDING], runs, seed, a, rule)
         t1 = table_one(data[RECORDING], runs, out / "eval" / runs.name, a)
         name = runs.name.removeprefix(f"{RECORDING}-")  # seed<s>, kept-seed<s>
-        drives = out / f"drive{'-safe' * a.safety}{'-stop' * a.full_stop}" / RECORDING / name  # no --commit
+        drives = out / f"drive{'-safe' * a.safety}" / RECORDING / name  # never --commit nor --full-stop
         dj = drive(rec[1], None, a.models, runs, drives, a)
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
@@ -457,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("--safety", action="store_true", help="learned rewards within the label filter (--safety)")
     p.add_argument("--commit", action="store_true", help="learned rewards finish their maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="learned rewards stop at every stop line")
+    p.add_argument("--full-stop", action="store_true", help="learned rewards stop at every line they can")
     a = p.parse_args(argv)
     a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-stop" * a.full_stop  # drives', table's names
     a.rows = a.rows or a.demonstrators

@@ -67,17 +67,18 @@ def test_development_seeds_leave_the_recording_out_in_one_line(tmp_path):
     assert not any(tmp_path.iterdir())  # refused before any work
 
 
-def test_safety_and_commit_go_to_learned_drives_only(tmp_path, monkeypatch):
+def test_safety_commit_and_full_stop_go_to_learned_drives_only(tmp_path, monkeypatch):
     ran = []
     monkeypatch.setattr(study, "run", ran.append)  # the command line only (pure logic)
     a = type("A", (), {"episodes": 2, "eval_base": 1000, "laps": 1, "max_cycles": 10, "workers": 1})()
     for flag in (False, True):
-        a.safety = a.commit = flag
+        a.safety = a.commit = a.full_stop = flag
         study.drive("c.toml", "oval", ["PACNN+S"], tmp_path / "runs", tmp_path / f"learned{flag}", a)
         study.drive("c.toml", "oval", ["expert"], None, tmp_path / f"expert{flag}", a)
         study.drive("r.toml", None, ["PACNN+S"], tmp_path / "runs", tmp_path / f"recording{flag}", a)
     assert ["--safety" in cmd for cmd in ran] == [False, False, False, True, False, True]
     assert ["--commit" in cmd for cmd in ran] == [False, False, False, True, False, False]  # not recordings
+    assert ["--full-stop" in cmd for cmd in ran] == [False, False, False, True, False, False]
 
 
 norms = _study("style_norms")
