@@ -126,19 +126,21 @@ class LearnedReward:
         lane_change_bias: float = 1.0,
         heading: int | None = None,
         stopping: bool = False,
+        braking: np.ndarray | None = None,
     ) -> int:
         """The policy this reward executes: argmax V. ``safety``: first drop the policies labelled
         collision / off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``;
         ``choice`` 'expected': the fit's expected maneuver and policy instead (:mod:`irlsim.planner.choice`,
         ``irlsim drive --choice expected``); ``heading``, ``stopping``: a lane change under way to that
-        lane, or a stop, is finished (``irlsim drive --commit``; see ``choose_index``)."""
+        lane, or a stop, is finished (``irlsim drive --commit``; see ``choose_index``); ``stopping`` and
+        ``braking`` = ``irlsim.planner.expert.within_braking_curve(...)``: ``irlsim drive --full-stop``."""
         if self.is_expert:
             raise IrlsimError(
                 "'expert' chooses by a model-based rule on its own planner's internals, not by a reward: "
                 "drive it with irlsim.planner.expert.ExpertDriver, or load 'expert-theta' (its theta alone)"
             )
         return choose_index(
-            policy_set, self.theta(policy_set), safety, choice, lane_change_bias, heading, stopping
+            policy_set, self.theta(policy_set), safety, choice, lane_change_bias, heading, stopping, braking
         )
 
     def __repr__(self) -> str:

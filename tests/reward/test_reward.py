@@ -54,6 +54,11 @@ def test_values_and_choice_follow_theta(tiny_runs, policy_sets):
     allowed = None if bad.all() else ~bad
     k = reward.choose(ps, safety=True, choice="expected")
     assert k == expected_choice(values, ps.control_points, 1.0, allowed) and (allowed is None or allowed[k])
+    # a braking mask (irlsim drive --full-stop) keeps the choice within it: the best of the rest
+    best = int(np.argmax(values))
+    mask = np.ones(TINY_POLICIES, dtype=bool)
+    mask[best] = False
+    assert reward.choose(ps, braking=mask) == int(np.argmax(np.where(mask, values, -np.inf)))
 
 
 def test_a_checkpoint_path_is_the_same_model(tiny_runs, policy_sets):
