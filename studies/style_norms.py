@@ -162,6 +162,10 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         sys.exit(f"style_norms: unknown demonstrator {unknown[0]}: choose from {', '.join(styles.CONFIGS)}")
     out = Path(a.out)
+    at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
+    missing = [r for r in a.roads if not (out / f"drive{at}" / r / "expert" / "drive.json").is_file()]
+    if missing:
+        sys.exit(f"style_norms: no drives in {out} on {missing[0]} for these seeds: run studies/styles.py")
     tables = {road: road_table(out, road, a) for road in a.roads}
     name = "style-norms" + ("" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}")
     name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag

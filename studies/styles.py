@@ -67,6 +67,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.config import MAX_SEED
 from irlsim.road import load_road
 from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import DEFAULT_SCENARIO
@@ -469,9 +470,10 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [d for d in [*a.demonstrators, *a.rows] if d not in (*CONFIGS, RECORDING)]
     if unknown:
         sys.exit(f"styles: unknown demonstrator {unknown[0]}: choose from {', '.join([*CONFIGS, RECORDING])}")
+    if not 0 <= a.eval_base * SEED_STRIDE <= MAX_SEED - a.episodes:  # irlsim's seeds are 31-bit
+        sys.exit(f"styles: --eval-base {a.eval_base} gives seeds beyond {MAX_SEED}: choose 0..2146")
     a.train_config, a.collect_sets, a.train_sets = "configs/train/stage1.toml", [], []
-    a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train = 500, REC_CARS, 200, 20
-    a.collect_cycles = 800
+    a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train, a.collect_cycles = 500, REC_CARS, 200, 20, 800
     if a.smoke:
         a.seeds, a.episodes, a.max_cycles, a.laps = a.seeds[:1], 1, SMOKE_CYCLES, 1
         a.train_config, a.train_sets = "configs/train/tiny_stage1.toml", SMOKE_TRAIN
