@@ -123,8 +123,9 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--full-stop",
         action="store_true",
-        help="a learned model never crosses an active stop line without a full stop while a policy that "
-        "stops exists (the expert's rule of the road; default: the reward alone decides, the paper's)",
+        help="a learned model never crosses an active stop line without a full stop, nor exceeds a braking "
+        "curve to it, while a policy that keeps to both exists (a rule of the road; default: the reward "
+        "alone decides, the paper's)",
     )
 
 

@@ -85,7 +85,7 @@ class DriveRun:
     commit: bool = False
     """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
     full_stop: bool = False
-    """a learned model stops at every active stop line where it can (the expert's rule of the road)"""
+    """a learned model makes a full stop at every active stop line it can (a rule of the road)"""
 
 
 @dataclass
