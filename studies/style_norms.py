@@ -76,8 +76,7 @@ def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, 
 
 
 def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
-    at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    safe = a.drive_tag
+    at, safe = a.at, a.drive_tag
     episodes = {d: reference_episodes(out, d, road, at) for d in a.demonstrators}
     refs = {d: pool_styles(e) for d, e in episodes.items()}
     n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
@@ -162,12 +161,12 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         sys.exit(f"style_norms: unknown demonstrator {unknown[0]}: choose from {', '.join(styles.CONFIGS)}")
     out = Path(a.out)
-    at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    missing = [r for r in a.roads if not (out / f"drive{at}" / r / "expert" / "drive.json").is_file()]
+    a.at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"  # the drives' seeds' folders
+    missing = [r for r in a.roads if not (out / f"drive{a.at}" / r / "expert" / "drive.json").is_file()]
     if missing:
         sys.exit(f"style_norms: no drives in {out} on {missing[0]} for these seeds: run studies/styles.py")
     tables = {road: road_table(out, road, a) for road in a.roads}
-    name = "style-norms" + ("" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}")
+    name = "style-norms" + a.at
     name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag
     name += "-" + "-".join(a.rows)
     (out / f"{name}.json").write_text(json.dumps(tables, indent=1) + "\n")

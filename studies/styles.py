@@ -189,8 +189,8 @@ def drive(config: str, road: str | None, models: list[str], runs: Path | None, o
     (``road`` None) reactive: SUMO drives the other cars, as a replayed car cannot see the ego."""
     if not set(models) <= driven_models(out / "drive.json"):  # a drive of fewer models is driven again
         where = ["--scenario", road] if road else ["--reactive"]
-        where += ["--safety"] * a.safety + ["--commit"] * (a.commit and road is not None) if runs else []
-        where += ["--full-stop"] * (a.full_stop and road is not None) if runs else []
+        rules = ["--commit"] * a.commit + ["--full-stop"] * a.full_stop if road else []  # not recordings
+        where += ["--safety"] * a.safety + rules if runs else []
         run(
             [irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * SEED_STRIDE), "--config", config]
