@@ -95,8 +95,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_choice_arguments(p: argparse.ArgumentParser) -> None:
-    """--choice, --lane-change-bias, --commit and --full-stop: how a learned reward picks its policy
-    (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
+    """--choice, --lane-change-bias, --commit, --full-stop and --keep-distance: how a learned reward picks
+    its policy (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
     p.add_argument(
         "--choice",
         choices=CHOICES,
@@ -126,6 +126,13 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         help="a learned model never crosses an active stop line without a full stop, nor exceeds a braking "
         "curve to it, while a policy that keeps to both exists (a rule of the road; default: the reward "
         "alone decides, the paper's)",
+    )
+    p.add_argument(
+        "--keep-distance",
+        action="store_true",
+        help="a learned model keeps a safe following distance to the vehicle ahead (0.8 s plus 2 m, and "
+        "room to brake to its speed at 3 m/s^2, the expert's check), or where no policy does, falls short "
+        "least (a rule of the road; default: the reward alone decides, the paper's)",
     )
 
 
@@ -160,6 +167,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         lane_change_bias=args.lane_change_bias,
         commit=args.commit,
         full_stop=args.full_stop,
+        keep_distance=args.keep_distance,
     )
 
 

@@ -200,6 +200,7 @@ def drive_episode(
     lane_change_bias: float = 1.0,
     commit: bool = False,
     full_stop: bool = False,
+    keep_distance: bool = False,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -209,7 +210,8 @@ def drive_episode(
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
     ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
-    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``: :class:`~irlsim.reward.RewardDriver`'s.
+    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``:
+    :class:`~irlsim.reward.RewardDriver`'s.
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
@@ -221,7 +223,7 @@ def drive_episode(
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
     decider = RewardDriver(
-        model, road, cfg.planner, safety, None, choice, lane_change_bias, commit=commit, full_stop=full_stop
+        model, road, cfg.planner, safety, None, choice, lane_change_bias, commit, full_stop, keep_distance
     )
     recorder = (
         FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))

@@ -302,8 +302,9 @@ class ThetaDriver:
     lane changes); once a chosen policy comes to a stand, the next one does not cross an active stop
     line without a full stop (no creeping up to the line and over it). ``full_stop=True``: a rule of the
     road, every cycle: no policy that crosses an active stop line without a full stop, nor one above the
-    braking curve to it (:func:`within_braking_curve`), while any other policy keeps to them. Call
-    :meth:`reset` per episode.
+    braking curve to it (:func:`within_braking_curve`), while any other policy keeps to them.
+    ``keep_distance=True``: a rule of the road, every cycle: only the policies that keep a safe following
+    distance to the vehicle ahead (:func:`keeping_distance`). Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -315,13 +316,15 @@ class ThetaDriver:
         lane_change_bias: float = 1.0,
         commit: bool = False,
         full_stop: bool = False,
+        keep_distance: bool = False,
     ):
         assert choice in CHOICES, choice
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
         self.choice, self.lane_change_bias, self.commit = choice, lane_change_bias, commit
-        self.full_stop = full_stop
+        self.full_stop, self.keep_distance = full_stop, keep_distance
+        self._stop_lines = tuple(float(sl.s) for sl in planner.road.stop_lines) if keep_distance else ()
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
@@ -338,10 +341,13 @@ class ThetaDriver:
         if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
             self.heading = None  # arrived: the lane change is done
         stopping = self.stopping or self.full_stop
-        braking = within_braking_curve(ps, obs.stop_s, self.planner.cfg) if self.full_stop else None
-        idx = choose_index(
-            ps, theta, self.safe, self.choice, self.lane_change_bias, self.heading, stopping, braking
-        )
+        cfg = self.planner.cfg
+        braking = within_braking_curve(ps, obs.stop_s, cfg) if self.full_stop else None
+        distance = None
+        if self.keep_distance and self.planner.last is not None:
+            distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines)
+        rules = (self.heading, stopping, braking, distance)
+        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, *rules)
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None
@@ -359,6 +365,7 @@ def choose_index(
     heading: int | None = None,
     stopping: bool = False,
     braking: np.ndarray | None = None,
+    distance: np.ndarray | None = None,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
@@ -367,7 +374,8 @@ def choose_index(
     with ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under
     way; only the policies that do not cross an active stop line without a full stop (``stop_line``
     feature 0), unless there is none (applied first: a stop outranks a lane change); ``braking`` [N] bool:
-    then only these (:func:`within_braking_curve`), unless none. :class:`ThetaDriver` and
+    then only these (:func:`within_braking_curve`), unless none; ``distance`` [N] bool: then only these
+    (:func:`keeping_distance`), unless none. :class:`ThetaDriver` and
     :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta)
     allowed: np.ndarray | None = None
@@ -378,6 +386,8 @@ def choose_index(
         allowed = _narrowed(allowed, policy_set.features[:, FEATURE_NAMES.index("stop_line")] <= 0)
     if braking is not None:
         allowed = _narrowed(allowed, braking)
+    if distance is not None:
+        allowed = _narrowed(allowed, distance)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
         allowed = _narrowed(allowed, there)
@@ -407,6 +417,30 @@ def within_braking_curve(
     stood = np.logical_or.accumulate(v < cfg.v_stopped, axis=1)
     over = v > np.sqrt(2.0 * decel * np.maximum(stop_s - cfg.stop_margin - s, 0.0)) + cfg.v_stopped
     return np.logical_not((over & ~stood).any(axis=1))
+
+
+#: [m] ``keep_distance`` where every policy falls short of the following distance: the policies within
+#: this of the least shortfall are kept (the expert counts a shortfall of 5 m as one unit of risk)
+KEEP_DISTANCE_TOL = 1.0
+
+
+def keeping_distance(
+    internals: Any,
+    obs: Observation,
+    cfg: PlannerConfig,
+    stop_lines: tuple[float, ...],
+    sel: SelectionConfig | None = None,
+) -> np.ndarray:
+    """[N] bool: the policies that keep a safe following distance to the vehicle predicted ahead of them
+    in their lane at 1..5 s: the expert's following check (:func:`lane_outlook`'s shortfall: a headway of
+    0.8 s plus 2 m, and room to brake to that vehicle's speed at 3 m/s^2; vehicles at constant speed,
+    standing at the stop line they reach). Where every policy falls short (a car cut in, a leader
+    braked), those within ``KEEP_DISTANCE_TOL`` of the least shortfall. ``internals``: the planner's
+    ``last`` of this cycle; ``stop_lines``: the road's (route positions [m])."""
+    sel = sel or SelectionConfig()
+    shortfall, _ = lane_outlook(internals, obs, sel, cfg.dt, stop_lines, cfg.ego_width, cfg.v_target)
+    least = float(shortfall.min())
+    return shortfall <= (least + KEEP_DISTANCE_TOL if least > 0.0 else 0.0)
 
 
 def _narrowed(allowed: np.ndarray | None, keep: np.ndarray) -> np.ndarray | None:

@@ -127,20 +127,30 @@ class LearnedReward:
         heading: int | None = None,
         stopping: bool = False,
         braking: np.ndarray | None = None,
+        distance: np.ndarray | None = None,
     ) -> int:
         """The policy this reward executes: argmax V. ``safety``: first drop the policies labelled
         collision / off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``;
         ``choice`` 'expected': the fit's expected maneuver and policy instead (:mod:`irlsim.planner.choice`,
         ``irlsim drive --choice expected``); ``heading``, ``stopping``: a lane change under way to that
         lane, or a stop, is finished (``irlsim drive --commit``; see ``choose_index``); ``stopping`` and
-        ``braking`` = ``irlsim.planner.expert.within_braking_curve(...)``: ``irlsim drive --full-stop``."""
+        ``braking`` = ``irlsim.planner.expert.within_braking_curve(...)``: ``irlsim drive --full-stop``;
+        ``distance`` = ``irlsim.planner.expert.keeping_distance(...)``: ``irlsim drive --keep-distance``."""
         if self.is_expert:
             raise IrlsimError(
                 "'expert' chooses by a model-based rule on its own planner's internals, not by a reward: "
                 "drive it with irlsim.planner.expert.ExpertDriver, or load 'expert-theta' (its theta alone)"
             )
         return choose_index(
-            policy_set, self.theta(policy_set), safety, choice, lane_change_bias, heading, stopping, braking
+            policy_set,
+            self.theta(policy_set),
+            safety,
+            choice,
+            lane_change_bias,
+            heading,
+            stopping,
+            braking,
+            distance,
         )
 
     def __repr__(self) -> str:

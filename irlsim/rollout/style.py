@@ -190,3 +190,21 @@ class StyleObserver(StepListener):
             return {}
         t, s, v, lane, gap = (np.array(c) for c in zip(*self.rows, strict=True))
         return style_summary(t, s, v, lane, gap)
+
+
+def style_report(summaries: list[dict[str, Any]]) -> str:
+    """Each model's driving style on one line, and with several models their style distances
+    (:func:`irlsim.rollout.style.style_distances`)."""
+    names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
+    lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
+    if len(summaries) > 1:
+        dist = style_distances([s.get("style") or {} for s in summaries])
+        lines.append(
+            "style distance: "
+            + "; ".join(
+                f"{names[i]} vs {names[j]} {dist[i, j]:.2f}"
+                for i in range(len(names))
+                for j in range(i + 1, len(names))
+            )
+        )
+    return "\n".join(["", *lines, ""])

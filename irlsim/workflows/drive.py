@@ -32,7 +32,7 @@ from irlsim.planner.choice import CHOICES
 from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.road.scenario import Scenario, Scenarios, recorded_name
-from irlsim.rollout.style import format_style, pool_styles, style_distances
+from irlsim.rollout.style import pool_styles, style_report
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
@@ -86,6 +86,8 @@ class DriveRun:
     """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
     full_stop: bool = False
     """a learned model makes a full stop at every active stop line it can (a rule of the road)"""
+    keep_distance: bool = False
+    """a learned model keeps a safe following distance to the vehicle ahead (a rule of the road)"""
 
 
 @dataclass
@@ -212,22 +214,30 @@ def _episode_jobs(
     return jobs, labels
 
 
+#: the planner's rules a learned reward may drive under (DriveRun's flags), as drive.md names them
+RULE_WORDS = {
+    "commit": "maneuvers committed",
+    "full_stop": "a full stop at every stop line",
+    "keep_distance": "a safe distance to the vehicle ahead",
+}
+
+
 def _how(run: DriveRun) -> dict[str, Any]:
     """:func:`drive_episode`'s keywords for how a learned reward picks its policy."""
-    keys = ("choice", "lane_change_bias", "commit", "full_stop")
-    return {k: getattr(run, k) for k in keys}
+    return {k: getattr(run, k) for k in ("choice", "lane_change_bias", *RULE_WORDS)}
 
 
 def _choice_record(run: DriveRun) -> dict[str, Any]:
     """The choice in drive.json's config, left out where it is the default (records unchanged)."""
     rec = {"choice": run.choice, "lane_change_bias": run.lane_change_bias} if run.choice != "argmax" else {}
-    return {**rec, **{k: True for k in ("commit", "full_stop") if getattr(run, k)}}
+    return {**rec, **{k: True for k in RULE_WORDS if getattr(run, k)}}
 
 
 def _choice_words(run: DriveRun) -> str:
     words = f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
-    words = (words if run.choice != "argmax" else "") + (", maneuvers committed" if run.commit else "")
-    return words + (", a full stop at every stop line" if run.full_stop else "")
+    return (words if run.choice != "argmax" else "") + "".join(
+        f", {w}" for k, w in RULE_WORDS.items() if getattr(run, k)
+    )
 
 
 def _write_outputs(
@@ -296,24 +306,6 @@ def _write_outputs(
             else ""
         )
     )
-
-
-def style_report(summaries: list[dict[str, Any]]) -> str:
-    """Each model's driving style on one line, and with several models their style distances
-    (:func:`irlsim.rollout.style.style_distances`)."""
-    names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
-    lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
-    if len(summaries) > 1:
-        dist = style_distances([s.get("style") or {} for s in summaries])
-        lines.append(
-            "style distance: "
-            + "; ".join(
-                f"{names[i]} vs {names[j]} {dist[i, j]:.2f}"
-                for i in range(len(names))
-                for j in range(i + 1, len(names))
-            )
-        )
-    return "\n".join(["", *lines, ""])
 
 
 def _run(run: DriveRun, device: str) -> DriveResult | None:

@@ -188,11 +188,14 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
     assert expected["config"]["choice"] == "expected" and expected["config"]["lane_change_bias"] == bias
     assert "choice" not in argmax["config"]  # the default's record is as before
     assert "choosing the expected policy" in (tmp_path / "e" / "drive.md").read_text()
-    assert main([*common, "--commit", "--full-stop", "--out", str(tmp_path / "c")]) == 0  # both rules
+    rules = ["--commit", "--full-stop", "--keep-distance"]
+    assert main([*common, *rules, "--out", str(tmp_path / "c")]) == 0  # every rule
     committed = json.loads((tmp_path / "c" / "drive.json").read_text())
     assert committed["config"]["commit"] is True and "commit" not in argmax["config"]
     assert committed["config"]["full_stop"] is True and "full_stop" not in argmax["config"]
-    assert "maneuvers committed, a full stop at every stop line" in (tmp_path / "c" / "drive.md").read_text()
+    assert committed["config"]["keep_distance"] is True and "keep_distance" not in argmax["config"]
+    words = "maneuvers committed, a full stop at every stop line, a safe distance to the vehicle ahead"
+    assert words in (tmp_path / "c" / "drive.md").read_text()
     with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
         main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
     assert e.value.code == 2

@@ -1,5 +1,6 @@
 """irlsim.planner.choice: the 'expected' choice and its lane-change bias, against closed forms; the
-commitment to a maneuver under way (irlsim.planner.expert.choose_index) and the full-stop rule."""
+commitment to a maneuver under way (irlsim.planner.expert.choose_index), the full-stop rule and the
+following-distance rule."""
 
 from __future__ import annotations
 
@@ -13,8 +14,9 @@ import pytest
 from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import calibrate_lane_change_bias, change_ratio, expected_choice, maneuver_masses
 from irlsim.planner.config import PlannerConfig
-from irlsim.planner.expert import ThetaDriver, choose_index, within_braking_curve
+from irlsim.planner.expert import ThetaDriver, choose_index, keeping_distance, within_braking_curve
 from irlsim.planner.policy_set import PolicySet
+from irlsim.sim.types import VehicleStates
 
 
 def _points(lateral_end: list[float], progress_end: list[float], k: int = 4) -> np.ndarray:
@@ -221,3 +223,41 @@ def test_the_braking_curve_keeps_a_stop_that_the_next_cycle_can_still_make():
     ps.features[:, 0] = [0.0, -5.0, 0.0]  # the reward prefers policy 1, above the curve
     ruled = ThetaDriver(_Planner([ps]), lambda p, obs: E0, full_stop=True)  # type: ignore[arg-type]
     assert ruled.plan(SimpleNamespace(stop_s=line)) == 2  # type: ignore[arg-type]
+
+
+def _following(speeds: list[float], rear: float, lane_d: float = 0.0) -> tuple[SimpleNamespace, ...]:
+    """Planner internals of policies at constant ``speeds`` in the ego's lane (d = 0), and an observation
+    with one 5 m car at 20 m/s whose rear bumper is ``rear`` metres ahead of the ego's front, at d =
+    ``lane_d``."""
+    cfg = PlannerConfig()
+    t = np.arange(cfg.n_steps) * cfg.dt
+    n = len(speeds)
+    lon = SimpleNamespace(s=np.outer(speeds, t), v=np.outer(speeds, np.ones_like(t)))
+    lat = SimpleNamespace(d=np.zeros((1, len(t))))
+    internals = SimpleNamespace(lon=lon, lat=lat, lon_idx=np.arange(n), lat_idx=np.zeros(n, np.int64))
+    one = np.ones(1)
+    xy_yaw = (0 * one, 0 * one, 0 * one)
+    car = VehicleStates(("car",), *xy_yaw, 20 * one, (rear + 5.0) * one, lane_d * one, 5 * one, 2 * one)
+    ego = SimpleNamespace(s=0.0)
+    return internals, SimpleNamespace(ego=ego, vehicles=car, stop_s=math.inf, lap_length=1000.0)
+
+
+def test_the_following_rule_keeps_the_experts_distance_or_falls_short_least():
+    cfg = PlannerConfig()
+    # the car 20 m ahead at 20 m/s: at 20 m/s the gap stays 20 m >= 0.8 s * 20 + 2 = 18 m; at 22 and 25 m/s
+    # the ego closes in and needs room to brake back to 20 m/s at 3 m/s^2 besides: both fall short
+    internals, obs = _following([20.0, 22.0, 25.0], rear=20.0)
+    assert keeping_distance(internals, obs, cfg, ()).tolist() == [True, False, False]
+    # the same car in the next lane is no leader: every policy keeps its distance
+    internals, side = _following([20.0, 22.0, 25.0], rear=20.0, lane_d=3.2)
+    assert keeping_distance(internals, side, cfg, ()).all()
+    # cut in 10 m ahead: every policy falls short at 1 s, least the slowest: at 16 m/s the gap is 14 m
+    # against 0.8 * 16 + 2 = 14.8 m (0.8 m short), at 18 m/s 12 against 16.4 (4.4), at 20 m/s 10 against
+    # 18 (8): only the policy within 1 m of the least shortfall is kept
+    internals, cut = _following([20.0, 18.0, 16.0], rear=10.0)
+    assert keeping_distance(internals, cut, cfg, ()).tolist() == [False, False, True]
+    # choose_index narrows to them, after the other rules and unless none is left
+    ps = _lanes_set(1, [1, 1, 1], [2.0, 1.0, 0.0], [False] * 3)
+    assert choose_index(ps, E0) == 0
+    assert choose_index(ps, E0, distance=np.array([False, False, True])) == 2
+    assert choose_index(ps, E0, distance=np.zeros(3, bool)) == 0
