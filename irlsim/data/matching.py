@@ -19,6 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.road.angles import atan2
+
 #: [rad] a lane matches a point when its direction there is within this of the point's heading
 MAX_ANGLE = math.radians(60.0)
 #: [m] a shortest path filling a gap between two matched edges may be this much longer than the distance
@@ -57,7 +59,7 @@ def lane_samples(net: Any) -> LaneSamples:
             seg = np.diff(sh, axis=0)
             n = np.maximum(np.ceil(np.hypot(seg[:, 0], seg[:, 1])).astype(int), 1)
             f = np.concatenate([np.arange(k) / k for k in n])  # fractions along each segment
-            heading = np.arctan2(seg[:, 1], seg[:, 0])
+            heading = atan2(seg[:, 1], seg[:, 0])
             xy += [np.repeat(sh[:-1], n, axis=0) + np.repeat(seg, n, axis=0) * f[:, None], sh[-1:]]
             angle += [np.repeat(heading, n), heading[-1:]]
             lane.append(np.full(int(n.sum()) + 1, len(ids)))

@@ -26,6 +26,7 @@ import numpy as np
 
 from irlsim.errors import IrlsimError
 from irlsim.road import crossing, junctions, route
+from irlsim.road.angles import atan2
 
 if TYPE_CHECKING:
     from irlsim.road.scenario import Scenario
@@ -371,7 +372,7 @@ class Road:
         self._vtx_normal = vn / np.linalg.norm(vn, axis=1)[:, None]
         self.ref_s = np.concatenate([[0.0], np.cumsum(self._seg_len)[:-1]])  # [M] s of each vertex
         self.lap_length = float(np.sum(self._seg_len))  # [m]
-        self._seg_heading = np.arctan2(self._seg_dir[:, 1], self._seg_dir[:, 0])
+        self._seg_heading = atan2(self._seg_dir[:, 1], self._seg_dir[:, 0])  # the same on every CPU
         # curvature at vertices from heading change over the neighbouring half segments
         dh = wrap_angle(self._seg_heading - np.roll(self._seg_heading, 1))
         kappa_v = dh / (0.5 * (self._seg_len + np.roll(self._seg_len, 1)))

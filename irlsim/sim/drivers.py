@@ -13,6 +13,7 @@ from typing import Protocol
 import numpy as np
 
 from irlsim.road import Road, wrap_angle
+from irlsim.road.angles import atan2
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.types import EgoState, Observation, Trajectory
 
@@ -56,7 +57,7 @@ def frenet_trajectory(
         s_dot = lon / np.maximum(1.0 - road.curvature(s) * d, 0.2)
         s = ego.s + np.concatenate([[0.0], np.cumsum(0.5 * (s_dot[1:] + s_dot[:-1]) * dt)])
     x, y = road.to_xy(s, d)
-    psi = np.arctan2(d_dot, np.maximum(lon, 1e-3))
+    psi = atan2(d_dot, np.maximum(lon, 1e-3))
     yaw = wrap_angle(road.heading(s) + psi)
     lane = road.lane_of_d(d)
     yaw = np.asarray(yaw)
