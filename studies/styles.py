@@ -243,11 +243,11 @@ def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict
 # ------------------------------------------------------------------------------------------ recording
 
 
-def record(out: Path, a: Any) -> tuple[str, str]:
+def record(out: Path, a: Any, seed: int = REC_SEED) -> tuple[str, str]:
     """SUMO alone drives ``REC_CARS`` cars round the default road (its own routing: each car a trip of
-    one lap, SUMO's default driver type) with --fcd-output; the collect and drive configs of the
-    recording (training egos first, the cars after them for the drives)."""
-    folder = out / RECORDING
+    one lap, SUMO's default driver type, SUMO's ``seed``; another seed: folder ``recording-s<seed>``) with
+    --fcd-output; the recording's collect and drive configs (training egos first, then the drives')."""
+    folder = out / (RECORDING if seed == REC_SEED else f"{RECORDING}-s{seed}")
     fcd = folder / "traffic.fcd.xml"
     road = load_road(scenario=DEFAULT_SCENARIO)
     cars = a.rec_cars
@@ -262,7 +262,7 @@ def record(out: Path, a: Any) -> tuple[str, str]:
         (folder / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
         cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(folder / "cars.rou.xml")]
         cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
-        cmd += ["--seed", str(REC_SEED), "--end", str(4 * cars + a.rec_seconds)]
+        cmd += ["--seed", str(seed), "--end", str(4 * cars + a.rec_seconds)]
         run(cmd)
         fcd.with_suffix(".tmp").rename(fcd)
     n_train = a.rec_train

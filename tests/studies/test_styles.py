@@ -162,3 +162,30 @@ def test_style_states_refuses_a_missing_folder_in_one_line(tmp_path):
     with pytest.raises(SystemExit) as e:
         states.main(["--runs", str(tmp_path / "r"), "--data", str(tmp_path), "--calibrate-on", str(tmp_path)])
     assert "r is not a folder" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_style_recording_refuses_what_it_cannot_drive_in_one_line(tmp_path):
+    rec = _study("style_recording")
+    cases = [
+        (["--sumo-seed", "1"], "SUMO seed 1 is the study's own recording"),
+        (["--cars", "10", "20"], "--cars must lie within 22..59"),
+        (["--cars", "42", "60"], "--cars must lie within 22..59"),
+        (["--cars", "42", "59"], "holds no trained recording: run studies/styles.py"),
+    ]
+    for args, words in cases:
+        with pytest.raises(SystemExit) as e:
+            rec.main(["--out", str(tmp_path), *args])
+        assert words in str(e.value) and "\n" not in str(e.value)
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_style_recording_swaps_the_egos_and_their_count(tmp_path):
+    rec = _study("style_recording")
+    src = tmp_path / "reference.toml"
+    src.write_text(
+        'train_episodes = 20\nmax_cycles = 800\n[demonstrator]\nkind = "recording"\nego = "car22,car23"\n'
+    )
+    text = Path(rec.with_egos(src, tmp_path / "out.toml", ["car42", "car43", "car44"])).read_text()
+    assert (
+        'ego = "car42,car43,car44"' in text and "train_episodes = 3\n" in text and "max_cycles = 800" in text
+    )

@@ -1,0 +1,151 @@
+r"""The style study's recording rows on other cars, with the planner's rules of the road.
+
+Reads a ``studies/styles.py`` run with the recording (its dataset and its rewards ``runs/recording-seed<s>``,
+learned from SUMO's own drivers recorded outside irlsim) and drives those rewards where nothing was
+learned or judged yet, the other cars driven by SUMO from their recorded states (``--reactive``), beside
+the expert on the same routes and the cars' own recorded driving, compared as the study's table does:
+
+- ``--sumo-seed S``: a second recording, SUMO run on its own again with seed ``S`` (the same trips), and
+  its held-out cars (the study's numbering: cars 22-41), every one of them new: fresh evaluation cars;
+- ``--cars 42 59``: other cars of the study's own recording (no dataset or drive of the study uses cars
+  42-59): development cars, to choose a rule on before the fresh cars judge it.
+
+``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
+``keep-distance``; the expert and the references drive as always). Writes
+``<out>/recording-<cars>[-<rules>].md`` and ``.json``:
+
+    .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --cars 42 59 \
+        --rules full-stop keep-distance --workers 2
+    .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --sumo-seed 2 \
+        --rules full-stop keep-distance --workers 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).parent))
+import styles  # noqa: E402  (studies/styles.py: the study's folders, configs and commands)
+
+from irlsim.rollout.style import pool_styles  # noqa: E402
+
+RULES = {"commit": "--commit", "full-stop": "--full-stop", "keep-distance": "--keep-distance"}
+TAGS = {"commit": "-commit", "full-stop": "-stop", "keep-distance": "-dist"}  # styles.py's, and the new one
+
+
+def with_egos(src: Path, dst: Path, egos: list[str]) -> str:
+    """``src`` (a recording's drive or reference config) with ``egos`` as its egos (and episodes)."""
+    text = re.sub(r'ego = "[^"]*"', f'ego = "{",".join(egos)}"', src.read_text())
+    dst.write_text(re.sub(r"^train_episodes = \d+", f"train_episodes = {len(egos)}", text, flags=re.M))
+    return str(dst)
+
+
+def sample(out: Path, a: Any) -> tuple[str, str, str]:
+    """(name, drive config, reference config) of the cars driven: a second SUMO run's held-out cars, or
+    cars ``a.cars`` of the study's recording."""
+    if a.sumo_seed is not None:
+        styles.record(out, a, a.sumo_seed)  # the same trips, SUMO's seed ``sumo_seed``
+        folder, name = out / f"{styles.RECORDING}-s{a.sumo_seed}", f"s{a.sumo_seed}"
+        return name, str(folder / "drive.toml"), str(folder / "reference.toml")
+    first, last = a.cars
+    name, folder = f"c{first}-{last}", out / styles.RECORDING
+    egos = [f"car{i}" for i in range(first, last + 1)]
+    drive = with_egos(folder / "drive.toml", folder / f"drive-{name}.toml", egos)
+    return name, drive, with_egos(folder / "reference.toml", folder / f"reference-{name}.toml", egos)
+
+
+def drive_learned(config: str, runs: Path, out: Path, a: Any) -> Path:
+    """``irlsim drive --reactive`` of ``a.models`` of ``runs`` with ``a.rules``; its drive.json."""
+    if not set(a.models) <= styles.driven_models(out / "drive.json"):
+        styles.run(
+            [styles.irlsim(), "drive", "--runs", str(runs), "--model", ",".join(a.models), "--reactive"]
+            + [RULES[r] for r in a.rules]
+            + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
+            + ["--config", config, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
+            + ["--workers", str(a.workers), "--out", str(out)]
+        )
+    return out / "drive.json"
+
+
+def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
+    name, drive_toml, ref_toml = sample(out, a)
+    ref_folder = out / "reference" / f"{styles.RECORDING}-{name}"
+    styles.collect(ref_toml, styles.DEFAULT_SCENARIO, ref_folder, [], a)
+    expert = styles.drive(drive_toml, None, ["expert"], None, out / "drive" / f"{styles.RECORDING}-{name}", a)
+    refs = {
+        styles.RECORDING: pool_styles(styles.collected_episodes(ref_folder)),
+        "expert": styles.driven_styles(expert)["expert"],
+    }
+    own = {styles.RECORDING: styles.collected_bounds(ref_folder), "expert": styles.safety(expert, "expert")}
+    tag = "".join(TAGS[r] for r in a.rules)
+    learned: dict[str, dict[str, Any]] = {}
+    for seed in a.seeds:
+        runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
+        t1 = styles.table_one([out / "data" / styles.RECORDING], runs, out / "eval" / runs.name, a)
+        dj = drive_learned(
+            drive_toml, runs, out / f"drive{tag}" / f"{styles.RECORDING}-{name}" / runs.name, a
+        )
+        for m, style in styles.driven_styles(dj).items():
+            row = {
+                "model": m,
+                "demonstrator": styles.RECORDING,
+                "seed": seed,
+                "style": style,
+                **t1.get(m, {}),
+            }
+            learned[f"{m} / {styles.RECORDING} / seed {seed}"] = {**row, "safety": styles.safety(dj, m)}
+    what = f"SUMO seed {a.sumo_seed}'s held-out cars" if a.sumo_seed is not None else f"cars {name[1:]}"
+    title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (
+        f", {' '.join(a.rules)}" if a.rules else ""
+    )
+    rows = styles.table_rows(learned, refs)
+    return f"{styles.RECORDING}-{name}{tag}", {title: {"rows": rows, "demonstrators": own}}
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/styles", help="a studies/styles.py run with the recording")
+    p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--sumo-seed", type=int, help="a second SUMO run with this seed: its held-out cars")
+    which.add_argument("--cars", type=int, nargs=2, metavar=("FIRST", "LAST"), help="cars of the recording")
+    p.add_argument("--rules", nargs="*", choices=sorted(RULES), default=[], help="the learned rewards' rules")
+    p.add_argument("--models", nargs="+", choices=styles.MODELS, default=list(styles.MODELS))
+    p.add_argument("--laps", type=int, default=2)
+    p.add_argument("--max-cycles", type=int, default=800)
+    p.add_argument("--threads", type=int, default=2, help="torch threads of Table I")
+    p.add_argument("--workers", type=int, default=1, help="cars driven in parallel")
+    a = p.parse_args(argv)
+    out = Path(a.out)
+    if a.sumo_seed == styles.REC_SEED:
+        sys.exit(f"style_recording: SUMO seed {a.sumo_seed} is the study's own recording: choose another")
+    if a.cars is not None and not styles.REC_CARS > a.cars[1] >= a.cars[0] >= 22:
+        sys.exit(f"style_recording: --cars must lie within 22..{styles.REC_CARS - 1} (cars 0-21 are learned)")
+    trained = [out / "runs" / f"{styles.RECORDING}-seed{s}" / "stage1" for s in a.seeds]
+    if not styles.complete(out / "data" / styles.RECORDING) or not all(t.is_dir() for t in trained):
+        sys.exit(f"style_recording: {out} holds no trained recording: run studies/styles.py with recording")
+    # what styles.py's steps read: its sizes and the drives' seeds (the study's evaluation base)
+    a.rule, a.safety, a.commit, a.full_stop, a.collect_sets = "default", False, False, False, []
+    a.eval_base = styles.EVAL_BASE
+    a.rec_cars, a.rec_seconds, a.rec_train, a.n_policies, a.collect_cycles = (
+        styles.REC_CARS,
+        200,
+        20,
+        500,
+        800,
+    )
+    a.episodes = 20 if a.cars is None else a.cars[1] - a.cars[0] + 1
+    name, tables = table(out, a)
+    (out / f"{name}.json").write_text(json.dumps(styles._finite(tables), indent=1, allow_nan=False) + "\n")
+    (out / f"{name}.md").write_text(styles.markdown(tables))
+    print(styles.markdown(tables) + f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
