@@ -210,8 +210,7 @@ def drive_episode(
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
     ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
-    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``:
-    :class:`~irlsim.reward.RewardDriver`'s.
+    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``: RewardDriver's.
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
@@ -233,9 +232,7 @@ def drive_episode(
     t_start = time.perf_counter()
     bar = _bar(scenario, max_cycles, f"drive {model.name} seed {seed}", show_progress)
     timing = _Timing(decider)
-    observers: list[Observer] = [timing]
-    if recorder is not None:
-        observers.append(_Pictures(recorder, decider))
+    observers: list[Observer] = [timing] + ([_Pictures(recorder, decider)] if recorder is not None else [])
     scorer = ScorecardObserver()  # records every simulation step for the scorecard
     style = StyleObserver()  # the driving style (irlsim.rollout.style)
     observers += [_Progress(bar), scorer, style]
