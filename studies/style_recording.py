@@ -76,7 +76,8 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
     name, drive_toml, ref_toml = sample(out, a)
     ref_folder = out / "reference" / f"{styles.RECORDING}-{name}"
     styles.collect(ref_toml, styles.DEFAULT_SCENARIO, ref_folder, [], a)
-    expert = styles.drive(drive_toml, None, ["expert"], None, out / "drive" / f"{styles.RECORDING}-{name}", a)
+    where = f"{styles.RECORDING}-{name}"
+    expert = styles.drive(drive_toml, None, ["expert"], None, out / "drive" / where / "expert", a)
     refs = {
         styles.RECORDING: pool_styles(styles.collected_episodes(ref_folder)),
         "expert": styles.driven_styles(expert)["expert"],
@@ -87,9 +88,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
     for seed in a.seeds:
         runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
         t1 = styles.table_one([out / "data" / styles.RECORDING], runs, out / "eval" / runs.name, a)
-        dj = drive_learned(
-            drive_toml, runs, out / f"drive{tag}" / f"{styles.RECORDING}-{name}" / runs.name, a
-        )
+        dj = drive_learned(drive_toml, runs, out / f"drive{tag}" / where / f"seed{seed}", a)
         for m, style in styles.driven_styles(dj).items():
             row = {
                 "model": m,
