@@ -14,6 +14,7 @@ from irlsim import devices
 from irlsim.config import MAX_SEED, float_in, int_in
 from irlsim.errors import IrlsimError
 from irlsim.planner.choice import CHOICES
+from irlsim.planner.expert import FOLLOW_HEADWAY
 from irlsim.workflows.drive import DriveRun, drive_models
 from pipelines.collect import add_executor_arguments
 
@@ -129,10 +130,15 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--keep-distance",
-        action="store_true",
-        help="a learned model keeps a safe following distance to the vehicle ahead (0.8 s plus 2 m, and "
-        "room to brake to its speed at 3 m/s^2, the expert's check), or where no policy does, falls short "
-        "least (a rule of the road; default: the reward alone decides, the paper's)",
+        nargs="?",
+        type=float_in(0.0),
+        const=FOLLOW_HEADWAY,
+        default=0.0,
+        metavar="HEADWAY",
+        help="a learned model keeps a safe following distance to the vehicle ahead: HEADWAY seconds "
+        f"(alone: the expert's check, {FOLLOW_HEADWAY:g} s) plus 2 m, and room to brake to its speed at 3 "
+        "m/s^2; where no policy does, it falls short least (a rule of the road; default: the reward alone "
+        "decides, the paper's)",
     )
 
 

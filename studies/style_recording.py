@@ -11,8 +11,8 @@ the expert on the same routes and the cars' own recorded driving, compared as th
   42-59): development cars, to choose a rule on before the fresh cars judge it.
 
 ``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
-``keep-distance``; the expert and the references drive as always). Writes
-``<out>/recording-<cars>[-<rules>].md`` and ``.json``:
+``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default; the
+expert and the references drive as always). Writes ``<out>/recording-<cars>[-<rules>].md`` and ``.json``:
 
     .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --cars 42 59 \
         --rules full-stop keep-distance --workers 2
@@ -32,6 +32,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: the study's folders, configs and commands)
 
+from irlsim.planner.expert import FOLLOW_HEADWAY  # noqa: E402
 from irlsim.rollout.style import pool_styles  # noqa: E402
 
 RULES = {"commit": "--commit", "full-stop": "--full-stop", "keep-distance": "--keep-distance"}
@@ -64,7 +65,7 @@ def drive_learned(config: str, runs: Path, out: Path, a: Any) -> Path:
     if not set(a.models) <= styles.driven_models(out / "drive.json"):
         styles.run(
             [styles.irlsim(), "drive", "--runs", str(runs), "--model", ",".join(a.models), "--reactive"]
-            + [RULES[r] for r in a.rules]
+            + [w for r in a.rules for w in [RULES[r], *([str(a.headway)] * (r == "keep-distance"))]]
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
             + ["--config", config, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
             + ["--workers", str(a.workers), "--out", str(out)]
@@ -83,7 +84,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
         "expert": styles.driven_styles(expert)["expert"],
     }
     own = {styles.RECORDING: styles.collected_bounds(ref_folder), "expert": styles.safety(expert, "expert")}
-    tag = "".join(TAGS[r] for r in a.rules)
+    tag = "".join(TAGS[r] for r in a.rules) + (f"{a.headway:g}" if a.headway != FOLLOW_HEADWAY else "")
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
         runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
@@ -99,9 +100,8 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
             }
             learned[f"{m} / {styles.RECORDING} / seed {seed}"] = {**row, "safety": styles.safety(dj, m)}
     what = f"SUMO seed {a.sumo_seed}'s held-out cars" if a.sumo_seed is not None else f"cars {name[1:]}"
-    title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (
-        f", {' '.join(a.rules)}" if a.rules else ""
-    )
+    rules = [f"{r} {a.headway:g} s" if r == "keep-distance" else r for r in a.rules]
+    title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (f", {' '.join(rules)}" if rules else "")
     rows = styles.table_rows(learned, refs)
     return f"{styles.RECORDING}-{name}{tag}", {title: {"rows": rows, "demonstrators": own}}
 
@@ -114,6 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     which.add_argument("--sumo-seed", type=int, help="a second SUMO run with this seed: its held-out cars")
     which.add_argument("--cars", type=int, nargs=2, metavar=("FIRST", "LAST"), help="cars of the recording")
     p.add_argument("--rules", nargs="*", choices=sorted(RULES), default=[], help="the learned rewards' rules")
+    p.add_argument("--headway", type=float, default=FOLLOW_HEADWAY, help="keep-distance's headway [s]")
     p.add_argument("--models", nargs="+", choices=styles.MODELS, default=list(styles.MODELS))
     p.add_argument("--laps", type=int, default=2)
     p.add_argument("--max-cycles", type=int, default=800)
@@ -121,6 +122,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1, help="cars driven in parallel")
     a = p.parse_args(argv)
     out = Path(a.out)
+    if not a.headway > 0:
+        sys.exit(f"style_recording: --headway must be a time headway > 0 s, got {a.headway}")
     if a.sumo_seed == styles.REC_SEED:
         sys.exit(f"style_recording: SUMO seed {a.sumo_seed} is the study's own recording: choose another")
     if a.cars is not None and not styles.REC_CARS > a.cars[1] >= a.cars[0] >= 22:

@@ -200,7 +200,7 @@ def drive_episode(
     lane_change_bias: float = 1.0,
     commit: bool = False,
     full_stop: bool = False,
-    keep_distance: bool = False,
+    keep_distance: float = 0.0,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 

@@ -68,6 +68,10 @@ THETA_EXPERT_DICT: dict[str, float] = {
 THETA_EXPERT = np.array([THETA_EXPERT_DICT[n] for n in FEATURE_NAMES], dtype=np.float64)
 
 
+#: [s] the time headway of the expert's following check (``SelectionConfig.follow_headway``)
+FOLLOW_HEADWAY = 0.8
+
+
 @dataclass(frozen=True)
 class SelectionConfig:
     """The expert's model-based selection (units: metres of progress over the horizon)."""
@@ -96,7 +100,7 @@ class SelectionConfig:
     behind the predicted vehicle ahead in its lane braking ``follow_decel``, keeping ``follow_headway``"""
     follow_decel: float = 3.0
     """[m/s^2] following check: the braking it may assume"""
-    follow_headway: float = 0.8
+    follow_headway: float = FOLLOW_HEADWAY
     """[s] following check: time headway kept (plus ``follow_gap``)"""
     follow_gap: float = 2.0
     """[m] following check: bumper gap kept"""
@@ -303,8 +307,9 @@ class ThetaDriver:
     line without a full stop (no creeping up to the line and over it). ``full_stop=True``: a rule of the
     road, every cycle: no policy that crosses an active stop line without a full stop, nor one above the
     braking curve to it (:func:`within_braking_curve`), while any other policy keeps to them.
-    ``keep_distance=True``: a rule of the road, every cycle: only the policies that keep a safe following
-    distance to the vehicle ahead (:func:`keeping_distance`). Call :meth:`reset` per episode.
+    ``keep_distance`` > 0: a rule of the road, every cycle: only the policies that keep a safe following
+    distance to the vehicle ahead, with that time headway [s] (:func:`keeping_distance`; the expert's
+    check has ``FOLLOW_HEADWAY``). Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -316,7 +321,7 @@ class ThetaDriver:
         lane_change_bias: float = 1.0,
         commit: bool = False,
         full_stop: bool = False,
-        keep_distance: bool = False,
+        keep_distance: float = 0.0,
     ):
         assert choice in CHOICES, choice
         self.planner = planner
@@ -324,7 +329,8 @@ class ThetaDriver:
         self.safe = safe
         self.choice, self.lane_change_bias, self.commit = choice, lane_change_bias, commit
         self.full_stop, self.keep_distance = full_stop, keep_distance
-        self._stop_lines = tuple(float(sl.s) for sl in planner.road.stop_lines) if keep_distance else ()
+        self._stop_lines = tuple(float(sl.s) for sl in planner.road.stop_lines) if keep_distance > 0 else ()
+        self._follow = SelectionConfig(follow_headway=keep_distance) if keep_distance > 0 else None
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
         self.last_theta: np.ndarray | None = None
@@ -344,8 +350,8 @@ class ThetaDriver:
         cfg = self.planner.cfg
         braking = within_braking_curve(ps, obs.stop_s, cfg) if self.full_stop else None
         distance = None
-        if self.keep_distance and self.planner.last is not None:
-            distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines)
+        if self._follow is not None and self.planner.last is not None:
+            distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow)
         rules = (self.heading, stopping, braking, distance)
         idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, *rules)
         if self.commit:
@@ -432,8 +438,9 @@ def keeping_distance(
     sel: SelectionConfig | None = None,
 ) -> np.ndarray:
     """[N] bool: the policies that keep a safe following distance to the vehicle predicted ahead of them
-    in their lane at 1..5 s: the expert's following check (:func:`lane_outlook`'s shortfall: a headway of
-    0.8 s plus 2 m, and room to brake to that vehicle's speed at 3 m/s^2; vehicles at constant speed,
+    in their lane at 1..5 s: the expert's following check (:func:`lane_outlook`'s shortfall with ``sel``,
+    default the expert's: a headway of 0.8 s plus 2 m, and room to brake to that vehicle's speed at 3
+    m/s^2; vehicles at constant speed,
     standing at the stop line they reach). Where every policy falls short (a car cut in, a leader
     braked), those within ``KEEP_DISTANCE_TOL`` of the least shortfall. ``internals``: the planner's
     ``last`` of this cycle; ``stop_lines``: the road's (route positions [m])."""

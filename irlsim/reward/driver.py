@@ -41,7 +41,7 @@ class RewardDriver:
         lane_change_bias: float = 1.0,
         commit: bool = False,
         full_stop: bool = False,
-        keep_distance: bool = False,
+        keep_distance: float = 0.0,
     ):
         """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
         expert's, so the expert labels the very set the learner chose from); default: its own.

@@ -86,8 +86,9 @@ class DriveRun:
     """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
     full_stop: bool = False
     """a learned model makes a full stop at every active stop line it can (a rule of the road)"""
-    keep_distance: bool = False
-    """a learned model keeps a safe following distance to the vehicle ahead (a rule of the road)"""
+    keep_distance: float = 0.0
+    """> 0: a learned model keeps a safe following distance to the vehicle ahead, with this time headway
+    [s] (a rule of the road; the expert's check: ``irlsim.planner.expert.FOLLOW_HEADWAY``)"""
 
 
 @dataclass
@@ -218,7 +219,7 @@ def _episode_jobs(
 RULE_WORDS = {
     "commit": "maneuvers committed",
     "full_stop": "a full stop at every stop line",
-    "keep_distance": "a safe distance to the vehicle ahead",
+    "keep_distance": "a safe distance to the vehicle ahead ({:g} s headway)",
 }
 
 
@@ -230,13 +231,13 @@ def _how(run: DriveRun) -> dict[str, Any]:
 def _choice_record(run: DriveRun) -> dict[str, Any]:
     """The choice in drive.json's config, left out where it is the default (records unchanged)."""
     rec = {"choice": run.choice, "lane_change_bias": run.lane_change_bias} if run.choice != "argmax" else {}
-    return {**rec, **{k: True for k in RULE_WORDS if getattr(run, k)}}
+    return {**rec, **{k: getattr(run, k) for k in RULE_WORDS if getattr(run, k)}}
 
 
 def _choice_words(run: DriveRun) -> str:
     words = f", choosing the {run.choice} policy (lane-change bias {run.lane_change_bias:g})"
     return (words if run.choice != "argmax" else "") + "".join(
-        f", {w}" for k, w in RULE_WORDS.items() if getattr(run, k)
+        f", {w.format(getattr(run, k))}" for k, w in RULE_WORDS.items() if getattr(run, k)
     )
 
 
@@ -320,6 +321,8 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
         raise IrlsimError(f"--choice {run.choice!r} is not one of {', '.join(CHOICES)}")
     if not (math.isfinite(run.lane_change_bias) and run.lane_change_bias >= 1.0):
         raise IrlsimError(f"--lane-change-bias must be a finite number >= 1, got {run.lane_change_bias}")
+    if not (math.isfinite(run.keep_distance) and run.keep_distance >= 0.0):
+        raise IrlsimError(f"--keep-distance must be a finite headway >= 0 s, got {run.keep_distance}")
     # the scorecard's progress term compares every model with the expert on the same seed: the expert
     # drives first when --model names it; without it progress is null (left out of the score)
     if "expert" in specs:

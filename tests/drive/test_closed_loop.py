@@ -193,12 +193,17 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
     committed = json.loads((tmp_path / "c" / "drive.json").read_text())
     assert committed["config"]["commit"] is True and "commit" not in argmax["config"]
     assert committed["config"]["full_stop"] is True and "full_stop" not in argmax["config"]
-    assert committed["config"]["keep_distance"] is True and "keep_distance" not in argmax["config"]
-    words = "maneuvers committed, a full stop at every stop line, a safe distance to the vehicle ahead"
+    assert committed["config"]["keep_distance"] == 0.8 and "keep_distance" not in argmax["config"]
+    words = "maneuvers committed, a full stop at every stop line, a safe distance to the vehicle ahead (0.8 s"
     assert words in (tmp_path / "c" / "drive.md").read_text()
-    with pytest.raises(SystemExit) as e:  # a bias below 1 is refused when parsed
-        main([*common, "--choice", "expected", "--lane-change-bias", "0.5"])
-    assert e.value.code == 2
+    assert (
+        main([*common, "--keep-distance", "0.5", "--out", str(tmp_path / "k")]) == 0
+    )  # a headway of its own
+    assert json.loads((tmp_path / "k" / "drive.json").read_text())["config"]["keep_distance"] == 0.5
+    for bad in (["--choice", "expected", "--lane-change-bias", "0.5"], ["--keep-distance", "-1"]):
+        with pytest.raises(SystemExit) as e:  # a bias below 1, a negative headway: refused when parsed
+            main([*common, *bad])
+        assert e.value.code == 2
     # the library refuses the same in one line, before any work
     from dataclasses import replace
 
@@ -209,4 +214,6 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
         drive_models(run)
     with pytest.raises(IrlsimError, match="--lane-change-bias must be a finite number >= 1, got 0.5"):
         drive_models(replace(run, choice="expected", lane_change_bias=0.5))
+    with pytest.raises(IrlsimError, match="--keep-distance must be a finite headway >= 0 s, got -1.0"):
+        drive_models(replace(run, choice="argmax", keep_distance=-1.0))
     assert not (tmp_path / "x").exists()

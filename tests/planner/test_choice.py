@@ -14,7 +14,13 @@ import pytest
 from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import calibrate_lane_change_bias, change_ratio, expected_choice, maneuver_masses
 from irlsim.planner.config import PlannerConfig
-from irlsim.planner.expert import ThetaDriver, choose_index, keeping_distance, within_braking_curve
+from irlsim.planner.expert import (
+    SelectionConfig,
+    ThetaDriver,
+    choose_index,
+    keeping_distance,
+    within_braking_curve,
+)
 from irlsim.planner.policy_set import PolicySet
 from irlsim.sim.types import VehicleStates
 
@@ -256,6 +262,13 @@ def test_the_following_rule_keeps_the_experts_distance_or_falls_short_least():
     # 18 (8): only the policy within 1 m of the least shortfall is kept
     internals, cut = _following([20.0, 18.0, 16.0], rear=10.0)
     assert keeping_distance(internals, cut, cfg, ()).tolist() == [False, False, True]
+    # a headway of its own: 15 m behind the car, at its 20 m/s the gap stays 15 m, 3 m short of 0.8 s + 2 m
+    # (18 m); at 19 m/s it is 16 m at 1 s against 17.2 (1.2 m short, the least) and opens: only that one
+    # is kept. With 0.5 s + 2 m (12 and 11.5 m) both keep their distance
+    internals, obs = _following([20.0, 19.0], rear=15.0)
+    assert keeping_distance(internals, obs, cfg, ()).tolist() == [False, True]
+    half = SelectionConfig(follow_headway=0.5)
+    assert keeping_distance(internals, obs, cfg, (), half).tolist() == [True, True]
     # choose_index narrows to them, after the other rules and unless none is left
     ps = _lanes_set(1, [1, 1, 1], [2.0, 1.0, 0.0], [False] * 3)
     assert choose_index(ps, E0) == 0

@@ -171,6 +171,7 @@ def test_style_recording_refuses_what_it_cannot_drive_in_one_line(tmp_path):
         (["--cars", "10", "20"], "--cars must lie within 22..59"),
         (["--cars", "42", "60"], "--cars must lie within 22..59"),
         (["--cars", "42", "59"], "holds no trained recording: run studies/styles.py"),
+        (["--cars", "42", "59", "--headway", "0"], "--headway must be a time headway > 0 s, got 0.0"),
     ]
     for args, words in cases:
         with pytest.raises(SystemExit) as e:
