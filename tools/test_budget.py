@@ -17,9 +17,10 @@ import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-#: [s] the whole ``make test`` on 2 cores: the AVX-512 machine the suite is developed on, and a slower
-#: AVX2-only x86-64 (AMD EPYC of the Zen 2 family), where the same suite takes about twice as long
-BUDGET_S = {"avx512": 240.0, "avx2": 480.0}
+#: [s] the whole ``make test`` on 2 cores: 8 minutes on an AVX2-only x86-64 (AMD EPYC of the Zen 2 family),
+#: the slower CPU family it runs on, and the same suite's time on an x86-64 with AVX-512 (an Intel Xeon),
+#: which runs it 1.4 times as fast (measured on one commit: 312 s against 440 s)
+BUDGET_S = {"avx512": 340.0, "avx2": 480.0}
 
 
 def cpu_name() -> str:
