@@ -11,8 +11,9 @@ the expert on the same routes and the cars' own recorded driving, compared as th
   42-59): development cars, to choose a rule on before the fresh cars judge it.
 
 ``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
-``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default; the
-expert and the references drive as always). Writes ``<out>/recording-<cars>[-<rules>].md`` and ``.json``:
+``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default;
+``--safety`` adds the planner's label filter; the expert and the references drive as always). Writes
+``<out>/recording-<cars>[-<rules>][-safe].md`` and ``.json``:
 
     .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --cars 42 59 \
         --rules full-stop keep-distance --workers 2
@@ -66,6 +67,7 @@ def drive_learned(config: str, runs: Path, out: Path, a: Any) -> Path:
         styles.run(
             [styles.irlsim(), "drive", "--runs", str(runs), "--model", ",".join(a.models), "--reactive"]
             + [w for r in a.rules for w in [RULES[r], *([str(a.headway)] * (r == "keep-distance"))]]
+            + ["--safety"] * a.safety
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
             + ["--config", config, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
             + ["--workers", str(a.workers), "--out", str(out)]
@@ -85,6 +87,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
     }
     own = {styles.RECORDING: styles.collected_bounds(ref_folder), "expert": styles.safety(expert, "expert")}
     tag = "".join(TAGS[r] for r in a.rules) + (f"{a.headway:g}" if a.headway != FOLLOW_HEADWAY else "")
+    tag += "-safe" * a.safety
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
         runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
@@ -100,7 +103,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
             }
             learned[f"{m} / {styles.RECORDING} / seed {seed}"] = {**row, "safety": styles.safety(dj, m)}
     what = f"SUMO seed {a.sumo_seed}'s held-out cars" if a.sumo_seed is not None else f"cars {name[1:]}"
-    rules = [f"{r} {a.headway:g} s" if r == "keep-distance" else r for r in a.rules]
+    rules = [f"{r} {a.headway:g} s" if r == "keep-distance" else r for r in a.rules] + ["safety"] * a.safety
     title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (f", {' '.join(rules)}" if rules else "")
     rows = styles.table_rows(learned, refs)
     return f"{styles.RECORDING}-{name}{tag}", {title: {"rows": rows, "demonstrators": own}}
@@ -115,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     which.add_argument("--cars", type=int, nargs=2, metavar=("FIRST", "LAST"), help="cars of the recording")
     p.add_argument("--rules", nargs="*", choices=sorted(RULES), default=[], help="the learned rewards' rules")
     p.add_argument("--headway", type=float, default=FOLLOW_HEADWAY, help="keep-distance's headway [s]")
+    p.add_argument("--safety", action="store_true", help="the learned rewards within the label filter")
     p.add_argument("--models", nargs="+", choices=styles.MODELS, default=list(styles.MODELS))
     p.add_argument("--laps", type=int, default=2)
     p.add_argument("--max-cycles", type=int, default=800)
@@ -132,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     if not styles.complete(out / "data" / styles.RECORDING) or not all(t.is_dir() for t in trained):
         sys.exit(f"style_recording: {out} holds no trained recording: run studies/styles.py with recording")
     # what styles.py's steps read: its sizes and the drives' seeds (the study's evaluation base)
-    a.rule, a.safety, a.commit, a.full_stop, a.collect_sets = "default", False, False, False, []
+    a.rule, a.commit, a.full_stop, a.collect_sets = "default", False, False, []
     a.eval_base = styles.EVAL_BASE
     a.rec_cars, a.rec_seconds, a.rec_train, a.n_policies, a.collect_cycles = (
         styles.REC_CARS,
