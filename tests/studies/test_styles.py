@@ -190,3 +190,12 @@ def test_style_recording_swaps_the_egos_and_their_count(tmp_path):
     assert (
         'ego = "car42,car43,car44"' in text and "train_episodes = 3\n" in text and "max_cycles = 800" in text
     )
+
+
+def test_style_side_collision_refuses_a_missing_sample_in_one_line(tmp_path):
+    trace = _study("style_side_collision")
+    with pytest.raises(SystemExit) as e:
+        trace.main(
+            ["--out", str(tmp_path), "--sumo-seed", "3", "--seed", "1", "--episode", "0", "--other", "car1"]
+        )
+    assert "is missing: run studies/style_recording.py first" in str(e.value) and "\n" not in str(e.value)
