@@ -55,12 +55,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "vehicles from their first recorded pose on (default: they replay their recorded motion)",
     )
     p.add_argument(
-        "--lane-hint",
-        action="store_true",
-        help="SUMO counts the ego on the lane its body moves into, so SUMO's drivers see its lane change as "
-        "it happens (default: on the lane of its centre, as before)",
-    )
-    p.add_argument(
         "--safety",
         action="store_true",
         help="learned models drop policies labelled collision / off-road / exit (model-based check)",
@@ -180,7 +174,6 @@ def request(args: argparse.Namespace) -> DriveRun:
         commit=args.commit,
         full_stop=args.full_stop,
         keep_distance=args.keep_distance,
-        lane_hint=args.lane_hint,
     )
 
 

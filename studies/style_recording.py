@@ -12,9 +12,8 @@ the expert on the same routes and the cars' own recorded driving, compared as th
 
 ``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
 ``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default;
-``--safety`` adds the planner's label filter; the expert and the references drive as always);
-``--lane-hint`` drives every model, the expert's included, with SUMO told the lane the ego moves into.
-Writes ``<out>/recording-<cars>[-<rules>][-safe][-hint].md`` and ``.json``:
+``--safety`` adds the planner's label filter; the expert and the references drive as always). Writes
+``<out>/recording-<cars>[-<rules>][-safe].md`` and ``.json``:
 
     .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --cars 42 59 \
         --rules full-stop keep-distance --workers 2
@@ -62,16 +61,13 @@ def sample(out: Path, a: Any) -> tuple[str, str, str]:
     return name, drive, with_egos(folder / "reference.toml", folder / f"reference-{name}.toml", egos)
 
 
-def drive(config: str, runs: Path | None, out: Path, a: Any) -> Path:
-    """``irlsim drive --reactive`` (``--lane-hint`` with ``a.lane_hint``) of the expert (``runs`` None) or
-    of ``a.models`` of ``runs`` with ``a.rules``; its drive.json."""
-    models = a.models if runs is not None else ["expert"]
-    if not set(models) <= styles.driven_models(out / "drive.json"):
-        learned = [w for r in a.rules for w in [RULES[r], *([str(a.headway)] * (r == "keep-distance"))]]
-        learned += ["--safety"] * a.safety
+def drive_learned(config: str, runs: Path, out: Path, a: Any) -> Path:
+    """``irlsim drive --reactive`` of ``a.models`` of ``runs`` with ``a.rules``; its drive.json."""
+    if not set(a.models) <= styles.driven_models(out / "drive.json"):
         styles.run(
-            [styles.irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-            + ["--reactive", *(["--lane-hint"] if a.lane_hint else []), *(learned if runs else [])]
+            [styles.irlsim(), "drive", "--runs", str(runs), "--model", ",".join(a.models), "--reactive"]
+            + [w for r in a.rules for w in [RULES[r], *([str(a.headway)] * (r == "keep-distance"))]]
+            + ["--safety"] * a.safety
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
             + ["--config", config, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
             + ["--workers", str(a.workers), "--out", str(out)]
@@ -84,19 +80,19 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
     ref_folder = out / "reference" / f"{styles.RECORDING}-{name}"
     styles.collect(ref_toml, styles.DEFAULT_SCENARIO, ref_folder, [], a)
     where = f"{styles.RECORDING}-{name}"
-    expert = drive(drive_toml, None, out / "drive" / where / ("expert" + "-hint" * a.lane_hint), a)
+    expert = styles.drive(drive_toml, None, ["expert"], None, out / "drive" / where / "expert", a)
     refs = {
         styles.RECORDING: pool_styles(styles.collected_episodes(ref_folder)),
         "expert": styles.driven_styles(expert)["expert"],
     }
     own = {styles.RECORDING: styles.collected_bounds(ref_folder), "expert": styles.safety(expert, "expert")}
     tag = "".join(TAGS[r] for r in a.rules) + (f"{a.headway:g}" if a.headway != FOLLOW_HEADWAY else "")
-    tag += "-safe" * a.safety + "-hint" * a.lane_hint
+    tag += "-safe" * a.safety
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
         runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
         t1 = styles.table_one([out / "data" / styles.RECORDING], runs, out / "eval" / runs.name, a)
-        dj = drive(drive_toml, runs, out / f"drive{tag}" / where / f"seed{seed}", a)
+        dj = drive_learned(drive_toml, runs, out / f"drive{tag}" / where / f"seed{seed}", a)
         for m, style in styles.driven_styles(dj).items():
             row = {
                 "model": m,
@@ -108,7 +104,6 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
             learned[f"{m} / {styles.RECORDING} / seed {seed}"] = {**row, "safety": styles.safety(dj, m)}
     what = f"SUMO seed {a.sumo_seed}'s held-out cars" if a.sumo_seed is not None else f"cars {name[1:]}"
     rules = [f"{r} {a.headway:g} s" if r == "keep-distance" else r for r in a.rules] + ["safety"] * a.safety
-    rules += ["SUMO told the ego's lane"] * a.lane_hint
     title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (f", {' '.join(rules)}" if rules else "")
     rows = styles.table_rows(learned, refs)
     return f"{styles.RECORDING}-{name}{tag}", {title: {"rows": rows, "demonstrators": own}}
@@ -124,7 +119,6 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rules", nargs="*", choices=sorted(RULES), default=[], help="the learned rewards' rules")
     p.add_argument("--headway", type=float, default=FOLLOW_HEADWAY, help="keep-distance's headway [s]")
     p.add_argument("--safety", action="store_true", help="the learned rewards within the label filter")
-    p.add_argument("--lane-hint", action="store_true", help="every drive with irlsim drive --lane-hint")
     p.add_argument("--models", nargs="+", choices=styles.MODELS, default=list(styles.MODELS))
     p.add_argument("--laps", type=int, default=2)
     p.add_argument("--max-cycles", type=int, default=800)

@@ -203,18 +203,12 @@ class RecordingDemonstrator:
 
 
 def recorded_episode(
-    file: str,
-    road: Road,
-    scenario: EpisodeConfig,
-    planner: PlannerConfig,
-    vid: str,
-    reactive: bool = False,
-    lane_hint: bool = False,
+    file: str, road: Road, scenario: EpisodeConfig, planner: PlannerConfig, vid: str, reactive: bool = False
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
     ego starts at its recorded state and the episode ends with its recording; ``reactive``: SUMO drives
-    the others from their first recorded pose on; ``lane_hint``: the simulation's (``ego_lane_hint``)."""
+    the others from their first recorded pose on."""
     rec = open_recording(file, road, scenario.step)
     et = ego_track(rec, vid, road)
     if isinstance(et, str):
@@ -232,7 +226,5 @@ def recorded_episode(
     )
     driver = RecordingDemonstrator(et, planner, scn)
     start = driver.state(0)
-    sim = ReplaySimulation(
-        road, scn, others(rec, vid), et.t0, start=start, reactive=reactive, lane_hint=lane_hint
-    )
+    sim = ReplaySimulation(road, scn, others(rec, vid), et.t0, start=start, reactive=reactive)
     return driver, road, scn, sim

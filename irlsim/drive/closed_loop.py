@@ -196,7 +196,6 @@ def drive_episode(
     show_progress: bool = True,
     expert_progress: tuple[Any, Any] | None = None,
     reactive: bool = False,
-    lane_hint: bool = False,
     choice: str = "argmax",
     lane_change_bias: float = 1.0,
     commit: bool = False,
@@ -210,15 +209,15 @@ def drive_episode(
     the model was trained with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``).
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
-    ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`), and
-    ``lane_hint`` its (ego_lane_hint); ``choice`` ... ``keep_distance``: RewardDriver's.
+    ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
+    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``: RewardDriver's.
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    road, scenario, sim = _simulation(cfg, road, laps, episode, reactive, lane_hint)
+    road, scenario, sim = _simulation(cfg, road, laps, episode, reactive)
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
@@ -271,13 +270,13 @@ def _bar(scenario: EpisodeConfig, max_cycles: int, desc: str, show: bool) -> Any
 
 
 def _simulation(
-    cfg: CollectConfig, road: Road, laps: int, episode: int, reactive: bool, lane_hint: bool = False
+    cfg: CollectConfig, road: Road, laps: int, episode: int, reactive: bool
 ) -> tuple[Road, EpisodeConfig, Simulation]:
     """The episode's road, settings and simulation: the scenario's; on a recording (its egos resolved
     into ``cfg.demonstrator.ego``) ego number ``episode``'s route, start and time, the other vehicles
     replaying their recorded motion (non-reactive) or, ``reactive``, driven by SUMO from their first
     recorded pose on. A SUMO demonstrator's lane change duration holds for the other vehicles here too:
-    the learned reward drives in its demonstrator's traffic. ``lane_hint``: :class:`Simulation`'s."""
+    the learned reward drives in its demonstrator's traffic."""
     if laps < 1:
         raise IrlsimError(f"--laps must be >= 1, got {laps}")
     scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
@@ -285,16 +284,11 @@ def _simulation(
         return (
             road,
             scenario,
-            Simulation(
-                road,
-                scenario,
-                lane_change_duration=cfg.demonstrator.lane_change_duration,
-                lane_hint=lane_hint,
-            ),
+            Simulation(road, scenario, lane_change_duration=cfg.demonstrator.lane_change_duration),
         )
     ego = cfg.demonstrator.ego.split(",")[episode]
     file = cfg.demonstrator.file
-    _, road, scenario, sim = recorded_episode(file, road, scenario, cfg.planner, ego, reactive, lane_hint)
+    _, road, scenario, sim = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)
     return road, scenario, sim
 
 

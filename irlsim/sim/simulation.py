@@ -4,10 +4,10 @@ libsumo by default (in-process, thousands of steps per second); ``gui=True`` run
 for a user with a display (same API). SUMO is imported and located only in :meth:`Simulation.start`.
 libsumo holds one simulation per process: starting a second :class:`Simulation` closes the first.
 
-Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by ``moveToXY(keepRoute=2)`` at
-the state it is given; :meth:`execute` runs the first ``cycle / step`` states of a driver's trajectory (state
-j at the j-th step), and the ego's state becomes the executed trajectory state, so the next plan starts
-exactly where the last one left off.
+Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by
+``moveToXY(keepRoute=2)`` at the state it is given; :meth:`execute` runs the first ``cycle / step``
+states of a driver's trajectory (state j at the j-th step), and the ego's state becomes the executed
+trajectory state, so the next plan starts exactly where the last one left off.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.inputs import check_inputs, probe, refusal, start_quietly
 from irlsim.sim.start import draw_start, start_scale
-from irlsim.sim.sumo_ego import add_ego, ego_lane_hint, sumo_step, take_over
+from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 from irlsim.sim.vtype import DEMO_TYPE, DemoTypeFile
@@ -74,7 +74,6 @@ class Simulation:
         vtypes_file: str | Path | None = None,
         demo_vtype: dict[str, str] | None = None,
         lane_change_duration: float = 0.0,
-        lane_hint: bool = False,
     ):
         self.road = road if road is not None else load_road(net_file)
         self.cfg = cfg if cfg is not None else EpisodeConfig()
@@ -95,14 +94,14 @@ class Simulation:
         self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
-        self.lane_hint = lane_hint  # SUMO counts the ego on the lane its body enters (ego_lane_hint)
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self._sumo_pairs: set[tuple[str, str]] = set()
-        self._wall = self._sumo_wall = 0.0
+        self._wall = 0.0
+        self._sumo_wall = 0.0
         #: called as f(sim) after every bookkept simulation step (the scorecard records its per-step facts)
         self.step_listeners: list[Any] = []
 
@@ -252,7 +251,8 @@ class Simulation:
         self._colliding, self._sumo_pairs = set(), set()
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
-        self._wall, self._sumo_wall, self._steps = 0.0, 0.0, 0
+        self._wall = self._sumo_wall = 0.0
+        self._steps = 0
         self.ego = start
         self._advance(start, bookkeeping=False)  # inserts everyone and places the ego
         if EGO not in api.vehicle.getIDList():
@@ -287,8 +287,7 @@ class Simulation:
         api = self._api
         t0 = time.perf_counter()
         if not placed:
-            hint = ego_lane_hint(self.lane_hint, api, EGO, self.road, state, self.cfg.ego_width)
-            api.vehicle.moveToXY(EGO, *hint, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
+            api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
             t1 = time.perf_counter()
             api.simulationStep()
             self._sumo_wall += time.perf_counter() - t1

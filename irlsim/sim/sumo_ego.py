@@ -68,30 +68,3 @@ def sumo_step(api: Any, ego: str, road: Road, prev: EgoState) -> EgoState:
         d_ddot=0.0,
         lane=int(road.lane_of_d(d)[0]),
     )
-
-
-#: no hint: SUMO maps the ego by its centre
-NO_HINT = ("", -1)
-
-
-def ego_lane_hint(on: bool, api: Any, ego: str, road: Road, state: EgoState, width: float) -> tuple[str, int]:
-    """(edge, SUMO lane) to give ``moveToXY`` for the ego at ``state`` (``width`` [m]), ``on`` with
-    ``Simulation(lane_hint=True)``: the lane its body has entered beside its centre's while it moves into
-    it (``d_dot``), on the edge SUMO has it on; :data:`NO_HINT` when off, while the body is within its lane
-    or moves out of the other, on a junction's internal lane, or where the road has no such lane.
-
-    Without it SUMO counts the ego on the lane its centre is on: while the ego changes lanes its body is
-    half in the next lane and SUMO's drivers there do not see it (a ``moveToXY`` vehicle signals nothing and
-    has no shadow on the target lane, as a SUMO car's continuous lane change has) until its centre crosses
-    the boundary, and a car in the lane beyond may change into the same lane beside it (traced in
-    docs/results/styles.md). With the hint SUMO counts the ego on the lane its body has entered, at its
-    lateral offset (the ego stays where it is), so that lane's drivers see it as soon as it is in their
-    way."""
-    off = state.d - float(road.lane_center(state.lane))
-    if not on or abs(off) + width / 2 <= road.lane_width / 2 or off * state.d_dot <= 0.0:
-        return NO_HINT  # the body within its lane, or leaving the lane it sticks into
-    edge = api.vehicle.getRoadID(ego) if ego in api.vehicle.getIDList() else ""
-    if edge not in road.edges:  # not on the route yet, or on a junction's internal lane
-        return NO_HINT
-    k = road.layout.edge_lane(road.edges.index(edge), state.lane + (1 if off > 0 else -1))
-    return (edge, k) if k >= 0 else NO_HINT

@@ -86,8 +86,6 @@ class DriveRun:
     """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
     full_stop: bool = False
     """a learned model makes a full stop at every active stop line it can (a rule of the road)"""
-    lane_hint: bool = False
-    """SUMO counts the ego on the lane its body moves into (:func:`irlsim.sim.sumo_ego.ego_lane_hint`)"""
     keep_distance: float = 0.0
     """> 0: a learned model keeps a safe following distance to the vehicle ahead, with this time headway
     [s] (a rule of the road; the expert's check: ``irlsim.planner.expert.FOLLOW_HEADWAY``)"""
@@ -217,13 +215,11 @@ def _episode_jobs(
     return jobs, labels
 
 
-#: how the drives run beyond the paper (DriveRun's flags): the planner's rules for a learned reward, and
-#: SUMO told the lane the ego moves into (every model's); drive_episode's keywords, named so in drive.md
+#: the planner's rules a learned reward may drive under (DriveRun's flags), as drive.md names them
 RULE_WORDS = {
     "commit": "maneuvers committed",
     "full_stop": "a full stop at every stop line",
     "keep_distance": "a safe distance to the vehicle ahead ({:g} s headway)",
-    "lane_hint": "SUMO told the lane the ego moves into",  # the simulation's, every model's drives
 }
 
 

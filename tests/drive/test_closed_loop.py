@@ -200,10 +200,6 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
         main([*common, "--keep-distance", "0.5", "--out", str(tmp_path / "k")]) == 0
     )  # a headway of its own
     assert json.loads((tmp_path / "k" / "drive.json").read_text())["config"]["keep_distance"] == 0.5
-    assert main([*common, "--lane-hint", "--out", str(tmp_path / "h")]) == 0  # the simulation's option
-    assert json.loads((tmp_path / "h" / "drive.json").read_text())["config"]["lane_hint"] is True
-    assert "SUMO told the lane the ego moves into" in (tmp_path / "h" / "drive.md").read_text()
-    assert "lane_hint" not in argmax["config"]
     for bad in (["--choice", "expected", "--lane-change-bias", "0.5"], ["--keep-distance", "-1"]):
         with pytest.raises(SystemExit) as e:  # a bias below 1, a negative headway: refused when parsed
             main([*common, *bad])
