@@ -130,21 +130,18 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"style_recording: --headway must be a time headway > 0 s, got {a.headway}")
     if a.sumo_seed == styles.REC_SEED:
         sys.exit(f"style_recording: SUMO seed {a.sumo_seed} is the study's own recording: choose another")
-    if a.cars is not None and not styles.REC_CARS > a.cars[1] >= a.cars[0] >= 22:
-        sys.exit(f"style_recording: --cars must lie within 22..{styles.REC_CARS - 1} (cars 0-21 are learned)")
+    first = styles.SIZES["rec_train"] + 2  # cars before it: the training, validation and test egos
+    if a.cars is not None and not styles.REC_CARS > a.cars[1] >= a.cars[0] >= first:
+        sys.exit(
+            f"style_recording: --cars must lie within {first}..{styles.REC_CARS - 1} (the others are learned)"
+        )
     trained = [out / "runs" / f"{styles.RECORDING}-seed{s}" / "stage1" for s in a.seeds]
     if not styles.complete(out / "data" / styles.RECORDING) or not all(t.is_dir() for t in trained):
         sys.exit(f"style_recording: {out} holds no trained recording: run studies/styles.py with recording")
     # what styles.py's steps read: its sizes and the drives' seeds (the study's evaluation base)
     a.rule, a.commit, a.full_stop, a.collect_sets = "default", False, False, []
     a.eval_base = styles.EVAL_BASE
-    a.rec_cars, a.rec_seconds, a.rec_train, a.n_policies, a.collect_cycles = (
-        styles.REC_CARS,
-        200,
-        20,
-        500,
-        800,
-    )
+    vars(a).update(styles.SIZES)  # styles.py's sizes
     a.episodes = 20 if a.cars is None else a.cars[1] - a.cars[0] + 1
     name, tables = table(out, a)
     (out / f"{name}.json").write_text(json.dumps(styles._finite(tables), indent=1, allow_nan=False) + "\n")

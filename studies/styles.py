@@ -90,6 +90,8 @@ EVAL_BASE = 1000  # evaluation: episode seeds EVAL_BASE * 1e6 + i (no dataset of
 SEED_STRIDE = 1_000_000  # irlsim.data.collection.SEED_STRIDE
 REC_CARS = 60  # cars SUMO drives for the recording (training, validation and test egos, then the drives')
 REC_SEED = 1  # SUMO's seed of the recording
+#: sizes: policies, recorded cars, seconds after the last departure, training egos, cycles per episode
+SIZES = {"n_policies": 500, "rec_cars": REC_CARS, "rec_seconds": 200, "rec_train": 20, "collect_cycles": 800}
 #: [m/s] the planner's top speed where the recording is learned and driven: SUMO's default drivers drive
 #: the oval at up to their speedFactor x its 100 km/h limit (36 % of the recorded rows above the default
 #: 25 m/s, 5 % above 30), and a policy set that cannot reach a driver's speed cannot hold its odometry
@@ -178,8 +180,7 @@ def bounds(s: dict[str, Any]) -> dict[str, Any]:
         "stops": [s["drive/stop_lines_compliant"], s["drive/stop_lines_passed"]],
         "mission": [s["drive/checkpoints_in_lane"], s["drive/checkpoints_passed"]],
     }
-    stops = out["stops"]
-    kept = stops[1] == 0 or stops[0] >= 0.99 * stops[1]
+    kept = out["stops"][1] == 0 or out["stops"][0] >= 0.99 * out["stops"][1]
     out["safe"] = out["collisions"] == 0 and out["exits"] == 0 and out["red"] == 0 and kept
     return out
 
@@ -473,12 +474,11 @@ def main(argv: list[str] | None = None) -> int:
     if not 0 <= a.eval_base * SEED_STRIDE <= MAX_SEED - a.episodes:  # irlsim's seeds are 31-bit
         sys.exit(f"styles: --eval-base {a.eval_base} gives seeds beyond {MAX_SEED}: choose 0..2146")
     a.train_config, a.collect_sets, a.train_sets = "configs/train/stage1.toml", [], []
-    a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train, a.collect_cycles = 500, REC_CARS, 200, 20, 800
+    vars(a).update(SIZES)
     if a.smoke:
         a.seeds, a.episodes, a.max_cycles, a.laps = a.seeds[:1], 1, SMOKE_CYCLES, 1
         a.train_config, a.train_sets = "configs/train/tiny_stage1.toml", SMOKE_TRAIN
-        a.n_policies, a.rec_cars, a.rec_seconds, a.rec_train, a.epochs = 60, 6, 60, 1, 1
-        a.collect_cycles = 40
+        vars(a).update(n_policies=60, rec_cars=6, rec_seconds=60, rec_train=1, epochs=1, collect_cycles=40)
     a.configs = smoke_configs(Path(a.out)) if a.smoke else dict(CONFIGS)
     os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
     try:

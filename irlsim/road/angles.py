@@ -59,15 +59,19 @@ def atan32(x: np.ndarray) -> np.ndarray:
     2, rounds differently on an AVX-512 CPU)."""
     ax = np.abs(x)
     if ax.size and ax.max() <= _F32(0.4142135623730950):  # no reduction (a policy heading to its lane)
-        zz = x * x
-        return (((_PF[0] * zz + _PF[1]) * zz + _PF[2]) * zz + _PF[3]) * zz * x + x
+        return _atanf_poly(x)
     big, mid = ax > _F32(2.414213562373095), (ax > _F32(0.4142135623730950)) & (ax <= _F32(2.414213562373095))
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(big, _F32(-1.0) / ax, np.where(mid, (ax - _F32(1.0)) / (ax + _F32(1.0)), ax))
-    zz = z * z
-    r = (((_PF[0] * zz + _PF[1]) * zz + _PF[2]) * zz + _PF[3]) * zz * z + z
+    r = _atanf_poly(z)
     base = np.where(big, _F32(np.pi / 2), np.where(mid, _F32(np.pi / 4), _F32(0.0)))
     return np.copysign(base + r, x)
+
+
+def _atanf_poly(z: np.ndarray) -> np.ndarray:
+    """Cephes' atanf on the reduced argument, |z| <= tan(pi/8), in float32."""
+    zz = z * z
+    return (((_PF[0] * zz + _PF[1]) * zz + _PF[2]) * zz + _PF[3]) * zz * z + z
 
 
 def atan2(y: np.ndarray | float, x: np.ndarray | float) -> np.ndarray:
