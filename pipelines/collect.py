@@ -34,7 +34,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar="MODEL|CHECKPOINT",
         help="DAgger: this learned reward drives (a model name found in --runs, or a checkpoint path; "
         "argmax of its reward, as 'irlsim drive' without --safety) and the expert labels every cycle with "
-        "its own choice on the same policy set (demo_source 'expert'); default: the expert drives",
+        "its own choice on the same policy set (demo_source 'expert'); with a [demonstrator] kind = 'sumo' "
+        "SUMO's driver labels instead, from the cycle's state over the horizon (a look ahead, its odometry "
+        "projected: demo_source 'odometry'); default: the expert drives",
     )
     p.add_argument("--runs", type=Path, default=None, help="with --driver MODEL: the runs folder holding it")
     p.add_argument(

@@ -18,12 +18,13 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 from irlsim.config import MAX_SEED, require, require_memory, to_dict
 from irlsim.data.demonstrator import (
     EXPERT,
     RECORDING,
+    SUMO,
     DemonstratorConfig,
     SumoDemonstrator,
     as_recorded,
@@ -31,23 +32,23 @@ from irlsim.data.demonstrator import (
     recorded_ego,
 )
 from irlsim.data.demos import DemoConfig as DemoConfig  # re-exported: a field of CollectConfig
-from irlsim.data.demos import DemoProjector, expert_projection
+from irlsim.data.demos import DemoProjector
 from irlsim.data.recorded import recorded_episode
+from irlsim.data.recorder import CycleRecorder
+from irlsim.data.recorder import LabelledDriver as LabelledDriver  # re-exported: DAgger's drivers
 from irlsim.data.roads import ScenarioEpisodes as ScenarioEpisodes  # re-exported: of CollectConfig
 from irlsim.data.roads import by_identity
 from irlsim.data.schema import DEMO_EXPERT, DEMO_ODOMETRY, stats_name
-from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.config import PLANNER_BYTES_PER_POLICY, PlannerConfig
 from irlsim.planner.expert import ExpertDriver
-from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import Scenarios, recorded_name
-from irlsim.rollout import Cycle, EpisodeResult, EpisodeRunner, Observer, ObserverBase
+from irlsim.rollout import EpisodeRunner, Observer, ObserverBase
 from irlsim.rollout.style import StyleObserver
 from irlsim.sim.config import EpisodeConfig, defaults_source, with_scenario_defaults
 from irlsim.sim.simulation import Simulation
-from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.types import Observation
 from irlsim.utils import MISSING as MISSING  # re-exported: the manifest checks' names
 from irlsim.utils import first_difference as first_difference
 from irlsim.utils import seed_everything, write_json
@@ -170,8 +171,9 @@ class CollectConfig:
         self.demo.validate()
         self.demonstrator.validate()
         require(
-            not self.dagger_round or self.demonstrator.kind == EXPERT,
-            "DAgger rounds label with the expert: drop [demonstrator] (or set kind = 'expert')",
+            not self.dagger_round or self.demonstrator.kind != RECORDING,
+            "DAgger rounds label with the expert or a SUMO driver; a recording cannot label states its "
+            "vehicles never drove: set [demonstrator] kind = 'expert' or 'sumo'",
         )
         require_memory(
             f"planner.n_policies={self.planner.n_policies} with {self.workers} workers",
@@ -336,81 +338,24 @@ class EpisodeJob:
     receives them instead of reading the scenario files again (None: read in the episode)"""
 
 
-@runtime_checkable
-class LabelledDriver(Protocol):
-    """A driver whose every cycle also carries the expert's selection on the very policy set it chose
-    from (DAgger): ``last_policy_set`` / ``last_index`` describe what was executed, ``expert_index`` the
-    expert's choice in that set. Built in ``irlsim.drive.dagger`` (the learned driver lives above the
-    data layer); collection only records it."""
-
-    last_policy_set: PolicySet | None
-    last_index: int
-    expert_index: int
-
-    def plan(self, obs: Observation) -> Trajectory: ...
-
-
-class CycleRecorder(ObserverBase):
-    """The recording observer of collection: every cycle's policy set and executed index go to the
-    ``EpisodeWriter``. The demonstration is either the odometry of what was actually driven, projected by
-    the ``DemoProjector`` once each cycle's horizon has been driven (``labeller`` None), or, with a
-    ``labeller`` (a :class:`LabelledDriver`), the expert's own selection in the same policy set, at once
-    (:func:`irlsim.data.demos.expert_projection`)."""
-
-    def __init__(
-        self,
-        writer: EpisodeWriter,
-        projector: DemoProjector,
-        labeller: LabelledDriver | None = None,
-    ):
-        self.writer, self.projector, self.labeller = writer, projector, labeller
-        self.agree = 0  # cycles whose executed policy is the expert's selection (DAgger)
-
-    def on_reset(self, sim: Simulation, obs: Observation) -> None:
-        e = obs.ego
-        self.projector.push_odometry(e.t, e.s, e.d, e.yaw)
-
-    def on_cycle(self, sim: Simulation, cycle: Cycle) -> None:
-        ps, obs, traj = cycle.policy_set, cycle.obs, cycle.trajectory
-        assert ps is not None, "collection records drivers that choose from a policy set"
-        e = obs.ego
-        ego = {"x": e.x, "y": e.y, "yaw": e.yaw, "v": e.v, "s": e.s, "d": e.d, "lane": e.lane}
-        self.writer.add_cycle(
-            cycle.index,
-            ps,
-            ego,
-            executed_index=cycle.chosen,
-            target_checkpoint=obs.target_checkpoint,
-            situation=situation_of(obs, sim.road),
-        )
-        if self.labeller is not None:
-            assert self.labeller.last_policy_set is ps, "the label belongs to the executed policy set"
-            k = self.labeller.expert_index
-            self.agree += int(k == cycle.chosen)
-            p = self.projector
-            self.writer.add_demo(
-                expert_projection(
-                    cycle.index, ps.s, ps.d, ps.yaw, k, alpha=p.alpha, w_yaw=p.w_yaw, lap_length=p.lap_length
-                )
-            )
-            return
-        self.projector.push_cycle(cycle.index, ps.t, ps.s, ps.d, ps.yaw)
-        # only the steps SUMO actually simulated: an episode that ends mid-cycle (collision, exit,
-        # time-out) must not complete a demonstration window with states that were never driven; where
-        # SUMO drove (a SUMO demonstrator) the states are the simulation's odometry
-        driven = sim.odometry[len(sim.odometry) - cycle.driven :] if traj.by_sumo else None
-        for j in range(1, cycle.driven + 1):
-            st = traj.state(j) if driven is None else driven[j - 1]
-            self.projector.push_odometry(st.t, st.s, st.d, st.yaw)
-        self.writer.add_demos(self.projector.pop_ready())
-
-    def on_end(self, sim: Simulation, result: EpisodeResult) -> None:
-        if self.labeller is None:
-            self.writer.add_demos(self.projector.finish())
-
-
 #: makes the driver of a DAgger episode: (road, collect config) -> a LabelledDriver
 DriverFactory = Callable[[Road, CollectConfig], LabelledDriver]
+
+
+def _episode_driver(
+    job: EpisodeJob, road: Road, scenario: EpisodeConfig, make_driver: DriverFactory | None
+) -> tuple[Any, Road, EpisodeConfig, Simulation | None]:
+    """Who drives an episode: (driver, road, scenario, the replay simulation of a recording or None)."""
+    cfg, demonstrator = job.config, job.config.demonstrator
+    if make_driver is not None:
+        return make_driver(road, cfg), road, scenario, None
+    if demonstrator.kind == EXPERT:
+        return ExpertDriver(road, cfg.planner), road, scenario, None
+    if demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
+        counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
+        ego = recorded_ego(demonstrator, counts, job.split, job.episode)
+        return recorded_episode(demonstrator.file, road, scenario, cfg.planner, ego)
+    return SumoDemonstrator(road, cfg.planner, scenario), road, scenario, None
 
 
 def collect_episode(
@@ -433,17 +378,8 @@ def collect_episode(
     scenario = cfg.scenario if job.scenario is None else replace(cfg.scenario, name=job.scenario)
     scenarios = job.scenarios or Scenarios()
     road = load_road(scenario=scenarios(scenario.name))
-    demonstrator, replay = cfg.demonstrator, None
-    if make_driver is not None:
-        driver: Any = make_driver(road, cfg)
-    elif demonstrator.kind == EXPERT:
-        driver = ExpertDriver(road, cfg.planner)
-    elif demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
-        counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
-        ego = recorded_ego(demonstrator, counts, job.split, job.episode)
-        driver, road, scenario, replay = recorded_episode(demonstrator.file, road, scenario, cfg.planner, ego)
-    else:
-        driver = SumoDemonstrator(road, cfg.planner, scenario)
+    demonstrator = cfg.demonstrator
+    driver, road, scenario, replay = _episode_driver(job, road, scenario, make_driver)
     labeller = driver if make_driver is not None else None
     projector = DemoProjector(
         lap_length=road.lap_length,
@@ -461,8 +397,12 @@ def collect_episode(
             nonlocal setup
             setup = time.perf_counter() - t_start
 
-    source = DEMO_ODOMETRY if labeller is None else DEMO_EXPERT
-    with replay or demonstrator_simulation(road, scenario, demonstrator) as sim:
+    # DAgger with a SUMO demonstrator: SUMO's driver labels from a look ahead (its odometry, projected)
+    look_ahead = labeller is not None and demonstrator.kind == SUMO
+    source = DEMO_EXPERT if labeller is not None and not look_ahead else DEMO_ODOMETRY
+    with replay or demonstrator_simulation(road, scenario, demonstrator, branching=look_ahead) as sim:
+        if look_ahead:
+            driver.look_ahead_by = sim.branch  # type: ignore[attr-defined]
         record = episode_record(job.seed, cfg, job.scenario, scenarios)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()

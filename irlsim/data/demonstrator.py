@@ -31,6 +31,7 @@ from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import Scenario
+from irlsim.sim.branch import BranchingSimulation
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.simulation import Simulation
@@ -297,11 +298,12 @@ def demo_vtype(cfg: DemonstratorConfig, scenario: EpisodeConfig) -> dict[str, st
 
 
 def demonstrator_simulation(
-    road: Road, scenario: EpisodeConfig, demonstrator: DemonstratorConfig
+    road: Road, scenario: EpisodeConfig, demonstrator: DemonstratorConfig, branching: bool = False
 ) -> Simulation:
     """An episode's simulation: a SUMO demonstrator's vehicle type and lane change duration (none of
-    either for the expert)."""
-    return Simulation(
+    either for the expert); ``branching``: one that looks ahead with SUMO's driver (DAgger's SUMO
+    labeller, :class:`irlsim.sim.branch.BranchingSimulation`)."""
+    return (BranchingSimulation if branching else Simulation)(
         road,
         scenario,
         demo_vtype=demo_vtype(demonstrator, scenario),

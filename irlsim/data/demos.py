@@ -13,6 +13,7 @@ first) or when the smallest distance exceeds ``MAX_DEMO_DISTANCE``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, NamedTuple
 
@@ -293,6 +294,30 @@ class DemoProjector:
         self._odo.clear()
         self._last_odo_step = None
         return out
+
+    def project_window(
+        self,
+        cycle_index: int,
+        t: float,
+        policies: tuple[np.ndarray, np.ndarray, np.ndarray],
+        odometry: Sequence[tuple[float, float, float, float]],
+    ) -> Projection:
+        """One cycle's demonstration at once: its policies (s, d, yaw: [N, T] route frame) at time ``t``
+        [s] projected onto ``odometry`` [(t, s, d, yaw)] that covers the window (a look ahead: DAgger's
+        SUMO labeller), with this projector's metric and rules; its own streaming buffers untouched. An
+        odometry that ends before the window does gives no demonstration."""
+        one = DemoProjector(
+            lap_length=self.lap_length,
+            horizon=(self.n_steps - 1) * self.dt,
+            dt=self.dt,
+            alpha=self.alpha,
+            w_yaw=self.w_yaw,
+            max_demo_distance=self.max_demo_distance,
+        )
+        one.push_cycle(cycle_index, t, *policies)
+        for row in odometry:
+            one.push_odometry(*row)
+        return one.finish()[0]
 
     @property
     def n_pending(self) -> int:

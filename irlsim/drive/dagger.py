@@ -1,4 +1,5 @@
-"""DAgger's learned driver: a learned reward drives, the expert labels (``irlsim collect --driver``).
+"""DAgger's learned driver: a learned reward drives, the expert (or SUMO's driver) labels (``irlsim collect
+--driver``).
 
 Every planning cycle one planner (the expert's) samples the policy set from the current state; the learned
 model's decision is exactly ``irlsim drive``'s without ``--safety`` (argmax over the set of V = -theta^T f,
@@ -8,12 +9,19 @@ executed. On the same policy set and state the expert runs its own selection
 (``demo_source`` 'expert', distance 0 by construction). The expert's lane hysteresis follows the executed
 policy (:meth:`~irlsim.planner.expert.ExpertDriver.follow`): it labels from where the car is going.
 
+With a SUMO demonstrator (a collect config's ``[demonstrator] kind = 'sumo'``) SUMO's driver labels
+instead: before the learner's policy runs, the simulation looks ahead with SUMO's driver at the wheel for
+the horizon and comes back (:meth:`irlsim.sim.branch.BranchingSimulation.branch`), and that odometry,
+projected onto the cycle's policy set as a SUMO demonstrator's own (``demo_source`` 'odometry', its
+distance and rules), is the demonstration: what that driver would have done in the learner's state.
+
 Collection (the data layer) records a :class:`~irlsim.data.collection.LabelledDriver`; this module makes
 one per episode, loading the model once per process.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -22,11 +30,16 @@ from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
-from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.types import EgoState, Observation, Trajectory
 
 
 class DaggerDriver:
-    """A :class:`~irlsim.data.collection.LabelledDriver`: ``model`` drives, the expert labels."""
+    """A :class:`~irlsim.data.collection.LabelledDriver`: ``model`` drives, the expert labels; or, once
+    collection sets ``look_ahead_by`` (a SUMO demonstrator:
+    :meth:`irlsim.sim.branch.BranchingSimulation.branch`), SUMO's driver labels from each cycle's state."""
+
+    #: the simulation's look ahead with SUMO's driver (steps -> states driven); None: the expert labels
+    look_ahead_by: Callable[[int], list[EgoState]] | None = None
 
     def __init__(self, model: LearnedReward, road: Road, cfg: CollectConfig):
         if model.is_expert:
@@ -39,12 +52,19 @@ class DaggerDriver:
         self.last_policy_set: PolicySet | None = None
         self.last_index = -1
         self.expert_index = -1
+        self.look_ahead: list[tuple[float, float, float, float]] | None = None
+        self.horizon_steps = round(cfg.planner.horizon / cfg.scenario.step)
 
     def plan(self, obs: Observation) -> Trajectory:
         traj = self.decider.plan(obs)
         ps, idx = self.decider.last_policy_set, self.decider.last_index
         assert ps is not None
-        self.expert_index = self.expert.select(ps, obs)
+        if self.look_ahead_by is not None:  # from this very state, before the learner's policy runs
+            e = obs.ego
+            seen = [e, *self.look_ahead_by(self.horizon_steps)]
+            self.look_ahead = [(x.t, x.s, x.d, x.yaw) for x in seen]
+        else:
+            self.expert_index = self.expert.select(ps, obs)
         self.expert.follow(ps, idx)
         self.last_policy_set, self.last_index = ps, idx
         return traj

@@ -1,7 +1,7 @@
 """Collecting a dataset (``irlsim collect``): :func:`collect_dataset` with its typed :class:`CollectRun`.
 
-The expert (or, for DAgger, a learned driver labelled by the expert) drives SUMO episodes through
-``irlsim.executor`` in ``workers`` processes (one libsumo each): spawned local workers, or Ray tasks
+The expert (or, for DAgger, a learned driver labelled by the expert or SUMO's driver) drives SUMO episodes
+through ``irlsim.executor`` in ``workers`` processes (one libsumo each): spawned local workers, or Ray tasks
 (``executor='ray'``; ``address`` joins a cluster whose nodes all write ``out``). An episode that raises,
 whose worker dies or that runs past the episode time limit is tried once more; one that fails again is
 listed under ``"failed"`` in the manifest, the others finish, and the result names it.
@@ -367,6 +367,13 @@ def _demo_record(demonstrator: dict[str, Any] | None) -> dict[str, Any]:
     return {"demonstrator": demonstrator} if demonstrator else {}
 
 
+def _dagger_words(driver: dict[str, Any], demonstrator: dict[str, Any] | None, r: int) -> str:
+    """Who drives and who labels a DAgger collection, as its first line says: the expert labels, or a SUMO
+    driver (by name)."""
+    who = describe(demonstrator) if demonstrator else "the expert"
+    return f", {driver['model']} drives and {who} labels (DAgger round {r})"
+
+
 def _collect(
     cfg: Any,
     out: Path,
@@ -396,7 +403,7 @@ def _collect(
     where = f"{cfg.workers} worker(s)" + (" as Ray tasks" if executor == "ray" else "")
     where += f", at most {timeout:g} s per episode" if timeout is not None else ", in this process"
     if driver is not None:
-        where += f", {driver['model']} drives and the expert labels (DAgger round {cfg.dagger_round})"
+        where += _dagger_words(driver, demonstrator, cfg.dagger_round)
     elif demonstrator:
         where += f", demonstrator {describe(demonstrator)}"
     ident = {**({"driver": recorded} if driver is not None else {}), **_demo_record(demonstrator), **roads}

@@ -152,17 +152,6 @@ def test_unknown_model_or_attribute_is_one_line_before_any_work(tmp_path, capsys
     assert not out.exists()
 
 
-def test_dagger_with_a_sumo_demonstrator_is_refused(tmp_path, capsys):
-    capsys.readouterr()
-    cfg = tmp_path / "dagger.toml"
-    cfg.write_text("dagger_round = 1\n" + BASE + IDM)
-    out = tmp_path / "dagger"
-    rc = main(["collect", "--config", str(cfg), "--out", str(out), "--driver", "some-model"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert rc == 2 and len(err) == 1 and "DAgger rounds label with the expert" in err[0], err
-    assert not out.exists()
-
-
 def test_an_aggregate_of_several_demonstrators_names_each(sumo_sets):
     from irlsim.data.aggregate import open_datasets
 

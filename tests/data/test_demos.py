@@ -118,6 +118,23 @@ def test_projector_matches_batch_distance_and_argmin(push_cycle_late: bool) -> N
     assert n_complete == (150 - T) // 2 + 1
 
 
+def test_a_window_projected_at_once_is_the_streaming_projection() -> None:
+    """``project_window`` (DAgger's SUMO labeller: one cycle's look ahead) gives the streaming projector's
+    demonstration of the same odometry, leaves its buffers alone, and none for a look ahead cut short."""
+    out, sets, odo = _drive(False)
+    proj = DemoProjector(lap_length=LAP, horizon=5.0, dt=DT)
+    for k, (ps, step) in list(sets.items())[:30]:
+        rows = [(j * DT, *odo[j]) for j in range(step, min(step + T, len(odo)))]
+        p = proj.project_window(k, step * DT, (ps.s, ps.d, ps.yaw), rows)
+        dist, idx, demo_d = out[k]
+        assert p.cycle_index == k and p.demo_index == idx
+        np.testing.assert_array_equal(p.distances, dist)
+        assert (np.isnan(demo_d) and np.isnan(p.demo_distance)) or p.demo_distance == demo_d
+        short = proj.project_window(k, step * DT, (ps.s, ps.d, ps.yaw), rows[:-1])
+        assert short.demo_index == -1 and np.isnan(short.distances).all()
+    assert proj.n_pending == 0
+
+
 def test_threshold_rejects_far_demonstrations() -> None:
     rng = np.random.default_rng(3)
     proj = DemoProjector(lap_length=LAP, max_demo_distance=1.5)

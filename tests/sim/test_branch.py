@@ -1,0 +1,90 @@
+"""The look ahead of DAgger's SUMO labeller, with real SUMO (libsumo): a branch drives exactly what SUMO's
+driver drives from the same state, the simulation comes back to where it was, the episode's books never
+see the branch, and the same seed gives the same bytes."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from irlsim.planner.config import PlannerConfig
+from irlsim.planner.expert import ExpertDriver
+from irlsim.road import load_road
+from irlsim.sim.branch import BranchingSimulation
+from irlsim.sim.config import EpisodeConfig
+from irlsim.sim.drivers import SumoDriver
+from irlsim.sim.simulation import EGO
+from irlsim.sim.vtype import vtype_attributes
+
+CFG = EpisodeConfig(n_vehicles=4, laps=1, max_time=60.0)
+IDM = vtype_attributes({"carFollowModel": "IDM", "tau": 0.6, "accel": 3.0}, CFG.ego_target_speed)
+CYCLES, AHEAD = 12, 30
+
+
+@pytest.fixture(scope="module")
+def road():
+    return load_road()
+
+
+def _drive(road, cycles: int, ahead: int = 0):
+    """A simulation after the expert drove ``cycles`` cycles (a branch of ``ahead`` steps every cycle)."""
+    sim = BranchingSimulation(road, CFG, demo_vtype=IDM)
+    expert = ExpertDriver(road, PlannerConfig(n_policies=60))
+    obs = sim.reset(3)
+    seen = []
+    for _ in range(cycles):
+        if ahead:
+            seen.append(sim.branch(ahead))
+        sim.execute(expert.plan(obs))
+        obs = sim.observe()
+    return sim, obs, seen
+
+
+def test_a_branch_is_what_sumos_driver_drives_from_that_state(road):
+    sim, obs, _ = _drive(road, CYCLES)
+    before = sim.ego
+    api = sim._api
+    xy, t = api.vehicle.getPosition(EGO), api.simulation.getTime()
+    branch = sim.branch(AHEAD)
+    # back where it was: the time, the ego's place (SUMO recomputes it from the lane: within a nanometre)
+    assert api.simulation.getTime() == t and sim.ego is before
+    np.testing.assert_allclose(api.vehicle.getPosition(EGO), xy, atol=1e-9)
+    assert len(branch) == AHEAD and branch[0].t == pytest.approx(t + CFG.step)
+    sim.close()
+    # the same state, SUMO's driver at the wheel for real: the branch's states to the last bit
+    sim, obs, _ = _drive(road, CYCLES)
+    assert sim.ego == before
+    sim.execute(SumoDriver(road, CFG).plan(obs), n_steps=AHEAD)
+    assert sim.odometry[-AHEAD:] == branch
+    sim.close()
+
+
+def test_the_books_never_see_a_branch_and_the_same_seed_gives_the_same_bytes(road):
+    sim, _, seen = _drive(road, CYCLES, AHEAD)
+    books = dict(sim.stats), list(sim.odometry)
+    sim.close()
+    # a branch moved the ego along SUMO's road (the IDM driver keeps going), the episode did not
+    assert all(len(b) == AHEAD and b[-1].s > b[0].s for b in seen)
+    assert len(books[1]) == CYCLES * CFG.steps_per_cycle + 1
+    again, _, seen2 = _drive(road, CYCLES, AHEAD)
+    assert again.odometry == books[1] and seen2 == seen
+    timing = ("sim/steps_per_s", "sim/sumo_steps_per_s")
+    assert {k: v for k, v in again.stats.items() if k not in timing} == {
+        k: v for k, v in books[0].items() if k not in timing
+    }
+    again.close()
+    # without branches the ego drives the same policies' states (the traffic's random streams differ)
+    plain, _, _ = _drive(road, 1)
+    first = [dataclasses.replace(s, t=0.0) for s in plain.odometry[:2]]
+    assert first == [dataclasses.replace(s, t=0.0) for s in books[1][:2]]
+    plain.close()
+
+
+def test_a_branch_needs_a_placed_ego(road):
+    sim, obs, _ = _drive(road, 1)
+    sim.execute(SumoDriver(road, CFG).plan(obs), n_steps=2)
+    with pytest.raises(RuntimeError, match="SUMO drives the ego already"):
+        sim.branch(3)
+    sim.close()
