@@ -12,8 +12,8 @@ two decimals unless told otherwise, which moved every vehicle after a load by up
 state by default, so the traffic after a branch dawdles (Krauss's ``sigma``) otherwise than it would have
 without one: a labelled episode is its own sample of traffic, the same for the same seed. Restoring the
 streams as well (``--save-state.rng``) made the set of vehicles differ a few cycles after a load (not traced
-further), so it is not used. Cost: a save and a load of the oval with 15 vehicles take about 3 ms, the horizon's 50 steps about
-6 ms more (2-core Intel Xeon).
+further), so it is not used. Cost: a save and a load of the oval with 15 vehicles take about 3 ms, the
+horizon's 50 steps about 6 ms more (2-core Intel Xeon).
 """
 
 from __future__ import annotations

@@ -199,3 +199,26 @@ def test_style_side_collision_refuses_a_missing_sample_in_one_line(tmp_path):
             ["--out", str(tmp_path), "--sumo-seed", "3", "--seed", "1", "--episode", "0", "--other", "car1"]
         )
     assert "is missing: run studies/style_recording.py first" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_style_dagger_rounds_and_refusals(tmp_path, monkeypatch):
+    dagger = _study("style_dagger")
+    with pytest.raises(SystemExit) as e:
+        dagger.main(["--out", str(tmp_path)])
+    assert "no dataset of assertive" in str(e.value) and "\n" not in str(e.value)
+    with pytest.raises(SystemExit) as e:
+        dagger.main(["--out", str(tmp_path), "--rows", "expert"])
+    assert "the expert labels its own rounds" in str(e.value)
+    ran = []
+    monkeypatch.setattr(dagger.styles, "run", ran.append)  # the command lines only (pure logic)
+    a = type("A", (), {"roads": ["oval", "motorway"], "round_episodes": 3, "workers": 2})()
+    folders = dagger.dagger_round("assertive", 1, tmp_path, a)
+    assert folders == [tmp_path / "dagger" / "assertive-seed1" / r for r in a.roads]
+    for k, cmd in enumerate(ran):  # the study's reward drives round 1 on each road's own base seed
+        i = cmd.index("--runs")
+        assert (
+            cmd[i + 1] == str(tmp_path / "runs" / "assertive-seed1")
+            and cmd[cmd.index("--driver") + 1] == "PACNN+S"
+        )
+        assert cmd[cmd.index("--round") + 1] == "1" and f"seed={k}" in cmd and "train_episodes=3" in cmd
+    assert len(ran) == 2
