@@ -325,6 +325,29 @@ class DemoProjector:
         return len(self._pending)
 
 
+def lane_jump_projection(
+    p: Projection, end_d: np.ndarray, odometry_d: np.ndarray, lane_width: float
+) -> Projection:
+    """A look ahead's demonstration (DAgger's SUMO labeller) where SUMO's driver changed lanes within one
+    simulation step: SUMO's lane-based models move a car a lane width at once, which no smooth policy
+    follows, so the projection ``p`` found no policy within the distance. Then the demonstration is the
+    nearest policy (by ``p.distances``) that ends in the lane SUMO's driver moved to (``end_d`` [N]: each
+    policy's last lateral offset; ``odometry_d`` [T]: the look ahead's) -- the driver's decision to change
+    lanes now, driven as the planner can. ``p`` as it is otherwise: a demonstration found, an incomplete
+    window, no jump of half a lane in one step, or no policy ending in that lane."""
+    d = np.asarray(odometry_d, dtype=np.float64)
+    jumped = len(d) > 1 and bool((np.abs(np.diff(d)) > 0.5 * lane_width).any())
+    if p.demo_index >= 0 or not jumped or not np.isfinite(p.distances).any():
+        return p
+    there = (np.abs(np.asarray(end_d, dtype=np.float64) - d[-1]) < 0.5 * lane_width) & np.isfinite(
+        p.distances
+    )
+    if not there.any():
+        return p
+    k = int(np.argmin(np.where(there, p.distances, np.inf)))
+    return Projection(p.cycle_index, p.distances, k, float(p.distances[k]))
+
+
 def expert_projection(
     cycle_index: int,
     s: np.ndarray,

@@ -6,7 +6,9 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-from irlsim.data.demos import DemoProjector, expert_projection
+import numpy as np
+
+from irlsim.data.demos import DemoProjector, expert_projection, lane_jump_projection
 from irlsim.data.situations import situation_of
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.policy_set import PolicySet
@@ -70,6 +72,9 @@ class CycleRecorder(ObserverBase):
             p, seen = self.projector, self.labeller.look_ahead
             if seen is not None:  # SUMO's driver from this state: its odometry projected
                 demo = p.project_window(cycle.index, ps.t, (ps.s, ps.d, ps.yaw), seen)
+                demo = lane_jump_projection(
+                    demo, ps.d[:, -1], np.array([r[2] for r in seen]), sim.road.lane_width
+                )
             else:
                 k = self.labeller.expert_index
                 demo = expert_projection(

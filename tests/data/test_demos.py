@@ -135,6 +135,25 @@ def test_a_window_projected_at_once_is_the_streaming_projection() -> None:
     assert proj.n_pending == 0
 
 
+def test_a_lane_change_within_one_step_is_labelled_by_the_nearest_policy_ending_in_that_lane() -> None:
+    from irlsim.data.demos import Projection, lane_jump_projection
+
+    w = 3.2
+    dist = np.array([1.9, 2.6, 2.2, 3.0, np.nan], dtype=np.float32)  # none within the 1.5 m limit
+    end_d = np.array([0.0, 3.2, 3.1, -3.2, 3.2])  # keep, left, left, right, left (distance unknown)
+    jump = np.r_[np.zeros(3), np.full(48, 3.2)]  # SUMO's driver moved a lane left in one step
+    lost = Projection(7, dist, -1, float("nan"))
+    p = lane_jump_projection(lost, end_d, jump, w)
+    assert (p.cycle_index, p.demo_index) == (7, 2) and p.demo_distance == pytest.approx(2.2)
+    # otherwise as it was: no jump, a demonstration found, an incomplete window, no policy in that lane
+    assert lane_jump_projection(lost, end_d, np.linspace(0, 3.2, 51), w) is lost
+    found = Projection(7, dist, 0, 1.0)
+    assert lane_jump_projection(found, end_d, jump, w) is found
+    empty = Projection(7, np.full(5, np.nan, np.float32), -1, float("nan"))
+    assert lane_jump_projection(empty, end_d, jump, w) is empty
+    assert lane_jump_projection(lost, np.zeros(5), jump, w) is lost
+
+
 def test_threshold_rejects_far_demonstrations() -> None:
     rng = np.random.default_rng(3)
     proj = DemoProjector(lap_length=LAP, max_demo_distance=1.5)
