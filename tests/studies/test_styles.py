@@ -147,14 +147,18 @@ def test_open_loop_refuses_a_missing_folder_in_one_line(tmp_path):
     assert str(e.value).startswith("style_openloop: ") and "\n" not in str(e.value)
 
 
+def _refusal(main, argv: list[str]) -> str:
+    """The one line a study's ``main`` exits with on ``argv``."""
+    with pytest.raises(SystemExit) as e:
+        main(argv)
+    assert "\n" not in str(e.value)
+    return str(e.value)
+
+
 def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
     choice = _study("style_choice")
-    with pytest.raises(SystemExit) as e:
-        choice.main(["--out", str(tmp_path)])
-    assert "is missing: run studies/styles.py" in str(e.value) and "\n" not in str(e.value)
-    with pytest.raises(SystemExit) as e:
-        choice.main(["--out", str(tmp_path), "--rows", "expert"])
-    assert "not a row" in str(e.value)
+    assert "is missing: run studies/styles.py" in _refusal(choice.main, ["--out", str(tmp_path)])
+    assert "not a row" in _refusal(choice.main, ["--out", str(tmp_path), "--rows", "expert"])
 
 
 def test_style_states_refuses_a_missing_folder_in_one_line(tmp_path):
@@ -203,12 +207,10 @@ def test_style_side_collision_refuses_a_missing_sample_in_one_line(tmp_path):
 
 def test_style_dagger_rounds_and_refusals(tmp_path, monkeypatch):
     dagger = _study("style_dagger")
-    with pytest.raises(SystemExit) as e:
-        dagger.main(["--out", str(tmp_path)])
-    assert "no dataset of assertive" in str(e.value) and "\n" not in str(e.value)
-    with pytest.raises(SystemExit) as e:
-        dagger.main(["--out", str(tmp_path), "--rows", "expert"])
-    assert "the expert labels its own rounds" in str(e.value)
+    assert "no dataset of assertive" in _refusal(dagger.main, ["--out", str(tmp_path)])
+    assert "the expert labels its own rounds" in _refusal(
+        dagger.main, ["--out", str(tmp_path), "--rows", "expert"]
+    )
     ran = []
     monkeypatch.setattr(dagger.styles, "run", ran.append)  # the command lines only (pure logic)
     a = type("A", (), {"roads": ["oval", "motorway"], "round_episodes": 3, "workers": 2})()
