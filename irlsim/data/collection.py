@@ -365,8 +365,10 @@ def collect_episode(
 
     ``make_driver`` None: the expert drives and its projected odometry is the demonstration
     (``demo_source`` 'odometry'); otherwise the driver it makes (a :class:`LabelledDriver`: a learned
-    reward driving, the expert labelling) drives and the expert's selections are the demonstrations
-    (``demo_source`` 'expert'). ``observers``: extra observers after the recorder (tests).
+    reward driving) drives and the expert's selections are the demonstrations (``demo_source``
+    'expert'), or with a SUMO demonstrator SUMO's driver's look ahead from each cycle's state, projected
+    (``demo_source`` 'odometry'; ``collect/expert_agreement`` is then the agreement with SUMO's label).
+    ``observers``: extra observers after the recorder (tests).
 
     Returns the episode's figures (namespaced keys ``sim/...``, ``collect/...``). ``collect/wall_s`` and
     ``collect/cycles_per_s`` cover the whole episode end to end: set-up (road, SUMO start, reset),

@@ -38,8 +38,10 @@ class CycleRecorder(ObserverBase):
     """The recording observer of collection: every cycle's policy set and executed index go to the
     ``EpisodeWriter``. The demonstration is either the odometry of what was actually driven, projected by
     the ``DemoProjector`` once each cycle's horizon has been driven (``labeller`` None), or, with a
-    ``labeller`` (a :class:`LabelledDriver`), the expert's own selection in the same policy set, at once
-    (:func:`irlsim.data.demos.expert_projection`)."""
+    ``labeller`` (a :class:`LabelledDriver`), at once: the expert's own selection in the same policy set
+    (:func:`irlsim.data.demos.expert_projection`), or SUMO's driver's look ahead projected
+    (:meth:`~irlsim.data.demos.DemoProjector.project_window`, a lane change within one step by
+    :func:`~irlsim.data.demos.lane_jump_projection`)."""
 
     def __init__(
         self,
@@ -48,7 +50,7 @@ class CycleRecorder(ObserverBase):
         labeller: LabelledDriver | None = None,
     ):
         self.writer, self.projector, self.labeller = writer, projector, labeller
-        self.agree = 0  # cycles whose executed policy is the expert's selection (DAgger)
+        self.agree = 0  # cycles whose executed policy is the label (DAgger: the expert's or SUMO's)
 
     def on_reset(self, sim: Simulation, obs: Observation) -> None:
         e = obs.ego
