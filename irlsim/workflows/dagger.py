@@ -64,7 +64,8 @@ class DaggerConfig:
     model: str = "PACNN+S"
     """the learned driver of every round (a stage-2 model also retrains its stage-1 base)"""
     episodes: int | list[int] = 4
-    """learner-driven, expert-labelled train episodes per round: one count for every round, or a list
+    """learner-driven, labelled train episodes per round (the expert labels, or the collect config's SUMO
+    demonstrator by a look ahead): one count for every round, or a list
     with one count per round (``[6, 20]``; ``--rounds 1`` with it runs round 1 only)"""
     validation_episodes: int = 0
     """learner-driven validation episodes per round (0: model choices stay on --data's validation split)"""
@@ -299,6 +300,8 @@ def run_dagger(run: DaggerRun) -> int:
     check_driver_and_data(run)  # --runs trained on --data, the collect config the data's: before any work
     for r in range(1, cfg.rounds + 1):
         check_round_splits(run, r)  # an empty validation split is named before the round collects
+    kind = load_config(CollectConfig, cfg.collect_config).demonstrator.kind
+    labels = "expert-labelled" if kind == "expert" else f"labelled by the {kind} demonstrator's look ahead"
     for r in range(1, cfg.rounds + 1):
         here = round_dir(run.out, r)
         if round_finished(run, r, here, _driver(run, r)):
@@ -307,9 +310,7 @@ def run_dagger(run: DaggerRun) -> int:
         rc = _round(run, r)
         if rc != 0:
             return rc
-        print(
-            f"dagger: round {r} wrote {here}/data (expert-labelled) and {here}/runs ({cfg.model})", flush=True
-        )
+        print(f"dagger: round {r} wrote {here}/data ({labels}) and {here}/runs ({cfg.model})", flush=True)
     last = round_dir(run.out, cfg.rounds) / "runs"
     final = stage_dir(last, 2 if cfg.model in STAGE2_BASE else 1) / cfg.model
     print(f"dagger: {cfg.rounds} round(s) in {run.out}; the last round's {cfg.model}: {final}")

@@ -13,13 +13,16 @@ from __future__ import annotations
 import hashlib
 import json
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from irlsim.config import load_config
 from irlsim.data.aggregate import aggregate_identity, manifest_identity
 from irlsim.data.collection import CollectConfig, data_config, first_difference
+from irlsim.data.demonstrator import SUMO, resolve
 from irlsim.errors import IrlsimError
+from irlsim.road.scenario import Scenarios
 from irlsim.train.checkpoint import read_checkpoint
 from irlsim.train.layout import find_checkpoint
 from irlsim.train.preflight import check_split_sizes
@@ -186,9 +189,7 @@ def check_driver_and_data(run: Any) -> None:
             "on (several in the order of its training), or train it on this one first"
         )
     ours = {
-        k: v
-        for k, v in data_config(load_config(CollectConfig, cfg.collect_config)).items()
-        if k not in ROUND_SET_KEYS
+        k: v for k, v in data_config(_as_collected(cfg.collect_config)).items() if k not in ROUND_SET_KEYS
     }
     theirs = {k: v for k, v in data_config(manifest.get("config") or {}).items() if k not in ROUND_SET_KEYS}
     if cfg.scenario:  # the learner's road may be another (DAgger on a road the reward never saw)
@@ -201,6 +202,18 @@ def check_driver_and_data(run: Any) -> None:
             f"collect_config {cfg.collect_config} differs from the config --data {run.data} was collected "
             f"with ({key} = {was!r} there, {now!r} in the file): set collect_config to the data's config"
         )
+
+
+def _as_collected(path: str | Path) -> CollectConfig:
+    """A collect config as its manifest records it: a SUMO demonstrator resolved as collection resolves
+    it (SUMO's default models filled in, a vType file read, numbers as floats; SUMO's refusal of the type
+    as one line), so a config that names no lane-change model is the config of the data collected with
+    it."""
+    ccfg = load_config(CollectConfig, path)
+    if ccfg.demonstrator.kind != SUMO:
+        return ccfg
+    roads = tuple(Scenarios()(name) for name in ccfg.scenario_names)
+    return replace(ccfg, demonstrator=resolve(ccfg.demonstrator, roads)[0])
 
 
 def check_round_splits(run: Any, r: int) -> None:

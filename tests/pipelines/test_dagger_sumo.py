@@ -65,3 +65,31 @@ def test_dagger_with_a_recording_is_refused(learner, tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "a recording cannot label states" in err[0], err
     assert not (tmp_path / "x").exists()
+
+
+def test_irlsim_dagger_on_a_sumo_drivers_data_labels_with_that_driver(tmp_path, capsys):
+    """``irlsim dagger`` on a SUMO driver's dataset with its collect config (which names no lane-change
+    model: the manifest records SUMO's default, and the config is still the data's): its rounds are
+    labelled by that driver's look ahead."""
+    cfg = tmp_path / "sumo.toml"
+    cfg.write_text(
+        "seed = 0\nworkers = 1\ntrain_episodes = 1\nvalidation_episodes = 1\ntest_episodes = 1\n"
+        "max_cycles = 30\n"
+        "[scenario]\nn_vehicles = 4\nlaps = 1\nmax_time = 120.0\n[planner]\nn_policies = 120\n"
+        '[demonstrator]\nkind = "sumo"\ncar_follow_model = "IDM"\n'
+    )
+    data, runs, out = tmp_path / "data", tmp_path / "runs", tmp_path / "dagger"
+    assert main(["collect", "--config", str(cfg), "--out", str(data)]) == 0
+    train = ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", str(data)]
+    assert main([*train, "--out", str(runs), "--set", f"models=['{MODEL}']"]) == 0
+    capsys.readouterr()
+    args = ["dagger", "--config", "configs/dagger/tiny.toml", "--data", str(data), "--runs", str(runs)]
+    assert main([*args, "--out", str(out), "--set", f"collect_config='{cfg}'"]) == 0
+    said = capsys.readouterr().out
+    assert "labelled by the sumo demonstrator's look ahead" in said and "drives and sumo IDM/LC2013" in said
+    manifest = json.loads((out / "round_1" / "data" / "manifest.json").read_text())
+    assert manifest["demonstrator"]["car_follow_model"] == "IDM" and manifest["driver"]["model"] == MODEL
+    cyc = pd.concat(
+        [pd.read_parquet(p) for p in sorted((out / "round_1" / "data").glob("*/*.cycles.parquet"))]
+    )
+    assert set(cyc["demo_source"]) == {"odometry"} and (cyc["demo_index"] >= 0).mean() > 0.5
