@@ -224,3 +224,13 @@ def test_style_dagger_rounds_and_refusals(tmp_path, monkeypatch):
         )
         assert cmd[cmd.index("--round") + 1] == "1" and f"seed={k}" in cmd and "train_episodes=3" in cmd
     assert len(ran) == 2
+
+
+def test_style_floor_refuses_what_it_cannot_read_in_one_line(tmp_path):
+    floor = _study("style_floor")
+    assert "is not one of --demonstrators" in _refusal(
+        floor.main, ["--out", str(tmp_path), "--rows", "r", "--driver", "x"]
+    )
+    assert "is missing: drive those rows first" in _refusal(
+        floor.main, ["--out", str(tmp_path), "--rows", "r"]
+    )
