@@ -53,7 +53,7 @@ class DaggerDriver:
         self.last_index = -1
         self.expert_index = -1
         self.look_ahead: list[tuple[float, float, float, float]] | None = None
-        self.horizon_steps = round(cfg.planner.horizon / cfg.scenario.step)
+        self.horizon_steps = cfg.scenario.horizon_steps  # the look ahead: the planner's horizon
 
     def plan(self, obs: Observation) -> Trajectory:
         traj = self.decider.plan(obs)

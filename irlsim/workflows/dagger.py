@@ -35,6 +35,7 @@ from typing import Any
 
 from irlsim.config import MAX_SEED, load_config, require
 from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import EXPERT
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import MODEL_NAMES, STAGE2_BASE
 from irlsim.train.config import Stage1Config, Stage2Config
@@ -301,7 +302,7 @@ def run_dagger(run: DaggerRun) -> int:
     for r in range(1, cfg.rounds + 1):
         check_round_splits(run, r)  # an empty validation split is named before the round collects
     kind = load_config(CollectConfig, cfg.collect_config).demonstrator.kind
-    labels = "expert-labelled" if kind == "expert" else f"labelled by the {kind} demonstrator's look ahead"
+    labels = "expert-labelled" if kind == EXPERT else f"labelled by the {kind} demonstrator's look ahead"
     for r in range(1, cfg.rounds + 1):
         here = round_dir(run.out, r)
         if round_finished(run, r, here, _driver(run, r)):
