@@ -15,7 +15,14 @@ as defined and per episode, with the safety bounds):
     .venv/bin/python studies/style_choice.py --out runs/styles --eval-base 2000 --episodes 30 \
         --demonstrators expert cautious assertive --rows cautious assertive --workers 2
 
-The biases go to ``<out>/choice-biases[-s<base>][-<rule>].json``.
+The biases go to ``<out>/choice-biases[-s<base>][-<rule>].json``. ``--commit`` and ``--full-stop`` add the
+planner's rules (``<out>/drive[-s<base>][-commit][-stop]-choice/``); ``--dagger-rounds N`` drives the
+rewards of ``studies/style_dagger.py --rounds N`` instead (calibrated on their own training data: the
+driver's dataset and the rounds'):
+
+    .venv/bin/python studies/style_choice.py --out runs/styles --eval-base 2000 --episodes 30 \
+        --demonstrators expert cautious assertive-eidm --rows assertive-eidm --dagger-rounds 1 \
+        --commit --full-stop --workers 2
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
+import style_dagger  # noqa: E402
 import style_norms  # noqa: E402
 import styles  # noqa: E402  (studies/styles.py: the study's folders, configs and commands)
 
@@ -49,6 +57,8 @@ def drive(d: str, road: str, runs: Path, bias: float, out: Path, a: Any) -> None
         + ["--config", styles.CONFIGS[d], "--scenario", road, "--laps", str(a.laps)]
         + ["--max-cycles", str(a.max_cycles), "--frames", "0", "--workers", str(a.workers)]
         + ["--choice", "expected", "--lane-change-bias", repr(bias), "--out", str(out)]
+        + ["--commit"] * a.commit
+        + ["--full-stop"] * a.full_stop
     )
 
 
@@ -66,32 +76,42 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workers", type=int, default=1, help="episodes driven in parallel")
     p.add_argument("--model", choices=styles.MODELS, default="PACNN+S", help="the learned reward driven")
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default", help="the rows' training rule")
+    p.add_argument("--dagger-rounds", type=int, choices=range(6), default=0, help="style_dagger.py's rewards")
+    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
+    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if bad or "expert" in a.rows:
         what = f"unknown demonstrator {bad[0]}" if bad else "the expert's rewards are not a row here"
         sys.exit(f"style_choice: {what}: rows are SUMO drivers of {', '.join(styles.CONFIGS)}")
+    if a.dagger_rounds and a.rule != "default":
+        sys.exit("style_choice: --dagger-rounds drives style_dagger.py's rewards: leave --rule at default")
+    if a.dagger_rounds:
+        a.rule = style_dagger.rule(a.dagger_rounds)
+        styles.RULES[a.rule] = []  # style_dagger.py's rows: the rounds' data is what differs
     out = Path(a.out)
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
+    tag = "-commit" * a.commit + "-stop" * a.full_stop + "-choice"
     biases: dict[str, float] = {}
     for d in a.rows:
-        data = [out / "data" / d / road for road in a.roads]
         for seed in a.seeds:
+            rounds = range(1, a.dagger_rounds + 1)
+            data = [out / "data" / d / road for road in a.roads]
+            data += [style_dagger.round_folder(out, d, seed, r, road) for r in rounds for road in a.roads]
             runs = out / "runs" / f"{styles.learner(d, a)[0]}-seed{seed}"
             missing = [str(x) for x in [*data, runs] if not x.is_dir()]
             if missing:
-                sys.exit(
-                    f"style_choice: {missing[0]} is missing: run studies/styles.py with the same options"
-                )
+                script = "style_dagger.py" if a.dagger_rounds else "styles.py"
+                sys.exit(f"style_choice: {missing[0]} is missing: run studies/{script} with the same options")
             biases[runs.name] = row_bias(runs, data, a.model)
             print(f"{runs.name}: {a.model}'s lane-change bias {biases[runs.name]:.3f}", flush=True)
             for road in a.roads:
-                drive(d, road, runs, biases[runs.name], out / f"drive{at}-choice" / road / runs.name, a)
+                drive(d, road, runs, biases[runs.name], out / f"drive{at}{tag}" / road / runs.name, a)
     rule = "" if a.rule == "default" else f"-{a.rule}"
     (out / f"choice-biases{at}{rule}.json").write_text(json.dumps(biases, indent=1) + "\n")
     norms = ["--out", str(out), "--roads", *a.roads, "--demonstrators", *a.demonstrators]
     norms += ["--rows", *a.rows, "--seeds", *map(str, a.seeds), "--eval-base", str(a.eval_base), "--choice"]
-    norms += ["--rule", a.rule]
+    norms += ["--rule", a.rule] + ["--commit"] * a.commit + ["--full-stop"] * a.full_stop
     return style_norms.main(norms)
 
 

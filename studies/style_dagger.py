@@ -43,13 +43,18 @@ def rule(r: int) -> str:
     return RULE + (str(r) if r > 1 else "")
 
 
+def round_folder(out: Path, d: str, seed: int, r: int, road: str) -> Path:
+    """Where round ``r`` of row ``d``'s training seed ``seed`` collected on ``road``."""
+    return out / "dagger" / f"{d}-seed{seed}" / ("" if r == 1 else f"round{r}") / road
+
+
 def dagger_round(d: str, seed: int, out: Path, a: Any, r: int = 1) -> list[Path]:
     """Round ``r`` of row ``d``'s seed: the reward of round r - 1 drives (round 1: the study's), SUMO's
     driver labels; the folders, per road."""
     folders = []
     driver = out / "runs" / (f"{d}-seed{seed}" if r == 1 else f"{d}-{rule(r - 1)}-seed{seed}")
     for k, road in enumerate(a.roads):
-        folder = out / "dagger" / f"{d}-seed{seed}" / ("" if r == 1 else f"round{r}") / road
+        folder = round_folder(out, d, seed, r, road)
         if not styles.complete(folder):
             styles.run(
                 [styles.irlsim(), "collect", "--config", styles.CONFIGS[d], "--scenario", road]

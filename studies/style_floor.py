@@ -3,7 +3,8 @@ hypothetical row that drives exactly as ``--driver`` on every figure but ``--kee
 mean value of the given rows' drives), from each reference, per episode and as defined.
 
 Reads a ``studies/styles.py`` run (the references of ``--demonstrators`` on ``--eval-base``'s episodes)
-and the drives of ``--rows`` (folders under ``drive[-s<base>][-commit][-stop]/<road>/``); drives nothing:
+and the drives of ``--rows`` (folders under ``drive[-s<base>][-commit][-stop][-choice]/<road>/``;
+``--choice``: ``studies/style_choice.py``'s); drives nothing:
 
     .venv/bin/python studies/style_floor.py --out runs/styles --eval-base 2000 --driver assertive \
         --rows assertive-sumo-dagger assertive-sumo-dagger2 --commit --full-stop
@@ -36,9 +37,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-base", type=int, default=styles.EVAL_BASE)
     p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
     p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
+    p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
     a = p.parse_args(argv)
     out, at = Path(a.out), "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    tag = "-commit" * a.commit + "-stop" * a.full_stop
+    tag = "-commit" * a.commit + "-stop" * a.full_stop + "-choice" * a.choice
     if a.driver not in a.demonstrators:
         sys.exit(f"style_floor: --driver {a.driver} is not one of --demonstrators")
     for road in a.roads:

@@ -12,8 +12,10 @@ the expert on the same routes and the cars' own recorded driving, compared as th
 
 ``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
 ``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default;
-``--safety`` adds the planner's label filter; the expert and the references drive as always). Writes
-``<out>/recording-<cars>[-<rules>][-safe].md`` and ``.json``:
+``--safety`` adds the planner's label filter; ``--choice expected`` drives the decision the reward's
+distribution expects, its lane-change bias calibrated on the recording's training data, one model at a
+time, ``studies/style_choice.py``'s choice; the expert and the references drive as always). Writes
+``<out>/recording-<cars>[-<rules>][-safe][-choice].md`` and ``.json``:
 
     .venv/bin/python studies/style_recording.py --out runs/styles --seeds 0 1 2 --cars 42 59 \
         --rules full-stop keep-distance --workers 2
@@ -34,6 +36,8 @@ sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: the study's folders, configs and commands)
 
 from irlsim.planner.expert import FOLLOW_HEADWAY  # noqa: E402
+from irlsim.reward import load_reward  # noqa: E402
+from irlsim.reward.choice import lane_change_bias  # noqa: E402
 from irlsim.rollout.style import pool_styles  # noqa: E402
 
 RULES = {"commit": "--commit", "full-stop": "--full-stop", "keep-distance": "--keep-distance"}
@@ -68,11 +72,22 @@ def drive_learned(config: str, runs: Path, out: Path, a: Any) -> Path:
             [styles.irlsim(), "drive", "--runs", str(runs), "--model", ",".join(a.models), "--reactive"]
             + [w for r in a.rules for w in [RULES[r], *([str(a.headway)] * (r == "keep-distance"))]]
             + ["--safety"] * a.safety
+            + (["--choice", "expected", "--lane-change-bias", repr(bias(runs, out, a))] if a.choice else [])
             + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
             + ["--config", config, "--laps", str(a.laps), "--max-cycles", str(a.max_cycles), "--frames", "0"]
             + ["--workers", str(a.workers), "--out", str(out)]
         )
     return out / "drive.json"
+
+
+def bias(runs: Path, out: Path, a: Any) -> float:
+    """The lane-change bias of ``a.models``' one model in ``runs``, calibrated on the recording's training
+    data and written beside the drive (``bias.json``)."""
+    value = lane_change_bias(load_reward(a.models[0], runs=str(runs)), [a.data])
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bias.json").write_text(json.dumps({a.models[0]: value}) + "\n")
+    print(f"{runs.name}: {a.models[0]}'s lane-change bias {value:.3f}", flush=True)
+    return value
 
 
 def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
@@ -87,7 +102,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
     }
     own = {styles.RECORDING: styles.collected_bounds(ref_folder), "expert": styles.safety(expert, "expert")}
     tag = "".join(TAGS[r] for r in a.rules) + (f"{a.headway:g}" if a.headway != FOLLOW_HEADWAY else "")
-    tag += "-safe" * a.safety
+    tag += "-safe" * a.safety + "-choice" * a.choice
     learned: dict[str, dict[str, Any]] = {}
     for seed in a.seeds:
         runs = out / "runs" / f"{styles.RECORDING}-seed{seed}"
@@ -104,6 +119,7 @@ def table(out: Path, a: Any) -> tuple[str, dict[str, Any]]:
             learned[f"{m} / {styles.RECORDING} / seed {seed}"] = {**row, "safety": styles.safety(dj, m)}
     what = f"SUMO seed {a.sumo_seed}'s held-out cars" if a.sumo_seed is not None else f"cars {name[1:]}"
     rules = [f"{r} {a.headway:g} s" if r == "keep-distance" else r for r in a.rules] + ["safety"] * a.safety
+    rules += ["the expected choice"] * a.choice
     title = f"{styles.DEFAULT_SCENARIO}, the recording's {what}" + (f", {' '.join(rules)}" if rules else "")
     rows = styles.table_rows(learned, refs)
     return f"{styles.RECORDING}-{name}{tag}", {title: {"rows": rows, "demonstrators": own}}
@@ -120,6 +136,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--headway", type=float, default=FOLLOW_HEADWAY, help="keep-distance's headway [s]")
     p.add_argument("--safety", action="store_true", help="the learned rewards within the label filter")
     p.add_argument("--models", nargs="+", choices=styles.MODELS, default=list(styles.MODELS))
+    p.add_argument("--choice", choices=["argmax", "expected"], default="argmax", help="the rewards' choice")
     p.add_argument("--laps", type=int, default=2)
     p.add_argument("--max-cycles", type=int, default=800)
     p.add_argument("--threads", type=int, default=2, help="torch threads of Table I")
@@ -128,6 +145,9 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     if not a.headway > 0:
         sys.exit(f"style_recording: --headway must be a time headway > 0 s, got {a.headway}")
+    if a.choice == "expected" and len(a.models) != 1:
+        sys.exit("style_recording: --choice expected calibrates one model's bias: give one of --models")
+    a.choice = a.choice == "expected"
     if a.sumo_seed == styles.REC_SEED:
         sys.exit(f"style_recording: SUMO seed {a.sumo_seed} is the study's own recording: choose another")
     first = styles.SIZES["rec_train"] + 2  # cars before it: the training, validation and test egos
@@ -140,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"style_recording: {out} holds no trained recording: run studies/styles.py with recording")
     # what styles.py's steps read: its sizes and the drives' seeds (the study's evaluation base)
     a.rule, a.commit, a.full_stop, a.collect_sets = "default", False, False, []
-    a.eval_base = styles.EVAL_BASE
+    a.eval_base, a.data = styles.EVAL_BASE, out / "data" / styles.RECORDING
     vars(a).update(styles.SIZES)  # styles.py's sizes
     a.episodes = 20 if a.cars is None else a.cars[1] - a.cars[0] + 1
     name, tables = table(out, a)
