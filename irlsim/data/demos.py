@@ -325,19 +325,26 @@ class DemoProjector:
         return len(self._pending)
 
 
+#: [m] a placed ego's offset from its SUMO lane's centre beyond which a look ahead read at that centre
+#: starts elsewhere than the policies (``lane_jump_projection``)
+RECENTRE = 0.05
+
+
 def lane_jump_projection(
-    p: Projection, end_d: np.ndarray, odometry_d: np.ndarray, lane_width: float
+    p: Projection, end_d: np.ndarray, odometry_d: np.ndarray, lane_width: float, lane_offset: float = 0.0
 ) -> Projection:
-    """A look ahead's demonstration (DAgger's SUMO labeller) where SUMO's driver changed lanes within one
-    simulation step: SUMO's lane-based models move a car a lane width at once, which no smooth policy
-    follows, so the projection ``p`` found no policy within the distance. Then the demonstration is the
-    nearest policy (by ``p.distances``) that ends in the lane SUMO's driver moved to (``end_d`` [N]: each
-    policy's last lateral offset; ``odometry_d`` [T]: the look ahead's) -- the driver's decision to change
-    lanes now, driven as the planner can. ``p`` as it is otherwise: a demonstration found, an incomplete
-    window, no jump of half a lane in one step, or no policy ending in that lane."""
+    """A look ahead's demonstration (DAgger's SUMO labeller) where SUMO's lateral path is no path: SUMO's
+    driver changed lanes within one simulation step (SUMO's lane-based models move a car a lane width at
+    once), or the look ahead is read at SUMO's lanes' centres while the placed ego starts ``lane_offset``
+    [m] off it (:meth:`irlsim.sim.branch.BranchingSimulation.lane_offset`; beyond ``RECENTRE``). No smooth
+    policy follows either, so where the projection ``p`` found no policy within the distance, the
+    demonstration is the nearest policy (by ``p.distances``) that ends in the lane SUMO's driver ends in
+    (``end_d`` [N]: each policy's last lateral offset; ``odometry_d`` [T]: the look ahead's) -- the
+    driver's decision of lane, driven as the planner can. ``p`` as it is otherwise: a demonstration
+    found, an incomplete window, neither of the two, or no policy ending in that lane."""
     d = np.asarray(odometry_d, dtype=np.float64)
     jumped = len(d) > 1 and bool((np.abs(np.diff(d)) > 0.5 * lane_width).any())
-    if p.demo_index >= 0 or not jumped or not np.isfinite(p.distances).any():
+    if p.demo_index >= 0 or not (jumped or abs(lane_offset) > RECENTRE) or not np.isfinite(p.distances).any():
         return p
     there = (np.abs(np.asarray(end_d, dtype=np.float64) - d[-1]) < 0.5 * lane_width) & np.isfinite(
         p.distances

@@ -30,6 +30,9 @@ class LabelledDriver(Protocol):
     last_index: int
     expert_index: int
     look_ahead: list[tuple[float, float, float, float]] | None
+    #: [m] with ``look_ahead``: the placed ego's offset from the centre of its SUMO lane, at which the look
+    #: ahead is read after the ego's own state (:func:`~irlsim.data.demos.lane_jump_projection`)
+    look_ahead_offset: float
 
     def plan(self, obs: Observation) -> Trajectory: ...
 
@@ -74,9 +77,9 @@ class CycleRecorder(ObserverBase):
             p, seen = self.projector, self.labeller.look_ahead
             if seen is not None:  # SUMO's driver from this state: its odometry projected
                 demo = p.project_window(cycle.index, ps.t, (ps.s, ps.d, ps.yaw), seen)
-                demo = lane_jump_projection(
-                    demo, ps.d[:, -1], np.array([r[2] for r in seen]), sim.road.lane_width
-                )
+                seen_d = np.array([r[2] for r in seen])
+                off = self.labeller.look_ahead_offset
+                demo = lane_jump_projection(demo, ps.d[:, -1], seen_d, sim.road.lane_width, off)
             else:
                 k = self.labeller.expert_index
                 demo = expert_projection(

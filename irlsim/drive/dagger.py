@@ -40,6 +40,8 @@ class DaggerDriver:
 
     #: the simulation's look ahead with SUMO's driver (steps -> states driven); None: the expert labels
     look_ahead_by: Callable[[int], list[EgoState]] | None = None
+    #: the placed ego's offset from its SUMO lane's centre, which the look ahead keeps (set with it)
+    lane_offset_by: Callable[[], float] | None = None
 
     def __init__(self, model: LearnedReward, road: Road, cfg: CollectConfig):
         if model.is_expert:
@@ -53,6 +55,7 @@ class DaggerDriver:
         self.last_index = -1
         self.expert_index = -1
         self.look_ahead: list[tuple[float, float, float, float]] | None = None
+        self.look_ahead_offset = 0.0
         self.horizon_steps = cfg.scenario.horizon_steps  # the look ahead: the planner's horizon
 
     def plan(self, obs: Observation) -> Trajectory:
@@ -61,8 +64,11 @@ class DaggerDriver:
         assert ps is not None
         if self.look_ahead_by is not None:  # from this very state, before the learner's policy runs
             e = obs.ego
-            seen = [e, *self.look_ahead_by(self.horizon_steps)]
-            self.look_ahead = [(x.t, x.s, x.d, x.yaw) for x in seen]
+            off = self.lane_offset_by() if self.lane_offset_by is not None else 0.0
+            self.look_ahead_offset = off
+            ahead = self.look_ahead_by(self.horizon_steps)
+            # SUMO's driver at the centres of its lanes: the offset it keeps is the placement's, not its
+            self.look_ahead = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d - off, x.yaw) for x in ahead]
         else:
             self.expert_index = self.expert.select(ps, obs)
         self.expert.follow(ps, idx)

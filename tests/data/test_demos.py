@@ -135,7 +135,7 @@ def test_a_window_projected_at_once_is_the_streaming_projection() -> None:
     assert proj.n_pending == 0
 
 
-def test_a_lane_change_within_one_step_is_labelled_by_the_nearest_policy_ending_in_that_lane() -> None:
+def test_a_sumo_lane_jump_or_kept_offset_is_labelled_by_the_nearest_policy_into_its_lane() -> None:
     from irlsim.data.demos import Projection, lane_jump_projection
 
     w = 3.2
@@ -152,6 +152,13 @@ def test_a_lane_change_within_one_step_is_labelled_by_the_nearest_policy_ending_
     empty = Projection(7, np.full(5, np.nan, np.float32), -1, float("nan"))
     assert lane_jump_projection(empty, end_d, jump, w) is empty
     assert lane_jump_projection(lost, np.zeros(5), jump, w) is lost
+    # the look ahead at SUMO's lane's centre, the placed ego 1.2 m to its left: no jump, the lane kept
+    centred = np.r_[1.2, np.zeros(50)]
+    assert lane_jump_projection(lost, end_d, centred, w) is lost  # the offset not given: as it was
+    p = lane_jump_projection(lost, end_d, centred, w, lane_offset=1.2)
+    assert p.demo_index == 0 and p.demo_distance == pytest.approx(1.9)  # the nearest keeping the lane
+    assert lane_jump_projection(lost, end_d, centred, w, lane_offset=0.01) is lost  # on the centre
+    assert lane_jump_projection(found, end_d, centred, w, lane_offset=1.2) is found
 
 
 def test_threshold_rejects_far_demonstrations() -> None:

@@ -88,3 +88,22 @@ def test_a_branch_needs_a_placed_ego(road):
     with pytest.raises(RuntimeError, match="SUMO drives the ego already"):
         sim.branch(3)
     sim.close()
+
+
+def test_sumos_driver_keeps_a_placed_egos_offset_from_its_lane_and_lane_offset_reads_it(road):
+    # SUMO's lane-based driver has no lateral position of its own: off its lane's centre (the expert's
+    # lane change under way), the ego stays that far off it through the look ahead and across a change
+    sim = BranchingSimulation(road, CFG, demo_vtype=IDM)
+    expert = ExpertDriver(road, PlannerConfig(n_policies=500))
+    obs, w = sim.reset(2_000_000_001), road.lane_width
+    for _ in range(200):
+        if abs(obs.ego.d / w - round(obs.ego.d / w)) > 0.2:
+            break
+        sim.execute(expert.plan(obs))
+        obs = sim.observe()
+    off = sim.lane_offset()
+    assert 0.2 * w < abs(off) < 0.5 * w and abs(obs.ego.d / w - round(obs.ego.d / w)) > 0.2
+    centres = (np.array([s.d for s in sim.branch(AHEAD)]) - off) / w  # at SUMO's lanes' centres
+    np.testing.assert_allclose(centres, np.round(centres), atol=0.02)
+    assert sim.lane_offset() == off  # the branch came back to the placed ego
+    sim.close()
