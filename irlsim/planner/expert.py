@@ -372,6 +372,7 @@ def choose_index(
     stopping: bool = False,
     braking: np.ndarray | None = None,
     distance: np.ndarray | None = None,
+    value: np.ndarray | None = None,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
@@ -381,9 +382,11 @@ def choose_index(
     way; only the policies that do not cross an active stop line without a full stop (``stop_line``
     feature 0), unless there is none (applied first: a stop outranks a lane change); ``braking`` [N] bool:
     then only these (:func:`within_braking_curve`), unless none; ``distance`` [N] bool: then only these
-    (:func:`keeping_distance`), unless none. :class:`ThetaDriver` and
-    :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
-    value = policy_set.value(theta)
+    (:func:`keeping_distance`), unless none. ``value`` [N]: the policies' values instead of -theta^T f (any
+    score, higher is better: ``theta`` is then unused; e.g. the nearness to a driver's odometry of
+    ``studies/style_oracle.py``). :class:`ThetaDriver` and :meth:`irlsim.reward.LearnedReward.choose`
+    decide with it."""
+    value = policy_set.value(theta) if value is None else np.asarray(value, dtype=np.float64)
     allowed: np.ndarray | None = None
     if safety:
         bad = np.asarray(policy_set.labels.any(axis=1))

@@ -125,6 +125,14 @@ def test_a_lane_change_under_way_is_finished_unless_it_collides():
     assert choose_index(off, E0, safety=True, heading=2) == 2
 
 
+def test_any_value_is_chosen_under_the_same_rules():
+    # the values given replace -theta^T f (theta unused): the best of them, within the rules
+    ps = _lanes_set(1, [1, 2, 0], [0.0, 1.0, 2.0], [False, False, False])
+    assert choose_index(ps, E0, value=np.array([5.0, 1.0, 2.0])) == 0
+    assert choose_index(ps, -E0, value=np.array([5.0, 1.0, 2.0])) == 0  # theta is not read
+    assert choose_index(ps, E0, heading=2, value=np.array([5.0, 1.0, 2.0])) == 1
+
+
 class _Planner:
     """Hands out prepared policy sets in turn (the commitment's bookkeeping is pure logic)."""
 
