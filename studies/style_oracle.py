@@ -1,4 +1,4 @@
-r"""How much of a SUMO driver's style the planner's policy set can drive: the projection oracle.
+r"""What a SUMO driver's demonstrations drive when taken exactly, every cycle: the projection oracle.
 
 Every planning cycle the simulation is saved, SUMO's driver (the demonstrator's vType) drives the
 planner's horizon from the ego's state and the state is loaded back (:mod:`irlsim.sim.branch`, DAgger's
@@ -7,21 +7,23 @@ SUMO labeller); the ego then executes the policy that odometry projects onto (th
 :func:`~irlsim.data.demos.lane_jump_projection`; the nearest policy where none lies within the
 projection's distance; the expert's choice where the look ahead is cut short, at the route's end). So
 the ego drives as a reward would that had learned the driver perfectly and chose its demonstration
-every cycle: an upper bound on how near a learned reward of this planner can come to the driver. If
-the oracle lands nearer another driver than its own, the style is lost in the policy set and the
-projection, before any learning. ``--rules commit full-stop``: the oracle chooses as a learned reward
-does under ``irlsim drive --commit --full-stop`` (:func:`irlsim.planner.expert.choose_index` with the
-nearness to the driver's odometry as the value: the demonstration where the rules allow it, else the
-nearest policy they allow); the folders and the table are then named ``-commit-stop``.
+every cycle: the driver imitated cycle by cycle as the planner can, with no learning in between. It is
+not a bound on the style distance (a reward may reach a figure, a mean speed, by other policies than
+the demonstrations), but where the oracle lands nearer another driver than its own, what the
+demonstrations teach, taken exactly, does not drive like the driver. ``--rules commit full-stop``: the
+oracle chooses as a learned reward does under ``irlsim drive --commit --full-stop``
+(:func:`irlsim.planner.expert.choose_index` with the nearness to the driver's odometry as the value: the
+demonstration where the rules allow it, else the nearest policy they allow); the folders and the table
+are then named ``-commit-stop``.
 
 Reads a ``studies/styles.py`` run (the references of ``--demonstrators`` on ``--eval-base``'s episodes),
 drives the oracle of ``--driver`` on the same episodes (each road's episode seeds, as the references'
-collection) into ``<out>/oracle[-s<base>]/<driver>/<road>/`` and writes the table (the style distance
-as defined and per episode, ``studies/style_norms.py``'s, with the safety bounds) to
-``<out>/style-oracle[-s<base>]-<driver>.md`` and ``.json``:
+collection) into ``<out>/oracle[-s<base>][-commit-stop]/<driver>/<road>/`` and writes the table (the
+style distance as defined and per episode, ``studies/style_norms.py``'s, with the safety bounds) to
+``<out>/style-oracle[-s<base>][-commit-stop]-<driver>.md`` and ``.json``:
 
     .venv/bin/python studies/style_oracle.py --out runs/styles --eval-base 2000 --episodes 30 \
-        --demonstrators expert cautious assertive --driver assertive --workers 2
+        --demonstrators expert cautious assertive --driver assertive --workers 2 --rules commit full-stop
 """
 
 from __future__ import annotations
@@ -82,6 +84,8 @@ class OracleDriver:
         self.last_index, self.expert_index = -1, -1
         self.look_ahead: list[tuple[float, float, float, float]] | None = None
         self.look_ahead_offset = 0.0
+        #: cycles driven by the demonstration itself, by the nearest policy (none within the distance, or
+        #: the rules do not allow it) and by the expert (the look ahead cut short)
         self.counts = {"demonstration": 0, "nearest": 0, "expert": 0}
 
     def plan(self, obs: Observation) -> Trajectory:
