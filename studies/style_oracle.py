@@ -54,7 +54,6 @@ from irlsim.rollout.style import pool_styles, style_distances  # noqa: E402
 from irlsim.sim.collision import collision_line  # noqa: E402
 from irlsim.sim.simulation import Simulation  # noqa: E402
 from irlsim.sim.types import Observation, Trajectory  # noqa: E402
-from pipelines.collect import OPTION_KEYS  # noqa: E402
 
 
 class OracleDriver:
@@ -160,7 +159,7 @@ def jobs(a: Any, road: str, folder: Path) -> list[EpisodeJob]:
         "scenario.laps": a.laps,
         "scenario.name": road,
     }
-    cfg = load_config(CollectConfig, styles.CONFIGS[a.driver], sets, OPTION_KEYS, Scenarios())
+    cfg = load_config(CollectConfig, styles.CONFIGS[a.driver], sets, scenarios=Scenarios())
     return [EpisodeJob(str(folder), "train", i, seed, cfg) for i, seed in cfg.episodes("train")]
 
 
