@@ -159,6 +159,19 @@ def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
     choice = _study("style_choice")
     assert "is missing: run studies/styles.py" in _refusal(choice.main, ["--out", str(tmp_path)])
     assert "not a row" in _refusal(choice.main, ["--out", str(tmp_path), "--rows", "expert"])
+    dagger = ["--out", str(tmp_path), "--dagger-rounds", "1"]
+    assert "is missing: run studies/style_dagger.py" in _refusal(choice.main, dagger)
+    assert "leave --rule at default" in _refusal(choice.main, [*dagger, "--rule", "kept"])
+    assert not list(tmp_path.iterdir())  # nothing written
+
+
+def test_style_oracle_refuses_what_it_cannot_follow_in_one_line(tmp_path):
+    oracle = _study("style_oracle")
+    out = ["--out", str(tmp_path)]
+    assert "--driver must be a SUMO driver" in _refusal(oracle.main, [*out, "--driver", "expert"])
+    assert "--driver must be a SUMO driver" in _refusal(oracle.main, [*out, "--driver", "timid"])
+    assert "no references in" in _refusal(oracle.main, out)
+    assert not list(tmp_path.iterdir())
 
 
 def test_style_states_refuses_a_missing_folder_in_one_line(tmp_path):
@@ -176,6 +189,7 @@ def test_style_recording_refuses_what_it_cannot_drive_in_one_line(tmp_path):
         (["--cars", "42", "60"], "--cars must lie within 22..59"),
         (["--cars", "42", "59"], "holds no trained recording: run studies/styles.py"),
         (["--cars", "42", "59", "--headway", "0"], "--headway must be a time headway > 0 s, got 0.0"),
+        (["--cars", "42", "59", "--choice", "expected"], "--choice expected calibrates one model's bias"),
     ]
     for args, words in cases:
         with pytest.raises(SystemExit) as e:
@@ -234,3 +248,21 @@ def test_style_floor_refuses_what_it_cannot_read_in_one_line(tmp_path):
     assert "is missing: drive those rows first" in _refusal(
         floor.main, ["--out", str(tmp_path), "--rows", "r"]
     )
+
+
+def test_the_oracle_executes_its_own_labels(tmp_path):
+    """Real SUMO: without rules the projection oracle drives the demonstration wherever the look ahead has
+    one, and collection records that same projection as the cycle's label."""
+    import pandas as pd
+
+    from irlsim.config import load_config
+    from irlsim.data.collection import CollectConfig, EpisodeJob
+
+    oracle = _study("style_oracle")
+    sets = {"max_cycles": 25, "planner.n_policies": 60, "scenario.n_vehicles": 4, "train_episodes": 1}
+    cfg = load_config(CollectConfig, "configs/collect/styles/assertive.toml", sets)
+    stats = oracle.episode(EpisodeJob(str(tmp_path), "train", 0, 2_000_000_000, cfg))
+    cyc = pd.read_parquet(next((tmp_path / "train").glob("*.cycles.parquet")))
+    has = cyc["demo_index"].to_numpy() >= 0
+    assert has.sum() == stats["oracle/demonstration"] > 0 and stats["oracle/expert"] == 0
+    assert (cyc["executed_index"].to_numpy()[has] == cyc["demo_index"].to_numpy()[has]).all()
