@@ -43,8 +43,8 @@ import style_norms  # noqa: E402
 import styles  # noqa: E402  (studies/styles.py: the study's folders, configs and commands)
 
 from irlsim.config import load_config  # noqa: E402
-from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode  # noqa: E402
-from irlsim.data.demos import DemoProjector, lane_jump_projection  # noqa: E402
+from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode, demo_projector  # noqa: E402
+from irlsim.data.demos import lane_jump_projection  # noqa: E402
 from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, choose_index, within_braking_curve  # noqa: E402
 from irlsim.planner.policy_set import PolicySet  # noqa: E402
 from irlsim.road import Road  # noqa: E402
@@ -71,14 +71,7 @@ class OracleDriver:
         self.expert = ExpertDriver(road, cfg.planner)  # the fallback where the look ahead is cut short
         self.planner, self.road = self.expert.planner, road
         self.horizon_steps = cfg.scenario.horizon_steps
-        self.projector = DemoProjector(
-            lap_length=road.lap_length,
-            horizon=cfg.planner.horizon,
-            dt=cfg.planner.dt,
-            alpha=cfg.demo.alpha,
-            w_yaw=cfg.demo.w_yaw,
-            max_demo_distance=cfg.demo.max_distance,
-        )
+        self.projector = demo_projector(road, cfg)  # collection's, which records the same labels
         self.last_policy_set: PolicySet | None = None
         self.last_index, self.expert_index = -1, -1
         self.look_ahead: list[tuple[float, float, float, float]] | None = None

@@ -358,6 +358,19 @@ def _episode_driver(
     return SumoDemonstrator(road, cfg.planner, scenario), road, scenario, None
 
 
+def demo_projector(road: Road, cfg: CollectConfig) -> DemoProjector:
+    """The odometry projection of a collection with ``cfg`` on ``road`` (its planner's horizon and step,
+    the config's ``[demo]`` metric and limit)."""
+    return DemoProjector(
+        lap_length=road.lap_length,
+        horizon=cfg.planner.horizon,
+        dt=cfg.planner.dt,
+        alpha=cfg.demo.alpha,
+        w_yaw=cfg.demo.w_yaw,
+        max_demo_distance=cfg.demo.max_distance,
+    )
+
+
 def collect_episode(
     job: EpisodeJob, make_driver: DriverFactory | None = None, observers: Sequence[Observer] = ()
 ) -> dict[str, Any]:
@@ -383,14 +396,7 @@ def collect_episode(
     demonstrator = cfg.demonstrator
     driver, road, scenario, replay = _episode_driver(job, road, scenario, make_driver)
     labeller = driver if make_driver is not None else None
-    projector = DemoProjector(
-        lap_length=road.lap_length,
-        horizon=cfg.planner.horizon,
-        dt=cfg.planner.dt,
-        alpha=cfg.demo.alpha,
-        w_yaw=cfg.demo.w_yaw,
-        max_demo_distance=cfg.demo.max_distance,
-    )
+    projector = demo_projector(road, cfg)
     out = Path(job.dataset)
     setup = 0.0
 
