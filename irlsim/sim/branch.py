@@ -16,7 +16,8 @@ further), so it is not used. Cost: a save and a load of the oval with 15 vehicle
 horizon's 50 steps about 6 ms more (2-core Intel Xeon). SUMO's lane-based drivers have no lateral
 position of their own: a placed ego's lateral offset from its lane's centre (``moveToXY`` places it
 exactly) is kept through the whole look ahead and across a lane change, which moves it a lane width
-(measured: 0.81 m off the centre stays 0.81 m for 50 steps, and a change moves it to 4.01 m);
+(measured: a car 1.49 m off its lane's centre stayed there for all 50 steps; one 0.81 m off changed lanes at
+once and sat 0.81 m off the new lane's centre, at 4.01 m);
 :meth:`BranchingSimulation.lane_offset` reads it, so a labeller can read SUMO's lanes, not that offset.
 """
 
