@@ -218,6 +218,8 @@ def main(argv: list[str] | None = None) -> int:
         "--rules", nargs="*", choices=["commit", "full-stop"], default=[], help="the planner's rules"
     )
     a = p.parse_args(argv)
+    if len(set(a.demonstrators)) < len(a.demonstrators):
+        sys.exit(f"style_oracle: --demonstrators names a driver twice: {' '.join(a.demonstrators)}")
     if a.driver not in a.demonstrators or a.driver not in styles.CONFIGS or a.driver == "expert":
         sys.exit(f"style_oracle: --driver must be a SUMO driver among --demonstrators, got {a.driver}")
     out = Path(a.out)

@@ -171,6 +171,8 @@ def test_style_oracle_refuses_what_it_cannot_follow_in_one_line(tmp_path):
     assert "--driver must be a SUMO driver" in _refusal(oracle.main, [*out, "--driver", "expert"])
     assert "--driver must be a SUMO driver" in _refusal(oracle.main, [*out, "--driver", "timid"])
     assert "no references in" in _refusal(oracle.main, out)
+    twice = ["--demonstrators", "expert", "cautious", "cautious", "--driver", "cautious"]
+    assert "names a driver twice" in _refusal(oracle.main, [*out, *twice])
     assert not list(tmp_path.iterdir())
 
 
