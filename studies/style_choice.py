@@ -77,8 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--model", choices=styles.MODELS, default="PACNN+S", help="the learned reward driven")
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default", help="the rows' training rule")
     p.add_argument("--dagger-rounds", type=int, choices=range(6), default=0, help="style_dagger.py's rewards")
-    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
+    styles.add_rule_flags(p)
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if bad or "expert" in a.rows:
@@ -91,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
         styles.RULES[a.rule] = []  # style_dagger.py's rows: the rounds' data is what differs
     out = Path(a.out)
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    tag = "-commit" * a.commit + "-stop" * a.full_stop + "-choice"
+    tag = styles.drive_tag(commit=a.commit, stop=a.full_stop, choice=True)
     biases: dict[str, float] = {}
     for d in a.rows:
         for seed in a.seeds:

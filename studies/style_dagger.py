@@ -83,15 +83,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--max-cycles", type=int, default=800)
     p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
     p.add_argument("--workers", type=int, default=1, help="episodes collected or driven in parallel")
-    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
+    styles.add_rule_flags(p)
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if bad or "expert" in a.rows:
         what = f"unknown demonstrator {bad[0]}" if bad else "the expert labels its own rounds already"
         sys.exit(f"style_dagger: {what}: rows are SUMO drivers of {', '.join(styles.CONFIGS)}")
     a.safety, a.rule, a.train_config, a.train_sets = False, rule(a.rounds), "configs/train/stage1.toml", []
-    a.drive_tag = "-commit" * a.commit + "-stop" * a.full_stop
+    a.drive_tag = styles.drive_tag(commit=a.commit, stop=a.full_stop)
     os.environ.setdefault("OMP_NUM_THREADS", str(a.threads))
     styles.RULES[a.rule] = []  # the rounds' data is what differs, not a training setting
     out, at = Path(a.out), "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"

@@ -35,12 +35,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rows", nargs="+", required=True, help="drive folders' names without -seed<s>")
     p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     p.add_argument("--eval-base", type=int, default=styles.EVAL_BASE)
-    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
+    styles.add_rule_flags(p)
     p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
     a = p.parse_args(argv)
     out, at = Path(a.out), "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    tag = "-commit" * a.commit + "-stop" * a.full_stop + "-choice" * a.choice
+    tag = styles.drive_tag(commit=a.commit, stop=a.full_stop, choice=a.choice)
     if a.driver not in a.demonstrators:
         sys.exit(f"style_floor: --driver {a.driver} is not one of --demonstrators")
     for road in a.roads:

@@ -152,10 +152,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
     p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
-    p.add_argument("--commit", action="store_true", help="the drives with committed maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="the drives with a full stop at every line")
+    styles.add_rule_flags(p)
     a = p.parse_args(argv)
-    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-stop" * a.full_stop + "-choice" * a.choice
+    a.drive_tag = styles.drive_tag(a.safety, a.commit, a.full_stop, a.choice)
     a.rows = a.rows or a.demonstrators
     unknown = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if unknown:

@@ -224,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"style_oracle: --driver must be a SUMO driver among --demonstrators, got {a.driver}")
     out = Path(a.out)
     a.at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    tag = "-commit" * ("commit" in a.rules) + "-stop" * ("full-stop" in a.rules)
+    tag = styles.drive_tag(commit="commit" in a.rules, stop="full-stop" in a.rules)
     a.folder = lambda road: out / f"oracle{a.at}{tag}" / a.driver / road
     missing = [r for r in a.roads if not (out / f"drive{a.at}" / r / "expert" / "drive.json").is_file()]
     if missing:

@@ -47,10 +47,9 @@ trained). ``--safety`` drives the learned rewards within the planner's label fil
 ``-safe``), as a planner that uses a learned reward would; the references drive as before; ``--commit``:
 the SUMO drivers' rewards finish their maneuvers (``irlsim drive --commit``, ``-commit``; not recordings);
 ``--full-stop``: the SUMO drivers' rewards stop at every stop line they can (``irlsim drive --full-stop``,
-``-stop``; not recordings).
-``assertive-lc3`` is the assertive driver with lane changes of 3 s instead of SUMO's jump
-(``demonstrator.lane_change_duration``); ``assertive-eidm`` that driver with SUMO's Extended IDM, whose
-acceleration has a human driver's reaction time and jerk limit.
+``-stop``; not recordings; :func:`drive_tag`). ``assertive-lc3`` is the assertive driver with lane
+changes of 3 s instead of SUMO's jump (``demonstrator.lane_change_duration``); ``assertive-eidm`` that
+driver with SUMO's Extended IDM, whose acceleration has a human driver's reaction time and jerk limit.
 """
 
 from __future__ import annotations
@@ -215,6 +214,17 @@ def train(data: list[Path], runs: Path, seed: int, a: Any, rule: list[str]) -> N
         + ["--out", str(runs), "--set", f"models={json.dumps(list(MODELS))}", "--set", f"seed={seed}"]
         + ["--set", f"threads={a.threads}", "--set", f"epochs={a.epochs}", *a.train_sets, *rule]
     )
+
+
+def add_rule_flags(p: argparse.ArgumentParser) -> None:
+    """--commit and --full-stop, ``irlsim drive``'s rules for the learned rewards (every style study's)."""
+    p.add_argument("--commit", action="store_true", help="learned rewards finish their maneuvers")
+    p.add_argument("--full-stop", action="store_true", help="learned rewards stop at every line they can")
+
+
+def drive_tag(safe: bool = False, commit: bool = False, stop: bool = False, choice: bool = False) -> str:
+    """The suffix of the studies' drive folders and tables: ``[-safe][-commit][-stop][-choice]``."""
+    return "-safe" * safe + "-commit" * commit + "-stop" * stop + "-choice" * choice
 
 
 def learner(d: str, a: Any) -> tuple[str, list[str]]:
@@ -440,28 +450,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds")
     p.add_argument("--episodes", type=int, default=20, help="evaluation episodes per road")
     p.add_argument("--epochs", type=int, default=6, help="stage-1 epochs")
-    p.add_argument(
-        "--laps", type=int, default=2, help="laps of each evaluation episode (the collect configs')"
-    )
+    p.add_argument("--laps", type=int, default=2, help="laps of each evaluation episode")
     p.add_argument("--max-cycles", type=int, default=800, help="cycles of each evaluation episode")
     p.add_argument("--threads", type=int, default=1, help="torch threads of each training")
     p.add_argument("--workers", type=int, default=1, help="episodes collected or driven in parallel")
     p.add_argument("--smoke", action="store_true", help="toy sizes end to end (about a minute)")
-    p.add_argument(
-        "--eval-base", type=int, default=EVAL_BASE, help="episode seeds base * 1e6 + i of the drives"
-    )
-    p.add_argument(
-        "--rule", choices=sorted(RULES), default="default", help="demonstrations of the non-experts"
-    )
+    p.add_argument("--eval-base", type=int, default=EVAL_BASE, help="the drives' seeds: base * 1e6 + i")
+    p.add_argument("--rule", choices=sorted(RULES), default="default", help="the non-experts' demonstrations")
     p.add_argument("--rows", nargs="+", help="demonstrators whose learned rewards get rows (default: all)")
-    p.add_argument(
-        "--models", nargs="+", choices=MODELS, default=list(MODELS), help="the learned rewards driven"
-    )
+    p.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS), help="the rewards driven")
     p.add_argument("--safety", action="store_true", help="learned rewards within the label filter (--safety)")
-    p.add_argument("--commit", action="store_true", help="learned rewards finish their maneuvers")
-    p.add_argument("--full-stop", action="store_true", help="learned rewards stop at every line they can")
+    add_rule_flags(p)
     a = p.parse_args(argv)
-    a.drive_tag = "-safe" * a.safety + "-commit" * a.commit + "-stop" * a.full_stop  # drives', table's names
+    a.drive_tag = drive_tag(a.safety, a.commit, a.full_stop)  # the drives' and the table's names
     a.rows = a.rows or a.demonstrators
     if RECORDING in a.rows and a.eval_base != EVAL_BASE:
         sys.exit(
@@ -487,8 +488,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"styles: step failed (exit {e.returncode}): {' '.join(map(str, e.cmd))}")
     out = Path(a.out)
     name = "styles" + ("" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}")
-    name += "" if a.rule == "default" else f"-{a.rule}"
-    name += a.drive_tag
+    name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag
     name += "" if a.rows == a.demonstrators else "-" + "-".join(a.rows)  # a part of the table: its own file
     (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
     (out / f"{name}.md").write_text(markdown(tables))
