@@ -33,7 +33,7 @@ from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
-from irlsim.sim.vtype import DEMO_TYPE, DemoTypeFile
+from irlsim.sim.vtype import DEMO_TYPE, PLACED_TYPE, DemoTypeFile
 from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
@@ -219,7 +219,7 @@ class Simulation:
         i = road.edges.index(eid)
         lane0 = int(np.clip(lane0, road.layout.first[i], road.layout.first[i] + road.layout.count[i] - 1))
         d0 = float(road.lane_center(lane0))
-        add_ego(api, EGO, road, eid, pos, lane0, v0)
+        add_ego(api, EGO, road, eid, pos, lane0, v0, PLACED_TYPE if self.demo_type else "ego")
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))
         t = float(api.simulation.getTime())

@@ -16,17 +16,20 @@ from irlsim.sim.types import EgoState
 EGO_SPEED_FACTOR = 2.0  # the ego type's speedFactor (sumo_net/vtypes.add.xml)
 
 
-def add_ego(api: Any, ego: str, road: Road, eid: str, pos: float, lane: int, v0: float) -> None:
+def add_ego(
+    api: Any, ego: str, road: Road, eid: str, pos: float, lane: int, v0: float, vtype: str = "ego"
+) -> None:
     """Insert the ego at lane position ``pos`` [m] of route edge ``eid`` in route lane ``lane``, on the
-    rest of the route. Its departure speed is ``v0`` [m/s] below the lane's limit x the ego type's
-    speedFactor (SUMO refuses a faster departure, on a 10 km/h street); the ego's own state keeps ``v0``
-    (it is placed by moveToXY every step)."""
+    rest of the route, of type ``vtype`` (a demonstrator's placed type, :data:`irlsim.sim.vtype.PLACED_TYPE`:
+    the lane-change model SUMO builds at insertion is then the demonstrator's). Its departure speed is
+    ``v0`` [m/s] below the lane's limit x the ego type's speedFactor (SUMO refuses a faster departure, on a
+    10 km/h street); the ego's own state keeps ``v0`` (it is placed by moveToXY every step)."""
     k = road.layout.edge_lane(road.edges.index(eid), lane)
     depart = min(v0, EGO_SPEED_FACTOR * float(road.net.getEdge(eid).getLane(k).getSpeed()) - 0.01)
     api.vehicle.add(
         ego,
         f"loop@{eid}",
-        typeID="ego",
+        typeID=vtype,
         departLane=str(k),
         departPos=f"{pos:.3f}",
         departSpeed=f"{depart:.3f}",

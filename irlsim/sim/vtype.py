@@ -21,9 +21,16 @@ from xml.sax.saxutils import quoteattr
 
 from irlsim.errors import IrlsimError
 from irlsim.road.network import VTYPES_PATH, sumo_binary, sumo_home
+from irlsim.sim.sumo_ego import EGO_SPEED_FACTOR
 
 #: the demonstrator's vehicle type id (``vehicle.setType`` when SUMO takes the ego over)
 DEMO_TYPE = "irlsim_demo"
+#: the type the ego is inserted with under a demonstrator: the demonstrator's, with the placed ego's speed
+#: attributes (:func:`placed_attributes`). SUMO builds a vehicle's lane-change model once, at insertion,
+#: from its type: ``vehicle.setType`` changes the car following but keeps the lane-change model and its
+#: parameters (measured on SUMO 1.28: an ego inserted with irlsim's ego type kept LC2013 with
+#: ``lcSpeedGain`` 1 after ``setType`` to a type with SL2015 or ``lcSpeedGain`` 7)
+PLACED_TYPE = "irlsim_demo_placed"
 #: the vType attributes of the two models (the config's ``car_follow_model`` / ``lane_change_model``)
 MODEL_KEYS = ("carFollowModel", "laneChangeModel")
 _SCHEMA = (
@@ -57,10 +64,23 @@ def _text(v: Any) -> str:
     return f"{v:g}" if isinstance(v, float) else str(v).lower() if isinstance(v, bool) else str(v)
 
 
+def placed_attributes(attrs: dict[str, str]) -> dict[str, str]:
+    """The attributes of ``PLACED_TYPE``: the demonstrator's ``attrs`` (its lane-change model and every
+    attribute), with the ego type's ``speedFactor`` 2 and no ``maxSpeed``, so that the ego placed by
+    ``moveToXY`` before SUMO takes it over reports its real speed unclipped, as with the ego type."""
+    out = {k: v for k, v in attrs.items() if k != "maxSpeed"}
+    out["speedFactor"] = f"{EGO_SPEED_FACTOR:g}"
+    return out
+
+
 def vtype_xml(attrs: dict[str, str]) -> str:
-    """An additional file holding one vType ``DEMO_TYPE`` with ``attrs``."""
-    body = " ".join(f"{k}={quoteattr(v)}" for k, v in attrs.items())
-    return f'<additional {_SCHEMA}>\n    <vType id="{DEMO_TYPE}" {body}/>\n</additional>\n'
+    """An additional file holding the vType ``DEMO_TYPE`` with ``attrs`` and ``PLACED_TYPE`` with
+    :func:`placed_attributes`."""
+    lines = []
+    for vid, a in ((DEMO_TYPE, attrs), (PLACED_TYPE, placed_attributes(attrs))):
+        body = " ".join(f"{k}={quoteattr(v)}" for k, v in a.items())
+        lines.append(f'    <vType id="{vid}" {body}/>')
+    return f"<additional {_SCHEMA}>\n" + "\n".join(lines) + "\n</additional>\n"
 
 
 def read_vtype_file(path: str | Path) -> dict[str, str]:

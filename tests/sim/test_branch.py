@@ -107,3 +107,23 @@ def test_sumos_driver_keeps_a_placed_egos_offset_from_its_lane_and_lane_offset_r
     np.testing.assert_allclose(centres, np.round(centres), atol=0.02)
     assert sim.lane_offset() == off  # the branch came back to the placed ego
     sim.close()
+
+
+@pytest.mark.parametrize("model", ["LC2013", "SL2015"])
+def test_sumos_driver_at_the_wheel_has_the_demonstrators_lane_change_model_and_attributes(road, model):
+    # SUMO builds a vehicle's lane-change model at insertion: an ego inserted with irlsim's ego type kept
+    # LC2013 and its default lcSpeedGain 1 after setType to the demonstrator's (measured), so the ego is
+    # inserted with the demonstrator's placed type
+    attrs = vtype_attributes({**IDM, "laneChangeModel": model, "lcSpeedGain": 7.0, "lcKeepRight": 0.1}, 20.0)
+    sim = BranchingSimulation(road, CFG, demo_vtype=attrs)
+    obs = sim.reset(3)
+    sim.execute(SumoDriver(road, CFG).plan(obs), n_steps=2)
+    get = sim._api.vehicle.getParameter
+    assert [float(get(EGO, f"laneChangeModel.{k}")) for k in ("lcSpeedGain", "lcKeepRight")] == [7.0, 0.1]
+    assert sim._api.vehicle.getTypeID(EGO) == "irlsim_demo" and sim._api.vehicle.getTau(EGO) == 0.6
+    if model == "SL2015":  # a parameter only the sublane model has
+        assert float(get(EGO, "laneChangeModel.lcSublane")) == 1.0
+    else:
+        with pytest.raises(Exception, match="does not support"):
+            get(EGO, "laneChangeModel.lcSublane")
+    sim.close()
