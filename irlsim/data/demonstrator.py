@@ -162,6 +162,7 @@ def resolve(
         "car_follow_model": out.car_follow_model,
         "lane_change_model": out.lane_change_model,
         "params": params,
+        LANE_CHANGES_APPLIED: True,
     }
     if cfg.lane_change_duration:
         record["lane_change_duration"] = cfg.lane_change_duration
@@ -215,6 +216,14 @@ def _canonical(value: Any) -> Any:
     return x if math.isfinite(x) else value
 
 
+#: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
+#: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
+#: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
+LANE_CHANGES_APPLIED = "lane_changes_applied"
+#: how :func:`describe` names such a record
+NOT_APPLIED = " (collected with its lane-change attributes not in effect: SUMO's LC2013 defaults drove)"
+
+
 def describe(record: dict[str, Any] | None) -> str:
     """One short name of a recorded demonstrator: 'expert', 'sumo IDM/LC2013 {tau=1.5}'."""
     if not record or record.get("kind", EXPERT) == EXPERT:
@@ -224,8 +233,10 @@ def describe(record: dict[str, Any] | None) -> str:
         return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos)"
     params = shown_params(record)
     text = ",".join(f"{k}={v}" for k, v in sorted(params.items()) if k != "maxSpeed")
-    return f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}" + (
-        f" {{{text}}}" if text else ""
+    return (
+        f"sumo {record.get('car_follow_model')}/{record.get('lane_change_model')}"
+        + (f" {{{text}}}" if text else "")
+        + ("" if record.get(LANE_CHANGES_APPLIED) else NOT_APPLIED)
     )
 
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -88,6 +89,7 @@ def test_manifest_records_the_demonstrator_and_the_style(sumo_sets, capsys):
         "car_follow_model": "IDM",
         "lane_change_model": "LC2013",
         "params": {"tau": 1.5, "accel": 2.0},
+        "lane_changes_applied": True,
     }
     assert man["config"]["demonstrator"]["car_follow_model"] == "IDM"
     stats = json.loads((outs["idm"] / "train" / "episode_00000.stats.json").read_text())
@@ -129,6 +131,21 @@ def test_resume_as_another_demonstrator_is_refused(sumo_sets, capsys, section):
         f"{{accel=2.0,tau=1.5}}, this config has {now}: choose another --out or delete {outs['idm']}"
     ]
     assert (outs["idm"] / "manifest.json").read_bytes() == before
+
+
+def test_a_dataset_collected_before_lane_change_attributes_took_effect_is_named_so(sumo_sets, capsys):
+    # an irlsim that inserted the ego with its own type ran LC2013 at its defaults whatever the record
+    # said: its record lacks lane_changes_applied, and the same config does not resume it as its own
+    tmp, outs = sumo_sets
+    old = tmp / "old-idm"
+    shutil.copytree(outs["idm"], old)
+    man = json.loads((old / "manifest.json").read_text())
+    del man["demonstrator"]["lane_changes_applied"]
+    (old / "manifest.json").write_text(json.dumps(man))
+    capsys.readouterr()
+    assert main(["collect", "--config", str(tmp / "idm.toml"), "--out", str(old)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tau=1.5} (collected with its lane-change attributes not in effect" in err[0]
 
 
 @pytest.mark.parametrize(
