@@ -200,7 +200,7 @@ EAGER = (
 def test_a_lane_change_duration_spreads_the_lateral_move(tmp_path):
     """SUMO's lane changes are a jump of a lane width within one step; with a duration the odometry
     moves across as a driver steers, and the manifest names the duration."""
-    base = BASE.replace("max_cycles = 30", "max_cycles = 90").replace("n_vehicles = 4", "n_vehicles = 12")
+    base = BASE.replace("max_cycles = 30", "max_cycles = 70").replace("n_vehicles = 4", "n_vehicles = 12")
     moves = {}
     for lc in (0.0, 3.0):
         cfg = tmp_path / f"lc{lc:g}.toml"
