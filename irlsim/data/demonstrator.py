@@ -220,8 +220,9 @@ def _canonical(value: Any) -> Any:
 #: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
 #: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
 LANE_CHANGES_APPLIED = "lane_changes_applied"
-#: how :func:`describe` names such a record
+#: how :func:`describe` names such a record, and the end of its :func:`identity`
 NOT_APPLIED = " (collected with its lane-change attributes not in effect: SUMO's LC2013 defaults drove)"
+OLD_IDENTITY = "~lc-defaults"
 
 
 def describe(record: dict[str, Any] | None) -> str:
@@ -268,10 +269,11 @@ def identity(record: dict[str, Any] | None) -> str:
     models = f"{SUMO}:{rec.get('car_follow_model')}/{rec.get('lane_change_model')}"
     params = shown_params(rec)
     text = models + "{" + ",".join(f"{k}={_short(v)}" for k, v in sorted(params.items())) + "}"
+    old = "" if rec.get(LANE_CHANGES_APPLIED) else OLD_IDENTITY  # another driver than the one it names
     if len(text) <= MAX_IDENTITY:
-        return text
+        return text + old
     digest = hashlib.sha256(json.dumps(params, sort_keys=True, default=str).encode()).hexdigest()
-    return f"{models}#{digest[:12]}"
+    return f"{models}#{digest[:12]}{old}"
 
 
 def identity_kind(ident: str) -> str:

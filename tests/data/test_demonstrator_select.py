@@ -48,12 +48,17 @@ def _text(d: dict) -> str:
 def test_identity_strings():
     assert identity(None) == identity({"kind": "expert"}) == "expert"
     rec = {"kind": "sumo", "car_follow_model": "IDM", "lane_change_model": "LC2013"}
+    rec["lane_changes_applied"] = True
     assert identity({**rec, "params": {"tau": 1.5, "accel": 2.0}}) == "sumo:IDM/LC2013{accel=2,tau=1.5}"
     assert identity({**rec, "params": {}}) == "sumo:IDM/LC2013{}"
     many = {f"p{i}": float(i) for i in range(12)}
     long = identity({**rec, "params": many})
     assert long.startswith("sumo:IDM/LC2013#") and len(long) == len("sumo:IDM/LC2013#") + 12
     assert long != identity({**rec, "params": {**many, "p0": 1.0}})
+    # a record of an irlsim that left the lane-change attributes out of the driving: another driver
+    old = {k: v for k, v in rec.items() if k != "lane_changes_applied"}
+    assert identity({**old, "params": {"tau": 1.5}}) == "sumo:IDM/LC2013{tau=1.5}~lc-defaults"
+    assert identity({**old, "params": many}) == long + "~lc-defaults"
     assert identity({"kind": "recording", "sha256": "0123456789abcdef"}) == "recording:0123456789ab"
 
 
