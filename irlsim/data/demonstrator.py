@@ -48,6 +48,13 @@ KINDS = (EXPERT, SUMO, RECORDING)
 #: keeps the bytes of before recordings existed)
 SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
 RECORDING_FIELDS = ("file", "ego", "min_duration")
+#: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
+#: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
+#: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
+LANE_CHANGES_APPLIED = "lane_changes_applied"
+#: how :func:`describe` names such a record, and the end of its :func:`identity`
+NOT_APPLIED = " (collected with its lane-change attributes not in effect: SUMO's LC2013 defaults drove)"
+OLD_IDENTITY = "~lc-defaults"
 
 
 @dataclass(frozen=True)
@@ -214,15 +221,6 @@ def _canonical(value: Any) -> Any:
     except ValueError:
         return value
     return x if math.isfinite(x) else value
-
-
-#: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
-#: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
-#: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
-LANE_CHANGES_APPLIED = "lane_changes_applied"
-#: how :func:`describe` names such a record, and the end of its :func:`identity`
-NOT_APPLIED = " (collected with its lane-change attributes not in effect: SUMO's LC2013 defaults drove)"
-OLD_IDENTITY = "~lc-defaults"
 
 
 def describe(record: dict[str, Any] | None) -> str:
