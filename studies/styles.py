@@ -49,7 +49,8 @@ the SUMO drivers' rewards finish their maneuvers (``irlsim drive --commit``, ``-
 ``--full-stop``: the SUMO drivers' rewards stop at every stop line they can (``irlsim drive --full-stop``,
 ``-stop``; not recordings; :func:`drive_tag`). ``assertive-lc3`` is the assertive driver with lane
 changes of 3 s instead of SUMO's jump (``demonstrator.lane_change_duration``); ``assertive-eidm`` that
-driver with SUMO's Extended IDM, whose acceleration has a human driver's reaction time and jerk limit.
+driver with SUMO's Extended IDM, whose acceleration has a human driver's reaction time and jerk limit;
+``sporty`` a fast, left-keeping EIDM driver at SUMO's default headway (development candidates).
 """
 
 from __future__ import annotations
@@ -72,13 +73,11 @@ from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout.style import pool_styles, style_distances
 
-CONFIGS = {
-    "expert": "configs/collect/default.toml",
-    "cautious": "configs/collect/styles/cautious.toml",
-    "assertive": "configs/collect/styles/assertive.toml",
-    # development: the assertive driver's lane changes take 3 s, not a jump; then also SUMO's Extended IDM
-    "assertive-lc3": "configs/collect/styles/assertive_lc3.toml",
-    "assertive-eidm": "configs/collect/styles/assertive_eidm.toml",
+#: the demonstrators' collect configs: the expert's, then each SUMO driver of configs/collect/styles/ by its
+#: file's name (``assertive_eidm.toml``: ``assertive-eidm``), each with its attributes' reasons
+CONFIGS = {"expert": "configs/collect/default.toml"} | {
+    p.stem.replace("_", "-"): f"configs/collect/styles/{p.name}"
+    for p in sorted((Path(__file__).resolve().parents[1] / "configs" / "collect" / "styles").glob("*.toml"))
 }
 RECORDING = "recording"
 MODELS = ("PACNN+S", "LIRL")
