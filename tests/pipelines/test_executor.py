@@ -21,9 +21,10 @@ from typing import Any
 
 import pytest
 
+import irlsim.executor
 from irlsim.cli import main
 from irlsim.data.layout import episode_paths
-from irlsim.executor import KILL_GRACE_S, RAY_CANCEL_WAIT_S, Job, run_jobs
+from irlsim.executor import RAY_CANCEL_WAIT_S, Job, run_jobs
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 
@@ -148,10 +149,12 @@ def test_results_retries_and_failures(executor, tmp_path, request):
 
 #: a time limit far above a start-up and _stops_itself's return, far below a test's patience
 HANG_TIMEOUT = 5.0
+#: [s] SIGTERM's grace here: a stopped worker never uses it (SIGKILL ends it), so the test waits less
+KILL_GRACE_S = 0.5
 
 
 @pytest.mark.parametrize("executor", ["inline", "local", "ray"])
-def test_a_hung_worker_is_killed_retried_then_named(executor, request):
+def test_a_hung_worker_is_killed_retried_then_named(executor, request, monkeypatch):
     """A job whose worker stops (SIGSTOP) on every attempt: after the time limit its process is killed
     (Ray: its task cancelled), the job is tried once more in a fresh worker, then named with a one-line
     reason; the other jobs finish and the run ends in bounded time. 'inline' (one worker): a timeout runs
@@ -159,6 +162,7 @@ def test_a_hung_worker_is_killed_retried_then_named(executor, request):
     if executor == "ray":
         request.getfixturevalue("ray_cluster")
     kind, workers = ("local", 1) if executor == "inline" else (executor, 2)
+    monkeypatch.setattr(irlsim.executor, "KILL_GRACE_S", KILL_GRACE_S)
     me = os.getpid()
     retried: list[str] = []
     t0 = time.monotonic()

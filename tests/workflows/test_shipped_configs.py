@@ -1,4 +1,5 @@
-"""Every shipped training and DAgger config loads and validates, and the files a DAgger config names exist.
+"""Every shipped collect, training and DAgger config loads and validates (a SUMO demonstrator's vehicle type
+accepted by SUMO itself), and the files a DAgger config names exist.
 
 A config that goes stale (a renamed field, a value out of range, a stage config that moved) fails here, in
 parsing alone, instead of minutes into a recipe.
@@ -11,16 +12,29 @@ from pathlib import Path
 import pytest
 
 from irlsim.config import load_config
+from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import SUMO, resolve
+from irlsim.road.scenario import Scenarios
 from irlsim.train.config import Stage1Config, Stage2Config
 from irlsim.workflows.dagger import DaggerConfig
 
 ROOT = Path(__file__).resolve().parents[2]
+COLLECT = sorted((ROOT / "configs" / "collect").rglob("*.toml"))
 TRAIN = sorted((ROOT / "configs" / "train").glob("*.toml"))
 DAGGER = sorted((ROOT / "configs" / "dagger").glob("*.toml"))
 
 
 def test_the_shipped_configs_are_found() -> None:
-    assert len(TRAIN) >= 2 and len(DAGGER) >= 2
+    assert len(COLLECT) >= 4 and len(TRAIN) >= 2 and len(DAGGER) >= 2
+
+
+@pytest.mark.parametrize("path", COLLECT, ids=lambda p: str(p.relative_to(ROOT / "configs" / "collect")))
+def test_collect_config_loads_and_sumo_accepts_its_demonstrator(path: Path) -> None:
+    cfg = load_config(CollectConfig, path)
+    demo, record = resolve(cfg.demonstrator, tuple(Scenarios()(name) for name in cfg.scenario_names))
+    assert record["kind"] == cfg.demonstrator.kind
+    if demo.kind == SUMO:  # resolved as collection records it: both models named, SUMO's or the config's
+        assert demo.car_follow_model and demo.lane_change_model
 
 
 @pytest.mark.parametrize("path", TRAIN, ids=lambda p: p.name)
