@@ -71,6 +71,10 @@ def _stops_itself(arg: tuple[int, int]) -> int:
     return 2 * x
 
 
+def _pid_and_double(x: int) -> tuple[int, int]:
+    return os.getpid(), 2 * x
+
+
 def _always_fails(x: int) -> int:
     if x == 1:
         return 2
@@ -153,15 +157,26 @@ HANG_TIMEOUT = 5.0
 KILL_GRACE_S = 0.5
 
 
-@pytest.mark.parametrize("executor", ["inline", "local", "ray"])
+def test_one_worker_runs_the_jobs_in_a_worker_process_when_they_have_a_time_limit():
+    """One worker runs the jobs in this process, unless they have a time limit: a job here could not be
+    killed, so one worker process runs them (its kill and retry: the test below, with two)."""
+    jobs = [Job(f"ok/{i}", i) for i in (1, 2, 3)]
+    limited = run_jobs(_pid_and_double, jobs, executor="local", workers=1, timeout=HANG_TIMEOUT)
+    inline = run_jobs(_pid_and_double, jobs, executor="local", workers=1)
+    for out in (limited, inline):
+        assert {key: v for key, (_, v) in out.results.items()} == {"ok/1": 2, "ok/2": 4, "ok/3": 6}
+    (worker,) = {pid for pid, _ in limited.results.values()}
+    assert worker != os.getpid() and {pid for pid, _ in inline.results.values()} == {os.getpid()}
+
+
+@pytest.mark.parametrize("executor", ["local", "ray"])
 def test_a_hung_worker_is_killed_retried_then_named(executor, request, monkeypatch):
     """A job whose worker stops (SIGSTOP) on every attempt: after the time limit its process is killed
     (Ray: its task cancelled), the job is tried once more in a fresh worker, then named with a one-line
-    reason; the other jobs finish and the run ends in bounded time. 'inline' (one worker): a timeout runs
-    the jobs in a worker process, never in this one."""
+    reason; the other jobs finish and the run ends in bounded time."""
     if executor == "ray":
         request.getfixturevalue("ray_cluster")
-    kind, workers = ("local", 1) if executor == "inline" else (executor, 2)
+    kind, workers = executor, 2
     monkeypatch.setattr(irlsim.executor, "KILL_GRACE_S", KILL_GRACE_S)
     me = os.getpid()
     retried: list[str] = []
