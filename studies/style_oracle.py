@@ -55,6 +55,10 @@ from irlsim.sim.collision import collision_line  # noqa: E402
 from irlsim.sim.simulation import Simulation  # noqa: E402
 from irlsim.sim.types import Observation, Trajectory  # noqa: E402
 
+#: how a cycle's policy was found: the demonstration; the nearest policy the rules allow, the rules having
+#: left the demonstration out or no policy lying within the projection's distance; the expert's choice
+CYCLE_KINDS = ("demonstration", "ruled_out", "beyond", "expert")
+
 
 class OracleDriver:
     """Executes, every cycle, SUMO's driver's look ahead projected onto the cycle's policy set (the
@@ -76,9 +80,10 @@ class OracleDriver:
         self.last_index, self.expert_index = -1, -1
         self.look_ahead: list[tuple[float, float, float, float]] | None = None
         self.look_ahead_offset = 0.0
-        #: cycles driven by the demonstration itself, by the nearest policy (none within the distance, or
-        #: the rules do not allow it) and by the expert (the look ahead cut short)
-        self.counts = {"demonstration": 0, "nearest": 0, "expert": 0}
+        #: cycles driven by the demonstration itself, by the nearest policy the rules allow (the rules
+        #: left the demonstration out; no policy within the projection's distance) and by the expert
+        #: (the look ahead cut short)
+        self.counts = dict.fromkeys(CYCLE_KINDS, 0)
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
@@ -92,7 +97,8 @@ class OracleDriver:
             idx, how = self.expert.select(ps, obs), "expert"
         else:
             idx = self.choose(ps, obs, demo.distances, demo.demo_index)
-            how = "demonstration" if idx == demo.demo_index else "nearest"
+            found = demo.demo_index >= 0
+            how = "demonstration" if idx == demo.demo_index else "ruled_out" if found else "beyond"
         self.counts[how] += 1
         self.expert.follow(ps, idx)
         self.look_ahead, self.look_ahead_offset, self.last_policy_set, self.last_index = seen, off, ps, idx
@@ -164,7 +170,7 @@ def road_table(out: Path, road: str, stats: list[dict[str, Any]], a: Any) -> dic
     row = pool_styles([s for s in stats if s.get("style/time_s", 0) > 0])
     per_ep = style_norms.episode_distances(row, list(refs.values()), spread)
     pooled = style_distances([row, *refs.values()])[0, 1:]
-    counts = {k: int(sum(s[f"oracle/{k}"] for s in stats)) for k in ("demonstration", "nearest", "expert")}
+    counts = {k: int(sum(s[f"oracle/{k}"] for s in stats)) for k in CYCLE_KINDS}
     keys = ["mean_speed", "headway_median_s", "headway_p10_s", "lane_changes_per_km", "rms_accel", "rms_jerk"]
     figures = {n: {k: row[f"style/{k}"] for k in keys} for n, row in [("oracle", row), *refs.items()]}
     return {
@@ -183,7 +189,7 @@ def markdown(tables: dict[str, dict[str, Any]], driver: str) -> str:
     for road, t in tables.items():
         cols = list(t["as_defined"])
         head = ["road", *(f"{c} (as defined)" for c in cols), *(f"{c} (per episode)" for c in cols)]
-        head += ["collisions", "stops", "cycles: demonstration / nearest / expert"]
+        head += ["collisions", "stops", "cycles: demonstration / ruled out / beyond the distance / expert"]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)] if not lines else []
         cells = [road]
         for kind in ("as_defined", "per_episode"):
@@ -191,7 +197,7 @@ def markdown(tables: dict[str, dict[str, Any]], driver: str) -> str:
             cells += [f"**{v:.3f}**" if c == near else f"{v:.3f}" for c, v in t[kind].items()]
         b, c = t["bounds"], t["cycles"]
         cells += [str(b["collisions"]), f"{b['stops'][0]}/{b['stops'][1]}"]
-        cells.append(f"{c['demonstration']} / {c['nearest']} / {c['expert']}")
+        cells.append(" / ".join(str(c[k]) for k in CYCLE_KINDS))
         lines.append("| " + " | ".join(cells) + " |")
     lines += ["", f"Figures (the oracle of {driver} and the references, pooled):", ""]
     keys = list(next(iter(tables.values()))["figures"]["oracle"])

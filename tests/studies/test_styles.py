@@ -267,4 +267,6 @@ def test_the_oracle_executes_its_own_labels(tmp_path):
     cyc = pd.read_parquet(next((tmp_path / "train").glob("*.cycles.parquet")))
     has = cyc["demo_index"].to_numpy() >= 0
     assert has.sum() == stats["oracle/demonstration"] > 0 and stats["oracle/expert"] == 0
+    # no rules, nothing ruled out: every other cycle had no policy within the projection's distance
+    assert stats["oracle/ruled_out"] == 0 and stats["oracle/beyond"] == (~has).sum()
     assert (cyc["executed_index"].to_numpy()[has] == cyc["demo_index"].to_numpy()[has]).all()
