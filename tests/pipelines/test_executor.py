@@ -344,25 +344,8 @@ def test_drive_a_hung_worker_is_killed_retried_then_named(tmp_path):
     """drive with two local workers: the expert episode whose worker and retry's worker are stopped is
     killed after --episode-timeout each time, and the command ends with exit 1 naming it, no drive.json."""
     out = tmp_path / "drive"
-    argv = [
-        "drive",
-        "--model",
-        "expert",
-        "--episodes",
-        "2",
-        "--workers",
-        "2",
-        "--max-cycles",
-        "25",
-        "--frames",
-        "0",
-        "--config",
-        "configs/collect/tiny.toml",
-        "--episode-timeout",
-        "10",
-        "--out",
-        str(out),
-    ]
+    argv = "drive --model expert --episodes 2 --workers 2 --max-cycles 25 --frames 0".split()
+    argv += ["--config", "configs/collect/tiny.toml", "--episode-timeout", "10", "--out", str(out)]
     proc, _ = _run_with_hung_episode(argv)
     assert proc.returncode == 1, proc.stderr[-2000:]
     err = proc.stderr.strip().splitlines()
@@ -487,21 +470,8 @@ def test_drive_same_json_for_workers_and_executors(request, tiny_runs, tmp_path,
     """drive.json is the same for one worker, two local workers and two Ray workers (but its clocks)."""
     if other == "ray":
         request.getfixturevalue("ray_cluster")
-    base = [
-        "drive",
-        "--runs",
-        str(tiny_runs),
-        "--model",
-        "expert,PACNN+S",
-        "--episodes",
-        "2",
-        "--max-cycles",
-        "25",
-        "--frames",
-        "0",
-        "--config",
-        "configs/collect/tiny.toml",
-    ]
+    base = ["drive", "--runs", str(tiny_runs), "--model", "expert,PACNN+S", "--episodes", "2"]
+    base += ["--max-cycles", "25", "--frames", "0", "--config", "configs/collect/tiny.toml"]
     extra = {"two": ["--workers", "2"], "ray": ["--workers", "2", "--executor", "ray"]}[other]
     results = {}
     for name, more in {"one": [], other: extra}.items():
