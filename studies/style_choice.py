@@ -81,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
     if bad:
-        sys.exit(f"style_choice: unknown demonstrator {bad[0]}: rows are drivers of {', '.join(styles.CONFIGS)}")
+        sys.exit(f"style_choice: unknown demonstrator {bad[0]}: choose from {', '.join(styles.CONFIGS)}")
     if a.dagger_rounds and a.rule != "default":
         sys.exit("style_choice: --dagger-rounds drives style_dagger.py's rewards: leave --rule at default")
     if a.dagger_rounds:
