@@ -158,7 +158,9 @@ def _refusal(main, argv: list[str]) -> str:
 def test_style_choice_refuses_a_missing_study_in_one_line(tmp_path):
     choice = _study("style_choice")
     assert "is missing: run studies/styles.py" in _refusal(choice.main, ["--out", str(tmp_path)])
-    assert "not a row" in _refusal(choice.main, ["--out", str(tmp_path), "--rows", "expert"])
+    out = ["--out", str(tmp_path)]
+    assert "unknown demonstrator timid" in _refusal(choice.main, [*out, "--rows", "timid"])
+    assert "data/expert/oval is missing" in _refusal(choice.main, [*out, "--rows", "expert"])  # a row too
     dagger = ["--out", str(tmp_path), "--dagger-rounds", "1"]
     assert "is missing: run studies/style_dagger.py" in _refusal(choice.main, dagger)
     assert "leave --rule at default" in _refusal(choice.main, [*dagger, "--rule", "kept"])
