@@ -58,6 +58,12 @@ from irlsim.sim.types import Observation, Trajectory  # noqa: E402
 #: how a cycle's policy was found: the demonstration; the nearest policy the rules allow, the rules having
 #: left the demonstration out or no policy lying within the projection's distance; the expert's choice
 CYCLE_KINDS = ("demonstration", "ruled_out", "beyond", "expert")
+#: [m/s^2] the look ahead's acceleration over the first cycle beyond which the cycle counts as braking or
+#: accelerating (the chosen policy's progress against the look ahead's is summed by those kinds)
+LEAD_ACCEL = 0.5
+#: the steps (0.1 s) after which the progress is compared: the first cycle (driven) and 2 s
+GAP_STEPS = (2, 20)
+GAP_KINDS = ("braking", "steady", "accelerating")
 
 
 class OracleDriver:
@@ -74,7 +80,7 @@ class OracleDriver:
         self.stopping = False  # the last policy chosen comes to a stand (commit)
         self.expert = ExpertDriver(road, cfg.planner)  # the fallback where the look ahead is cut short
         self.planner, self.road = self.expert.planner, road
-        self.horizon_steps = cfg.scenario.horizon_steps
+        self.horizon_steps, self.step = cfg.scenario.horizon_steps, cfg.scenario.step  # the policies' grid
         self.projector = demo_projector(road, cfg)  # collection's, which records the same labels
         self.last_policy_set: PolicySet | None = None
         self.last_index, self.expert_index = -1, -1
@@ -84,6 +90,9 @@ class OracleDriver:
         #: left the demonstration out; no policy within the projection's distance) and by the expert
         #: (the look ahead cut short)
         self.counts = dict.fromkeys(CYCLE_KINDS, 0)
+        #: by what the look ahead does over the first cycle: cycles, and the chosen policy's progress minus
+        #: the look ahead's [m] summed after each of GAP_STEPS
+        self.gaps = {k: [0, 0.0, 0.0] for k in GAP_KINDS}
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
@@ -100,9 +109,21 @@ class OracleDriver:
             found = demo.demo_index >= 0
             how = "demonstration" if idx == demo.demo_index else "ruled_out" if found else "beyond"
         self.counts[how] += 1
+        if len(seen) > GAP_STEPS[1]:
+            self._gap(ps, idx, seen, e.v)
         self.expert.follow(ps, idx)
         self.look_ahead, self.look_ahead_offset, self.last_policy_set, self.last_index = seen, off, ps, idx
         return self.planner.trajectory(idx)
+
+    def _gap(self, ps: PolicySet, idx: int, seen: list[tuple[float, float, float, float]], v: float) -> None:
+        """The chosen policy's progress against the look ahead's after GAP_STEPS, summed by what the look
+        ahead does over the first cycle (its mean speed there against the ego's speed now)."""
+        one = GAP_STEPS[0]
+        a = ((seen[one][1] - seen[0][1]) / (one * self.step) - v) / (one * self.step / 2)
+        gap = self.gaps["braking" if a < -LEAD_ACCEL else "accelerating" if a > LEAD_ACCEL else "steady"]
+        gap[0] += 1
+        for i, k in enumerate(GAP_STEPS, start=1):
+            gap[i] += float(ps.s[idx, k] - ps.s[idx, 0]) - (seen[k][1] - seen[0][1])
 
     def choose(self, ps: PolicySet, obs: Observation, distances: np.ndarray, demo: int) -> int:
         """The demonstration, else the nearest policy, among those the rules allow (ThetaDriver's)."""
@@ -144,7 +165,7 @@ def episode(job: EpisodeJob, rules: tuple[str, ...] = ()) -> dict[str, Any]:
     first = _FirstCollision()
     stats = collect_episode(job, make_driver=make, observers=[first])
     counts = {f"oracle/{k}": v for k, v in drivers[0].counts.items()}
-    return {**stats, **counts, "oracle/first_collision": first.record}
+    return {**stats, **counts, "oracle/gaps": drivers[0].gaps, "oracle/first_collision": first.record}
 
 
 def jobs(a: Any, road: str, folder: Path) -> list[EpisodeJob]:
@@ -171,6 +192,11 @@ def road_table(out: Path, road: str, stats: list[dict[str, Any]], a: Any) -> dic
     per_ep = style_norms.episode_distances(row, list(refs.values()), spread)
     pooled = style_distances([row, *refs.values()])[0, 1:]
     counts = {k: int(sum(s[f"oracle/{k}"] for s in stats)) for k in CYCLE_KINDS}
+    sums = {k: np.sum([s["oracle/gaps"][k] for s in stats], axis=0) for k in GAP_KINDS}
+    gaps = {
+        k: {"cycles": int(g[0]), "first_cycle_m": g[1] / max(g[0], 1), "two_s_m": g[2] / max(g[0], 1)}
+        for k, g in sums.items()
+    }
     keys = ["mean_speed", "headway_median_s", "headway_p10_s", "lane_changes_per_km", "rms_accel", "rms_jerk"]
     figures = {n: {k: row[f"style/{k}"] for k in keys} for n, row in [("oracle", row), *refs.items()]}
     return {
@@ -178,6 +204,7 @@ def road_table(out: Path, road: str, stats: list[dict[str, Any]], a: Any) -> dic
         "per_episode": dict(zip(refs, map(float, per_ep), strict=True)),
         "bounds": styles.collected_bounds(a.folder(road)),
         "cycles": counts,
+        "gaps": gaps,
         "collisions": [s["oracle/first_collision"] for s in stats if s["oracle/first_collision"]],
         "figures": figures,
         "lane_share": {n: list(r["style/lane_share"]) for n, r in [("oracle", row), *refs.items()]},
@@ -206,6 +233,18 @@ def markdown(tables: dict[str, dict[str, Any]], driver: str) -> str:
         for n, f in t["figures"].items():
             shares = " / ".join(f"{x:.2f}" for x in t["lane_share"][n])
             lines.append(f"| {road} | {n} | " + " | ".join(f"{f[k]:.2f}" for k in keys) + f" | {shares} |")
+    lines += [
+        "",
+        "The chosen policy's progress minus the look ahead's [m], after the first cycle / after 2 s, by "
+        "what the look ahead does over the first cycle (cycles):",
+        "",
+    ]
+    for road, t in tables.items():
+        g = t["gaps"]
+        cells = [
+            f"{k} ({g[k]['cycles']}) {g[k]['first_cycle_m']:+.3f} / {g[k]['two_s_m']:+.2f}" for k in GAP_KINDS
+        ]
+        lines.append(f"- {road}: " + "; ".join(cells))
     return "\n".join(lines) + "\n"
 
 

@@ -271,4 +271,7 @@ def test_the_oracle_executes_its_own_labels(tmp_path):
     assert has.sum() == stats["oracle/demonstration"] > 0 and stats["oracle/expert"] == 0
     # no rules, nothing ruled out: every other cycle had no policy within the projection's distance
     assert stats["oracle/ruled_out"] == 0 and stats["oracle/beyond"] == (~has).sum()
+    gaps = stats["oracle/gaps"]  # every cycle with 2 s of look ahead, of one kind
+    assert set(gaps) == {"braking", "steady", "accelerating"}
+    assert 0 < sum(g[0] for g in gaps.values()) <= len(cyc)
     assert (cyc["executed_index"].to_numpy()[has] == cyc["demo_index"].to_numpy()[has]).all()
