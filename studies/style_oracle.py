@@ -19,7 +19,9 @@ are then named ``-commit-stop``.
 Reads a ``studies/styles.py`` run (the references of ``--demonstrators`` on ``--eval-base``'s episodes),
 drives the oracle of ``--driver`` on the same episodes (each road's episode seeds, as the references'
 collection) into ``<out>/oracle[-s<base>][-commit-stop]/<driver>/<road>/`` and writes the table (the
-style distance as defined and per episode, ``studies/style_norms.py``'s, with the safety bounds) to
+style distance as defined and per episode, ``studies/style_norms.py``'s, with the safety bounds; how each
+cycle's policy was found; the chosen policy's progress against the look ahead's after the first cycle and
+after 2 s, where the look ahead brakes, holds or accelerates) to
 ``<out>/style-oracle[-s<base>][-commit-stop]-<driver>.md`` and ``.json``:
 
     .venv/bin/python studies/style_oracle.py --out runs/styles --eval-base 2000 --episodes 30 \
