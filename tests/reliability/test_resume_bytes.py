@@ -57,7 +57,7 @@ def test_a_checkpoint_resumed_after_a_signal_has_the_bytes_of_an_uninterrupted_r
     tiny_dataset, tmp_path, sig, model
 ):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    epochs = 200
+    epochs = 100
     whole, cut = tmp_path / "whole", tmp_path / "cut"
     subprocess.run(_train_cmd(tiny_dataset, whole, model, epochs), env=env, check=True, capture_output=True)
     p = subprocess.Popen(
