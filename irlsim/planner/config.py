@@ -5,9 +5,9 @@ Load from TOML with ``irlsim.config.load_config(PlannerConfig, path)``; unknown 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from irlsim.config import require, require_memory
+from irlsim.config import STORED_IF_SET, require, require_memory
 
 #: [bytes] memory one policy of a planning cycle takes, an upper estimate: the planner's peak is 4.8-5.7 KB
 #: per policy (tracemalloc over planner.plan at N = 1,000 and 4,000), collection buffers a row group of 64
@@ -45,6 +45,9 @@ class PlannerConfig:
     """[m/s] the ego's target velocity (70 km/h)"""
     accel_ramp: float = 1.0
     """[s] smooth (cubic smoothstep) transition time from one acceleration to the next"""
+    lon_split: float = field(default=0.0, metadata={STORED_IF_SET: True})
+    """[s] the second longitudinal action starts here (0: at ``stage_split``, as the lateral one). A
+    shorter first action lets a policy brake or speed up briefly and then hold, as a human driver does"""
     accels_stage1: tuple[float, ...] = (-6.0, -4.0, -3.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5)
     """[m/s^2] target accelerations sampled in stage 1 (a 'reach v_target' action is added)"""
     accels_stage2: tuple[float, ...] = (-4.0, -2.0, -1.0, -0.5, 0.0, 0.5, 1.0, 2.0)
@@ -140,6 +143,11 @@ class PlannerConfig:
         return int(round(self.horizon / self.dt)) + 1
 
     @property
+    def lon_stage_split(self) -> float:
+        """[s] where the second longitudinal action starts (``lon_split``, else ``stage_split``)."""
+        return self.lon_split or self.stage_split
+
+    @property
     def cycle_steps(self) -> int:
         return int(round(self.cycle / self.dt))
 
@@ -171,6 +179,10 @@ class PlannerConfig:
             require(self.a_min <= a <= self.a_max, f"planner accelerations must lie in [a_min, a_max]: {a}")
         require(0 < self.v_target <= self.v_max, "planner.v_target must be in (0, v_max]")
         require(self.accel_ramp > 0, "planner.accel_ramp must be > 0")
+        require(
+            self.lon_split == 0 or 0 < self.lon_split < self.horizon,
+            f"planner.lon_split must be 0 (at stage_split) or inside the horizon, got {self.lon_split}",
+        )
         require(
             all(t > 0 for t in self.lat_durations) and len(self.lat_durations) >= 1,
             "planner.lat_durations must be positive",

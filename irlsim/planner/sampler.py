@@ -9,13 +9,14 @@ exp(-a - b) = exp(-a) exp(-b) and a box test is a product of two interval tests)
 O((J + L) T M) plus O(N T) gathers, not O(N T M). Exit-taking profiles, whose offset follows the ramp
 and so depends on s, are lateral profiles bound to one longitudinal profile each.
 
-Longitudinal actions (two stages, [0, split] and [split, horizon]): a target acceleration per stage
-(``cfg.accels_stage1/2`` plus "reach v_target"), reached from the current acceleration by a cubic
-smoothstep of ``cfg.accel_ramp`` seconds, so a(t) is continuous and starts at the ego's a; v is clamped
-at 0 (a car that stops stands). Plus up to three quintic stop profiles that bring the front bumper to
-rest exactly ``cfg.stop_margin`` before an active stop line (fastest, middle, gentlest feasible), up to
-three more that stand ``cfg.stop_line_gap`` before the line itself once that stop point is closer than a
-comfortable stop (:func:`stop_distances`), and up to three behind the nearest slow vehicle in each lane.
+Longitudinal actions (two stages, [0, split] and [split, horizon], the split ``cfg.lon_stage_split``): a
+target acceleration per stage (``cfg.accels_stage1/2`` plus "reach v_target"), reached from the current
+acceleration by a cubic smoothstep of ``cfg.accel_ramp`` seconds, so a(t) is continuous and starts at the
+ego's a; v is clamped at 0 (a car that stops stands). Plus up to three quintic stop profiles that bring
+the front bumper to rest exactly ``cfg.stop_margin`` before an active stop line (fastest, middle,
+gentlest feasible), up to three more that stand ``cfg.stop_line_gap`` before the line itself once that
+stop point is closer than a comfortable stop (:func:`stop_distances`), and up to three behind the nearest
+slow vehicle in each lane.
 
 Lateral actions (two stages): a quintic from the ego's (d, d_dot, d_ddot) to a stage-1 target (lane
 centres 0/1/2 with durations ``cfg.lat_durations``, staying at d, or a partial swerve of ``cfg.swerves``
@@ -154,7 +155,7 @@ class Sampler:
         self.cfg = cfg
         T = cfg.n_steps
         self.t = np.arange(T) * cfg.dt  # [T] s
-        ts, tau = cfg.stage_split, cfg.accel_ramp
+        ts, tau = cfg.lon_stage_split, cfg.accel_ramp
         # acceleration basis: a(t) = a0 b0 + a1 b1 + a2 b2; integrals by a fine trapezoid, exact enough
         fine = np.linspace(0.0, cfg.horizon, (T - 1) * 50 + 1)
         fb = self._basis(fine, ts, tau)
@@ -164,7 +165,8 @@ class Sampler:
         )
         self._b = self._basis(self.t, ts, tau)  # [3, T]
         self._B = cum[:, ::50]  # [3, T]  integral of each basis function from 0 to t
-        self._i_split = int(round(ts / cfg.dt))
+        self._i_split = int(round(cfg.stage_split / cfg.dt))  # the lateral actions' split
+        self._i_lon_split = int(round(ts / cfg.dt))
         # cached quintic grids (they depend on the configuration only)
         self._stop_durs = np.geomspace(0.3, 30.0, 64)[:, None]
         self._stop_durs_f = np.geomspace(0.3, 30.0, 256)[:, None]
@@ -206,7 +208,7 @@ class Sampler:
         cfg = self.cfg if v_target is None else dataclasses.replace(self.cfg, v_target=v_target)
         a0 = float(np.clip(a0, cfg.a_min, cfg.a_max))
         b, B = self._b, self._B
-        isp = self._i_split
+        isp = self._i_lon_split
         a1 = np.array(list(cfg.accels_stage1) + [np.nan])
         # 'reach v_target' at the end of stage 1 (nan marks it): v(ts) = v0 + a0 B0 + a1 B1
         a1[-1] = (cfg.v_target - v0 - a0 * B[0, isp]) / B[1, isp]

@@ -194,3 +194,27 @@ def test_config_rejects_bad_values():
         PlannerConfig(n_policies=0).validate()
     with pytest.raises(IrlsimError, match="n_control_points"):
         PlannerConfig(n_control_points=7).validate()
+    with pytest.raises(IrlsimError, match="lon_split"):
+        PlannerConfig(lon_split=5.0).validate()
+
+
+def test_the_longitudinal_split_at_its_default_is_the_lateral_one(road, planner):
+    obs = make_obs(road, STRAIGHT_S, 0.0, 15.0, a=-0.7, vehicles=make_vehicles(road, [(290.0, 0.0, 9.0)]))
+    same = Planner(road, PlannerConfig(lon_split=planner.cfg.stage_split)).plan(obs)
+    default = planner.plan(obs)
+    for name in ("v", "d", "features", "actions"):
+        np.testing.assert_array_equal(getattr(same, name), getattr(default, name))
+
+
+@pytest.mark.parametrize("split", [1.0, 2.5])
+def test_a_first_longitudinal_action_that_ends_at_the_split_then_holds(road, split):
+    # a(t) ramps to a1 over accel_ramp, to a2 at the split over accel_ramp: with a2 = 0 the speed from
+    # split + ramp on is v0 + a1 * split exactly (the ramps' integrals cancel), whatever the lateral split
+    cfg = PlannerConfig(lon_split=split, accel_ramp=0.5)
+    bank = Planner(road, cfg).sampler.lon_bank(15.0, 0.0)
+    held = bank.v[:, cfg.n_steps - 1]
+    after = int(round((split + cfg.accel_ramp) / cfg.dt))
+    for a1 in cfg.accels_stage1:
+        want = max(15.0 + a1 * split, 0.0)
+        hit = np.flatnonzero(np.all(np.abs(bank.v[:, after:] - want) < 1e-3, axis=1))
+        assert len(hit) >= 1, (a1, want, np.unique(np.round(held, 2)))
