@@ -47,6 +47,7 @@ import styles  # noqa: E402  (studies/styles.py: the study's folders, configs an
 from irlsim.config import load_config  # noqa: E402
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode, demo_projector  # noqa: E402
 from irlsim.data.demos import lane_jump_projection  # noqa: E402
+from irlsim.errors import IrlsimError  # noqa: E402
 from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, choose_index, within_braking_curve  # noqa: E402
 from irlsim.planner.policy_set import PolicySet  # noqa: E402
 from irlsim.road import Road  # noqa: E402
@@ -73,8 +74,8 @@ class OracleDriver:
     module docstring); a :class:`~irlsim.data.recorder.LabelledDriver`, so collection records the same
     projection as the cycle's demonstration."""
 
-    look_ahead_by: Any = None  # set by collect_episode: the simulation's branch
-    lane_offset_by: Any = None  # and the placed ego's offset from its SUMO lane's centre
+    look_ahead_by: Any = None  # set by collect_episode: the simulation's look ahead at its lanes' centres
+    lane_offset_by: Any = None  # and what it took off the look ahead's offsets
 
     def __init__(self, road: Road, cfg: CollectConfig, rules: tuple[str, ...] = ()):
         self.commit, self.full_stop = "commit" in rules, "full-stop" in rules
@@ -98,9 +99,9 @@ class OracleDriver:
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
-        e, off = obs.ego, self.lane_offset_by()
-        ahead = self.look_ahead_by(self.horizon_steps)
-        seen = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d - off, x.yaw) for x in ahead]  # as DaggerDriver
+        e, ahead = obs.ego, self.look_ahead_by(self.horizon_steps)
+        off = self.lane_offset_by()  # what the look ahead took off, for the lane-jump projection
+        seen = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d, x.yaw) for x in ahead]  # as DaggerDriver
         demo = self.projector.project_window(0, ps.t, (ps.s, ps.d, ps.yaw), seen)
         seen_d = np.array([r[2] for r in seen])
         demo = lane_jump_projection(demo, ps.d[:, -1], seen_d, self.road.lane_width, off)
@@ -180,6 +181,7 @@ def jobs(a: Any, road: str, folder: Path) -> list[EpisodeJob]:
         "max_cycles": a.max_cycles,
         "scenario.laps": a.laps,
         "scenario.name": road,
+        **a.planner_sets,
     }
     cfg = load_config(CollectConfig, styles.CONFIGS[a.driver], sets, scenarios=Scenarios())
     return [EpisodeJob(str(folder), "train", i, seed, cfg) for i, seed in cfg.episodes("train")]
@@ -264,14 +266,31 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument(
         "--rules", nargs="*", choices=["commit", "full-stop"], default=[], help="the planner's rules"
     )
+    p.add_argument(
+        "--planner",
+        nargs="*",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="the oracle's planner fields instead of the driver's config's (lon_split=1.0): a policy set "
+        "tried before any dataset uses it; named in the outputs' names",
+    )
     a = p.parse_args(argv)
+    try:
+        a.planner_sets = {f"planner.{k}": float(v) for k, v in (f.split("=", 1) for f in a.planner)}
+    except ValueError:
+        sys.exit(f"style_oracle: --planner takes FIELD=NUMBER pairs, got {' '.join(a.planner)}")
     if len(set(a.demonstrators)) < len(a.demonstrators):
         sys.exit(f"style_oracle: --demonstrators names a driver twice: {' '.join(a.demonstrators)}")
     if a.driver not in a.demonstrators or a.driver not in styles.CONFIGS or a.driver == "expert":
         sys.exit(f"style_oracle: --driver must be a SUMO driver among --demonstrators, got {a.driver}")
+    try:  # a bad --planner field in one line, before any episode
+        load_config(CollectConfig, styles.CONFIGS[a.driver], a.planner_sets, scenarios=Scenarios())
+    except IrlsimError as e:
+        sys.exit(f"style_oracle: {e}")
     out = Path(a.out)
     a.at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
     tag = styles.drive_tag(commit="commit" in a.rules, stop="full-stop" in a.rules)
+    tag += "".join(f"-{f}" for f in a.planner)
     a.folder = lambda road: out / f"oracle{a.at}{tag}" / a.driver / road
     missing = [r for r in a.roads if not (out / f"drive{a.at}" / r / "expert" / "drive.json").is_file()]
     if missing:

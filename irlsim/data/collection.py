@@ -410,8 +410,8 @@ def collect_episode(
     source = DEMO_EXPERT if labeller is not None and not look_ahead else DEMO_ODOMETRY
     with replay or demonstrator_simulation(road, scenario, demonstrator, branching=look_ahead) as sim:
         if look_ahead:
-            driver.look_ahead_by = sim.branch  # type: ignore[attr-defined]
-            driver.lane_offset_by = sim.lane_offset  # type: ignore[attr-defined]
+            driver.look_ahead_by = sim.look_ahead  # type: ignore[attr-defined]
+            driver.lane_offset_by = sim.look_ahead_offset  # type: ignore[attr-defined]
         record = episode_record(job.seed, cfg, job.scenario, scenarios)
         with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()

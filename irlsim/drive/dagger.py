@@ -38,9 +38,11 @@ class DaggerDriver:
     collection sets ``look_ahead_by`` (a SUMO demonstrator:
     :meth:`irlsim.sim.branch.BranchingSimulation.branch`), SUMO's driver labels from each cycle's state."""
 
-    #: the simulation's look ahead with SUMO's driver (steps -> states driven); None: the expert labels
+    #: the simulation's look ahead with SUMO's driver at its lanes' centres (steps -> states driven,
+    #: :meth:`irlsim.sim.branch.BranchingSimulation.look_ahead`); None: the expert labels
     look_ahead_by: Callable[[int], list[EgoState]] | None = None
-    #: the placed ego's offset from its SUMO lane's centre, which the look ahead keeps (set with it)
+    #: what the last look ahead keeps from SUMO's lanes' centres (set with it: the placed ego's offset,
+    #: :meth:`irlsim.sim.branch.BranchingSimulation.look_ahead_offset`)
     lane_offset_by: Callable[[], float] | None = None
 
     def __init__(self, model: LearnedReward, road: Road, cfg: CollectConfig):
@@ -64,11 +66,10 @@ class DaggerDriver:
         assert ps is not None
         if self.look_ahead_by is not None:  # from this very state, before the learner's policy runs
             e = obs.ego
-            off = self.lane_offset_by() if self.lane_offset_by is not None else 0.0
-            self.look_ahead_offset = off
-            ahead = self.look_ahead_by(self.horizon_steps)
             # SUMO's driver at the centres of its lanes: the offset it keeps is the placement's, not its
-            self.look_ahead = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d - off, x.yaw) for x in ahead]
+            ahead = self.look_ahead_by(self.horizon_steps)
+            self.look_ahead_offset = self.lane_offset_by() if self.lane_offset_by is not None else 0.0
+            self.look_ahead = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d, x.yaw) for x in ahead]
         else:
             self.expert_index = self.expert.select(ps, obs)
         self.expert.follow(ps, idx)

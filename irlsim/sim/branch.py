@@ -19,18 +19,37 @@ exactly) is kept through the whole look ahead and across a lane change, which mo
 (measured: a car 1.49 m off its lane's centre stayed there for all 50 steps; one 0.81 m off changed lanes at
 once and sat 0.81 m off the new lane's centre, at 4.01 m);
 :meth:`BranchingSimulation.lane_offset` reads it, so a labeller can read SUMO's lanes, not that offset.
+
+Lane changes that take time (``--lanechange.duration``, a demonstrator's ``lane_change_duration``) are
+otherwise (measured with libsumo 1.28, LC2013): SUMO's maneuver starts from the placed ego's lateral
+position and ends at the target lane's centre, with no offset kept; and a SUMO driver straddling a lane
+line is always in a maneuver it completes, which a look ahead from a placed ego does not know (SUMO keeps
+it straddling: on the oval a look ahead from an ego 1.1-1.4 m into a lane change its last look ahead had
+started kept it there for the whole horizon, and the oracle's ego went back and forth between the two
+lanes for 35 s). So where the placed ego's body crosses its lane's line and moves on outward, the look
+ahead asks SUMO's driver to complete that change (``vehicle.changeLane``), and a look ahead that changes
+lanes is read as driven: :meth:`BranchingSimulation.look_ahead_offset` is then 0.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import os
 import tempfile
 from pathlib import Path
+
+import numpy as np
 
 from irlsim.sim.simulation import EGO, Simulation
 from irlsim.sim.sumo_ego import sumo_step, take_over
 from irlsim.sim.types import EgoState
 from irlsim.sim.vtype import DEMO_TYPE
+
+#: SUMO's lane-change mode of a look ahead that completes a lane change under way: SUMO's default (1621)
+#: with a TraCI request that does not wait for the gaps of others (bits 8-9: 0 instead of 2; with 1, "avoid
+#: immediate collisions", SUMO refused 1 in 3 such requests on the oval and kept the ego straddling)
+COMPLETE_MODE = 0b10001010101
 
 #: SUMO's options of a simulation that branches: states saved to the last bit
 BRANCH_OPTIONS = ("--save-state.precision", "17")
@@ -40,6 +59,7 @@ class BranchingSimulation(Simulation):
     """A :class:`~irlsim.sim.simulation.Simulation` that can look ahead with SUMO's driver and come back."""
 
     _branch_dir: tempfile.TemporaryDirectory[str] | None = None
+    _look_ahead_offset = 0.0
 
     def command(self, seed: int) -> list[str]:
         return [*super().command(seed), *BRANCH_OPTIONS]
@@ -60,9 +80,12 @@ class BranchingSimulation(Simulation):
             self._branch_dir = tempfile.TemporaryDirectory(prefix="irlsim-branch-", dir=shm)
         state = str(Path(self._branch_dir.name) / "state.xml")
         api = self._api
+        off = self._look_ahead_offset = self.lane_offset()
         api.simulation.saveState(state)
         try:
             take_over(api, EGO, self.cfg.ego_target_speed, DEMO_TYPE if self.demo_type else None)
+            if self.lane_change_duration:
+                self._complete_lane_change(off, n_steps)
             driven, st = [], self.ego
             for _ in range(int(n_steps)):
                 st = sumo_step(api, EGO, self.road, st)
@@ -71,6 +94,48 @@ class BranchingSimulation(Simulation):
             api.simulation.loadState(state)
             api.vehicle.setSpeedMode(EGO, 0)  # placed by moveToXY again, as Simulation.reset left it
         return driven
+
+    def look_ahead(self, n_steps: int) -> list[EgoState]:
+        """A :meth:`branch` read at SUMO's lanes' centres, the look ahead a labeller projects: the placed
+        ego's offset, which SUMO keeps, taken off every state; where a lane change that takes time ends
+        the look ahead in another lane, the states as driven (SUMO's maneuver starts where the ego is),
+        not past that lane's centre (SUMO's maneuver crosses a whole lane width from the ego's offset and
+        then snaps to the centre). :meth:`look_ahead_offset` says which."""
+        driven = self.branch(n_steps)
+        assert self.ego is not None
+        off = self._look_ahead_offset
+        if not (self.lane_change_duration and driven):
+            return [dataclasses.replace(x, d=x.d - off) for x in driven]
+        road = self.road
+        start, end = (int(k) for k in road.lane_of_d(np.array([self.ego.d - off, driven[-1].d])))
+        if start == end:
+            return [dataclasses.replace(x, d=x.d - off) for x in driven]
+        self._look_ahead_offset = 0.0
+        c = float(road.lane_center(end))
+        side = 1.0 if end > start else -1.0
+        return [dataclasses.replace(x, d=c + side * min(side * (x.d - c), 0.0)) for x in driven]
+
+    def _complete_lane_change(self, off: float, n_steps: int) -> None:
+        """Where the placed ego's body crosses its lane's line (``off`` [m] from the lane's centre) and moves
+        on outward, SUMO's driver is asked to complete that lane change (the module docstring)."""
+        api, w = self._api, self.road.lane_width
+        straddles = abs(off) > 0.5 * (w - float(api.vehicle.getWidth(EGO)))
+        assert self.ego is not None
+        if not (straddles and off * self.ego.d_dot > 0.0):
+            return
+        k = int(api.vehicle.getLaneIndex(EGO)) + int(math.copysign(1, off))
+        edge = api.vehicle.getRoadID(EGO)
+        if 0 <= k < int(api.edge.getLaneNumber(edge)):
+            # a maneuver under way is completed whatever the gaps SUMO asks of a change it has yet to start
+            # (the ego already straddles the line; the mode comes back with the saved state)
+            api.vehicle.setLaneChangeMode(EGO, COMPLETE_MODE)
+            api.vehicle.changeLane(EGO, k, n_steps * self.cfg.step)
+
+    def look_ahead_offset(self) -> float:
+        """[m] What :meth:`look_ahead` took off the last look ahead's lateral offsets: the placed ego's
+        :meth:`lane_offset`, or 0 where it read a lane change that takes time as driven (the module
+        docstring); a labeller's :func:`irlsim.data.demos.lane_jump_projection` takes it."""
+        return self._look_ahead_offset
 
     def lane_offset(self) -> float:
         """[m] The placed ego's lateral offset from the centre of the lane SUMO has it in (positive to the

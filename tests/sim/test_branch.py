@@ -106,6 +106,35 @@ def test_sumos_driver_keeps_a_placed_egos_offset_from_its_lane_and_lane_offset_r
     centres = (np.array([s.d for s in sim.branch(AHEAD)]) - off) / w  # at SUMO's lanes' centres
     np.testing.assert_allclose(centres, np.round(centres), atol=0.02)
     assert sim.lane_offset() == off  # the branch came back to the placed ego
+    read = np.array([s.d for s in sim.look_ahead(AHEAD)]) / w  # what a labeller projects: at the centres
+    np.testing.assert_allclose(read, np.round(read), atol=0.02)
+    assert sim.look_ahead_offset() == off
+    sim.close()
+
+
+def test_a_look_ahead_completes_a_lane_change_that_takes_time_from_where_the_ego_is(road):
+    # with --lanechange.duration a SUMO driver straddling a line is in a maneuver it completes; a look ahead
+    # from a placed ego straddling one (the expert's lane change under way) completes it, read as driven:
+    # from the ego's place to the next lane's centre, never past it, with no offset taken off
+    sim = BranchingSimulation(road, CFG, demo_vtype=IDM, lane_change_duration=3.0)
+    expert = ExpertDriver(road, PlannerConfig(n_policies=500))
+    obs, w = sim.reset(2_000_000_001), road.lane_width
+    api = sim._api
+    for _ in range(300):
+        off = sim.lane_offset()
+        if abs(off) > 0.5 * (w - api.vehicle.getWidth(EGO)) and off * obs.ego.d_dot > 0:
+            break
+        sim.execute(expert.plan(obs))
+        obs = sim.observe()
+    else:
+        pytest.fail("the expert changed no lane")
+    mode, side = api.vehicle.getLaneChangeMode(EGO), np.sign(off)
+    target = road.lane_center(road.lane_of_d(np.array(obs.ego.d - off)) + int(side))
+    d = np.array([s.d for s in sim.look_ahead(50)])
+    assert sim.look_ahead_offset() == 0.0
+    assert abs(d[0] - obs.ego.d) < 0.15 and d[-1] == pytest.approx(target)
+    assert np.all(side * np.diff(d) >= -1e-9) and np.all(side * (d - target) <= 1e-9)  # on, never past
+    assert api.vehicle.getLaneChangeMode(EGO) == mode and sim.lane_offset() == off  # back where it was
     sim.close()
 
 

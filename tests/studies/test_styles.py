@@ -175,6 +175,10 @@ def test_style_oracle_refuses_what_it_cannot_follow_in_one_line(tmp_path):
     assert "no references in" in _refusal(oracle.main, out)
     twice = ["--demonstrators", "expert", "cautious", "cautious", "--driver", "cautious"]
     assert "names a driver twice" in _refusal(oracle.main, [*out, *twice])
+    planner = ["--driver", "assertive", "--planner"]
+    assert "FIELD=NUMBER" in _refusal(oracle.main, [*out, *planner, "lon_split=early"])
+    assert "unknown key 'planner.bogus'" in _refusal(oracle.main, [*out, *planner, "bogus=1"])
+    assert "lon_split must be 0" in _refusal(oracle.main, [*out, *planner, "lon_split=9"])
     assert not list(tmp_path.iterdir())
 
 
