@@ -36,7 +36,8 @@ from irlsim.sim.types import EgoState, Observation, Trajectory
 class DaggerDriver:
     """A :class:`~irlsim.data.collection.LabelledDriver`: ``model`` drives, the expert labels; or, once
     collection sets ``look_ahead_by`` (a SUMO demonstrator:
-    :meth:`irlsim.sim.branch.BranchingSimulation.branch`), SUMO's driver labels from each cycle's state."""
+    :meth:`irlsim.sim.branch.BranchingSimulation.look_ahead`), SUMO's driver labels from each cycle's
+    state."""
 
     #: the simulation's look ahead with SUMO's driver at its lanes' centres (steps -> states driven,
     #: :meth:`irlsim.sim.branch.BranchingSimulation.look_ahead`); None: the expert labels

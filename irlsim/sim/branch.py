@@ -47,8 +47,9 @@ from irlsim.sim.types import EgoState
 from irlsim.sim.vtype import DEMO_TYPE
 
 #: SUMO's lane-change mode of a look ahead that completes a lane change under way: SUMO's default (1621)
-#: with a TraCI request that does not wait for the gaps of others (bits 8-9: 0 instead of 2; with 1, "avoid
-#: immediate collisions", SUMO refused 1 in 3 such requests on the oval and kept the ego straddling)
+#: with a TraCI request that does not wait for the gaps of others (bits 8-9: 0 instead of 2). With 1, "avoid
+#: immediate collisions", SUMO refused 29 of 119 such requests in an oval episode of the sporty driver's
+#: oracle and kept the ego straddling; with 0, none of 106
 COMPLETE_MODE = 0b10001010101
 
 #: SUMO's options of a simulation that branches: states saved to the last bit
