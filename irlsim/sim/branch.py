@@ -24,7 +24,7 @@ Lane changes that take time (``--lanechange.duration``, a demonstrator's ``lane_
 otherwise (measured with libsumo 1.28, LC2013): SUMO's maneuver starts from the placed ego's lateral
 position and ends at the target lane's centre, with no offset kept; and a SUMO driver straddling a lane
 line is always in a maneuver it completes, which a look ahead from a placed ego does not know (SUMO keeps
-it straddling: on the oval a look ahead from an ego 1.1-1.4 m into a lane change its last look ahead had
+it straddling: on the oval look aheads from an ego 0.75-1.4 m into a lane change an earlier look ahead had
 started kept it there for the whole horizon, and the oracle's ego went back and forth between the two
 lanes for 35 s). So where the placed ego's body crosses its lane's line and moves on outward, the look
 ahead asks SUMO's driver to complete that change (``vehicle.changeLane``), and a look ahead that changes
