@@ -105,16 +105,13 @@ class BranchingSimulation(Simulation):
         driven = self.branch(n_steps)
         assert self.ego is not None
         off = self._look_ahead_offset
-        if not (self.lane_change_duration and driven):
-            return [dataclasses.replace(x, d=x.d - off) for x in driven]
-        road = self.road
-        start, end = (int(k) for k in road.lane_of_d(np.array([self.ego.d - off, driven[-1].d])))
-        if start == end:
-            return [dataclasses.replace(x, d=x.d - off) for x in driven]
-        self._look_ahead_offset = 0.0
-        c = float(road.lane_center(end))
-        side = 1.0 if end > start else -1.0
-        return [dataclasses.replace(x, d=c + side * min(side * (x.d - c), 0.0)) for x in driven]
+        if self.lane_change_duration and driven:
+            start, end = (int(k) for k in self.road.lane_of_d(np.array([self.ego.d - off, driven[-1].d])))
+            if start != end:
+                self._look_ahead_offset = 0.0
+                c, side = float(self.road.lane_center(end)), 1.0 if end > start else -1.0
+                return [dataclasses.replace(x, d=c + side * min(side * (x.d - c), 0.0)) for x in driven]
+        return [dataclasses.replace(x, d=x.d - off) for x in driven]
 
     def _complete_lane_change(self, off: float, n_steps: int) -> None:
         """Where the placed ego's body crosses its lane's line (``off`` [m] from the lane's centre) and moves
