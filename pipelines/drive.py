@@ -96,8 +96,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def add_choice_arguments(p: argparse.ArgumentParser) -> None:
-    """--choice, --lane-change-bias, --commit, --full-stop and --keep-distance: how a learned reward picks
-    its policy (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
+    """--choice, --lane-change-bias, --commit, --full-stop, --keep-distance and --in-lane: how a learned
+    reward picks its policy (irlsim.planner.choice, irlsim.planner.expert.ThetaDriver)."""
     p.add_argument(
         "--choice",
         choices=CHOICES,
@@ -140,6 +140,13 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         "m/s^2; where no policy does, it falls short least (a rule of the road; default: the reward alone "
         "decides, the paper's)",
     )
+    p.add_argument(
+        "--in-lane",
+        action="store_true",
+        help="with --keep-distance: the rule keeps the lane the reward chooses and picks the speed in it; "
+        "a lane change only where no policy in that lane keeps the distance (default: any policy that keeps "
+        "it, whatever its lane)",
+    )
 
 
 def request(args: argparse.Namespace) -> DriveRun:
@@ -174,6 +181,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         commit=args.commit,
         full_stop=args.full_stop,
         keep_distance=args.keep_distance,
+        in_lane=args.in_lane,
     )
 
 

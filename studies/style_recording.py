@@ -11,7 +11,8 @@ the expert on the same routes and the cars' own recorded driving, compared as th
   42-59): development cars, to choose a rule on before the fresh cars judge it.
 
 ``--rules`` are ``irlsim drive``'s rules for the learned rewards (``commit``, ``full-stop``,
-``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default;
+``keep-distance``, this one with the time headway ``--headway``, the expert's 0.8 s by default, and
+``in-lane`` with it: the distance kept in the lane the reward chooses;
 ``--safety`` adds the planner's label filter; ``--choice expected`` drives the decision the reward's
 distribution expects, its lane-change bias calibrated on the recording's training data, one model at a
 time, ``studies/style_choice.py``'s choice; the expert and the references drive as always). Writes
@@ -40,8 +41,14 @@ from irlsim.reward import load_reward  # noqa: E402
 from irlsim.reward.choice import lane_change_bias  # noqa: E402
 from irlsim.rollout.style import pool_styles  # noqa: E402
 
-RULES = {"commit": "--commit", "full-stop": "--full-stop", "keep-distance": "--keep-distance"}
-TAGS = {"commit": "-commit", "full-stop": "-stop", "keep-distance": "-dist"}  # styles.py's, and the new one
+RULES = {
+    "commit": "--commit",
+    "full-stop": "--full-stop",
+    "keep-distance": "--keep-distance",
+    "in-lane": "--in-lane",
+}
+# the output's name tags: styles.py's, and in-lane's
+TAGS = {"commit": "-commit", "full-stop": "-stop", "keep-distance": "-dist", "in-lane": "-lane"}
 
 
 def with_egos(src: Path, dst: Path, egos: list[str]) -> str:
@@ -145,6 +152,8 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     if not a.headway > 0:
         sys.exit(f"style_recording: --headway must be a time headway > 0 s, got {a.headway}")
+    if "in-lane" in a.rules and "keep-distance" not in a.rules:
+        sys.exit("style_recording: in-lane keeps the following distance in a lane: add keep-distance")
     if a.choice == "expected" and len(a.models) != 1:
         sys.exit("style_recording: --choice expected calibrates one model's bias: give one of --models")
     a.choice = a.choice == "expected"

@@ -1,9 +1,10 @@
 r"""Trace a recording drive's side collision step by step: where the ego and the other car were, in the
 route frame and in SUMO's lanes, in the seconds before it.
 
-Drives one held-out car of a studies/style_recording.py sample again (``--sumo-seed``'s recording, car
-index ``--episode`` of its drive config), the recording's PACNN+S reward of ``--seed`` with the same
-rules (``--full-stop --keep-distance H``, the others driven by SUMO), and prints every 0.2 s of the last
+Drives one held-out car of a studies/style_recording.py sample again (``--sumo-seed``'s recording, or
+``--cars FIRST LAST`` of the study's own; car index ``--episode`` of its drive config), the recording's
+PACNN+S reward of ``--seed`` with the same rules (``--full-stop --keep-distance H``, with ``--in-lane``
+in the reward's lane; the others driven by SUMO), and prints every 0.2 s of the last
 ``--seconds`` before the first collision: the ego's lateral offset d [m] (lane centres at -3.2, 0 and
 3.2), speed and SUMO lane; the other car's SUMO lane, lane position, speed and lane-change state:
 
@@ -31,22 +32,30 @@ EVAL_SEED = 1_000_000_000  # studies/styles.py's evaluation base: episode i has 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="runs/styles", help="a studies/styles.py run with the recording")
-    p.add_argument("--sumo-seed", type=int, required=True, help="the recording sample's SUMO seed")
+    which = p.add_mutually_exclusive_group(required=True)
+    which.add_argument("--sumo-seed", type=int, help="the recording sample's SUMO seed")
+    which.add_argument("--cars", type=int, nargs=2, metavar=("FIRST", "LAST"), help="the study's own cars")
     p.add_argument("--seed", type=int, required=True, help="the reward's training seed")
     p.add_argument("--episode", type=int, required=True, help="the held-out car's index in the sample")
     p.add_argument("--other", required=True, help="the other car's recorded id, e.g. car34")
     p.add_argument("--headway", type=float, default=0.8, help="--keep-distance's headway [s]")
+    p.add_argument("--in-lane", action="store_true", help="--keep-distance in the reward's lane")
     p.add_argument("--seconds", type=float, default=3.0, help="how long before the collision to print")
     a = p.parse_args(argv)
     out = Path(a.out)
-    config = out / f"recording-s{a.sumo_seed}" / "drive.toml"
+    config = (
+        out / f"recording-s{a.sumo_seed}" / "drive.toml"
+        if a.sumo_seed is not None
+        else out / "recording" / f"drive-c{a.cars[0]}-{a.cars[1]}.toml"
+    )
     runs = out / "runs" / f"recording-seed{a.seed}"
     if not config.is_file() or not runs.is_dir():
         sys.exit(f"style_side_collision: {config} or {runs} is missing: run studies/style_recording.py first")
     cfg = load_config(CollectConfig, config)
     road, _, sim = _simulation(cfg, load_road(scenario=cfg.scenario.name), 2, a.episode, True)
     reward = load_reward("PACNN+S", runs, n_policies=cfg.planner.n_policies)
-    driver = RewardDriver(reward, road, cfg.planner, choice="argmax", full_stop=True, keep_distance=a.headway)
+    rules = {"full_stop": True, "keep_distance": a.headway, "in_lane": a.in_lane}
+    driver = RewardDriver(reward, road, cfg.planner, choice="argmax", **rules)
     rows: list[dict[str, Any]] = []
     other = "rec/" + a.other
 

@@ -201,6 +201,7 @@ def drive_episode(
     commit: bool = False,
     full_stop: bool = False,
     keep_distance: float = 0.0,
+    in_lane: bool = False,
 ) -> dict[str, Any]:
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
@@ -210,7 +211,8 @@ def drive_episode(
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
     ``reactive``: on a recording (``cfg.demonstrator``), SUMO drives the others (:func:`_simulation`);
-    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``: RewardDriver's.
+    ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``, ``in_lane``:
+    RewardDriver's.
 
     Returns the episode record: the ``drive/...`` keys of :mod:`irlsim.drive.metrics` (then the simulator's
     ``sim/...`` keys), the scorecard's ``score/...`` keys (:mod:`irlsim.drive.scorecard`), plus
@@ -221,9 +223,8 @@ def drive_episode(
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
-    decider = RewardDriver(
-        model, road, cfg.planner, safety, None, choice, lane_change_bias, commit, full_stop, keep_distance
-    )
+    rules = (commit, full_stop, keep_distance, in_lane)
+    decider = RewardDriver(model, road, cfg.planner, safety, None, choice, lane_change_bias, *rules)
     recorder = (
         FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))
         if pictures is not None and pictures.frames > 0

@@ -309,7 +309,8 @@ class ThetaDriver:
     braking curve to it (:func:`within_braking_curve`), while any other policy keeps to them.
     ``keep_distance`` > 0: a rule of the road, every cycle: only the policies that keep a safe following
     distance to the vehicle ahead, with that time headway [s] (:func:`keeping_distance`; the expert's
-    check has ``FOLLOW_HEADWAY``). Call :meth:`reset` per episode.
+    check has ``FOLLOW_HEADWAY``); with ``in_lane`` in the lane the reward chooses (``choose_index``'s
+    ``in_lane``). Call :meth:`reset` per episode.
     """
 
     def __init__(
@@ -322,13 +323,14 @@ class ThetaDriver:
         commit: bool = False,
         full_stop: bool = False,
         keep_distance: float = 0.0,
+        in_lane: bool = False,
     ):
         assert choice in CHOICES, choice
         self.planner = planner
         self.theta_fn = theta_fn
         self.safe = safe
         self.choice, self.lane_change_bias, self.commit = choice, lane_change_bias, commit
-        self.full_stop, self.keep_distance = full_stop, keep_distance
+        self.full_stop, self.keep_distance, self.in_lane = full_stop, keep_distance, in_lane
         self._stop_lines = tuple(float(sl.s) for sl in planner.road.stop_lines) if keep_distance > 0 else ()
         self._follow = SelectionConfig(follow_headway=keep_distance) if keep_distance > 0 else None
         self.last_policy_set: PolicySet | None = None
@@ -353,7 +355,8 @@ class ThetaDriver:
         if self._follow is not None and self.planner.last is not None:
             distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow)
         rules = (self.heading, stopping, braking, distance)
-        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, *rules)
+        how = (self.safe, self.choice, self.lane_change_bias)
+        idx = choose_index(ps, theta, *how, *rules, in_lane=self.in_lane)
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None
@@ -373,6 +376,7 @@ def choose_index(
     braking: np.ndarray | None = None,
     distance: np.ndarray | None = None,
     value: np.ndarray | None = None,
+    in_lane: bool = False,
 ) -> int:
     """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
     (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
@@ -382,7 +386,10 @@ def choose_index(
     way; only the policies that do not cross an active stop line without a full stop (``stop_line``
     feature 0), unless there is none (applied first: a stop outranks a lane change); ``braking`` [N] bool:
     then only these (:func:`within_braking_curve`), unless none; ``distance`` [N] bool: then only these
-    (:func:`keeping_distance`), unless none. ``value`` [N]: the policies' values instead of -theta^T f (any
+    (:func:`keeping_distance`), unless none; with ``in_lane`` the lane the policy of highest value (before
+    ``distance``) ends in is kept: its policies that keep the distance, where there are (the rule picks the
+    speed, the reward the lane; a lane change only where no policy in that lane keeps the distance).
+    ``value`` [N]: the policies' values instead of -theta^T f (any
     score, higher is better: ``theta`` is then unused; e.g. the nearness to a driver's odometry of
     ``studies/style_oracle.py``). :class:`ThetaDriver` and :meth:`irlsim.reward.LearnedReward.choose`
     decide with it."""
@@ -396,6 +403,10 @@ def choose_index(
     if braking is not None:
         allowed = _narrowed(allowed, braking)
     if distance is not None:
+        if in_lane:
+            lane = policy_set.lane[:, -1]
+            best = int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
+            allowed = _narrowed(allowed, distance & (lane == lane[best]))
         allowed = _narrowed(allowed, distance)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])

@@ -42,11 +42,12 @@ class RewardDriver:
         commit: bool = False,
         full_stop: bool = False,
         keep_distance: float = 0.0,
+        in_lane: bool = False,
     ):
         """``planner``: the learned driver samples its policy sets with this one (DAgger shares the
         expert's, so the expert labels the very set the learner chose from); default: its own.
-        ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``: how a learned reward
-        picks its policy
+        ``choice``, ``lane_change_bias``, ``commit``, ``full_stop``, ``keep_distance``, ``in_lane``: how a
+        learned reward picks its policy
         (:mod:`irlsim.planner.choice`, :class:`~irlsim.planner.expert.ThetaDriver`; the expert keeps its
         own selection)."""
         self.reward = reward
@@ -63,7 +64,15 @@ class RewardDriver:
         else:
             self.planner = planner if planner is not None else Planner(road, planner_cfg)
             self.driver = ThetaDriver(
-                self.planner, self._theta, safety, choice, lane_change_bias, commit, full_stop, keep_distance
+                self.planner,
+                self._theta,
+                safety,
+                choice,
+                lane_change_bias,
+                commit,
+                full_stop,
+                keep_distance,
+                in_lane,
             )
 
     def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:

@@ -89,6 +89,9 @@ class DriveRun:
     keep_distance: float = 0.0
     """> 0: a learned model keeps a safe following distance to the vehicle ahead, with this time headway
     [s] (a rule of the road; the expert's check: ``irlsim.planner.expert.FOLLOW_HEADWAY``)"""
+    in_lane: bool = False
+    """with ``keep_distance``: the rule keeps the lane the reward chooses and picks the speed in it (a lane
+    change only where no policy in that lane keeps the distance)"""
 
 
 @dataclass
@@ -220,6 +223,7 @@ RULE_WORDS = {
     "commit": "maneuvers committed",
     "full_stop": "a full stop at every stop line",
     "keep_distance": "a safe distance to the vehicle ahead ({:g} s headway)",
+    "in_lane": "in the lane the reward chooses",
 }
 
 
@@ -323,6 +327,8 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
         raise IrlsimError(f"--lane-change-bias must be a finite number >= 1, got {run.lane_change_bias}")
     if not (math.isfinite(run.keep_distance) and run.keep_distance >= 0.0):
         raise IrlsimError(f"--keep-distance must be a finite headway >= 0 s, got {run.keep_distance}")
+    if run.in_lane and not run.keep_distance > 0.0:
+        raise IrlsimError("--in-lane keeps the following distance in the reward's lane: add --keep-distance")
     # the scorecard's progress term compares every model with the expert on the same seed: the expert
     # drives first when --model names it; without it progress is null (left out of the score)
     if "expert" in specs:

@@ -196,10 +196,11 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
     assert committed["config"]["keep_distance"] == 0.8 and "keep_distance" not in argmax["config"]
     words = "maneuvers committed, a full stop at every stop line, a safe distance to the vehicle ahead (0.8 s"
     assert words in (tmp_path / "c" / "drive.md").read_text()
-    assert (
-        main([*common, "--keep-distance", "0.5", "--out", str(tmp_path / "k")]) == 0
-    )  # a headway of its own
-    assert json.loads((tmp_path / "k" / "drive.json").read_text())["config"]["keep_distance"] == 0.5
+    own = [*common, "--keep-distance", "0.5", "--in-lane", "--out", str(tmp_path / "k")]
+    assert main(own) == 0  # a headway of its own, in the reward's lane
+    kept = json.loads((tmp_path / "k" / "drive.json").read_text())["config"]
+    assert kept["keep_distance"] == 0.5 and kept["in_lane"] is True and "in_lane" not in committed["config"]
+    assert "(0.5 s headway), in the lane the reward chooses" in (tmp_path / "k" / "drive.md").read_text()
     for bad in (["--choice", "expected", "--lane-change-bias", "0.5"], ["--keep-distance", "-1"]):
         with pytest.raises(SystemExit) as e:  # a bias below 1, a negative headway: refused when parsed
             main([*common, *bad])
@@ -216,4 +217,6 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
         drive_models(replace(run, choice="expected", lane_change_bias=0.5))
     with pytest.raises(IrlsimError, match="--keep-distance must be a finite headway >= 0 s, got -1.0"):
         drive_models(replace(run, choice="argmax", keep_distance=-1.0))
+    with pytest.raises(IrlsimError, match="--in-lane keeps the following distance in the reward's lane: add"):
+        drive_models(replace(run, choice="argmax", in_lane=True))
     assert not (tmp_path / "x").exists()

@@ -282,3 +282,16 @@ def test_the_following_rule_keeps_the_experts_distance_or_falls_short_least():
     assert choose_index(ps, E0) == 0
     assert choose_index(ps, E0, distance=np.array([False, False, True])) == 2
     assert choose_index(ps, E0, distance=np.zeros(3, bool)) == 0
+
+
+def test_the_following_rule_in_lane_keeps_the_rewards_lane_and_picks_the_speed():
+    # from lane 2: keep it fast (V 3, short of the distance), keep it slower (V 1, keeps it), change to
+    # lane 1 (V 2, keeps it; the rule alone would change lanes), keep it slowest (V 0, keeps it)
+    ps = _lanes_set(2, [2, 2, 1, 2], [3.0, 1.0, 2.0, 0.0], [False] * 4)
+    keeps = np.array([False, True, True, True])
+    assert choose_index(ps, E0, distance=keeps) == 2  # any policy that keeps the distance: the lane change
+    assert choose_index(ps, E0, distance=keeps, in_lane=True) == 1  # the reward's lane 2, slower
+    # no policy in the reward's lane keeps the distance: the rule as without in_lane
+    none_there = np.array([False, False, True, False])
+    assert choose_index(ps, E0, distance=none_there, in_lane=True) == 2
+    assert choose_index(ps, E0, in_lane=True) == 0  # no distance given: in_lane changes nothing
