@@ -8,8 +8,9 @@ move, so the observation's vehicles carry their recorded position, heading and s
 as in any simulation (a recording demonstrator places it at its own recorded poses).
 
 Reactive (``reactive=True``, closed-loop evaluation): a recorded vehicle with recorded edges is inserted
-by SUMO at its first recorded position (``simulation.convertRoad``) and speed on the rest of the route of
-its edges, and from then on SUMO drives it (SUMO's default vehicle type, speed factor 1, at most its
+by SUMO at its first recorded position on one of its edges (``simulation.convertRoad``; a vehicle first
+recorded within a junction enters when it has left it) and speed on the rest of the route of its edges,
+and from then on SUMO drives it (SUMO's default vehicle type, speed factor 1, at most its
 recorded top speed): it follows, brakes for, changes lanes around and yields to the ego.
 """
 
@@ -128,10 +129,15 @@ class ReplaySimulation(Simulation):
     def _insert(self, vid: str, i: int, r: int) -> bool:
         """Add recorded vehicle ``i`` at its row ``r``; True where SUMO drives it from then on (reactive,
         with recorded edges, its pose on one of them: inserted there at its recorded speed on the rest of
-        its route), else it is replayed (SUMO's control off) and moved to its pose."""
+        its route) or where it waits (reactive, its pose within a junction: inserted at the first step
+        its pose is on one of its edges, a few steps later; inserted at once and replayed, it would drive
+        blind to the ego for the rest of the drive), else it is replayed (SUMO's control off) and moved to
+        its pose."""
         api, tr, sim = self._api.vehicle, self.tracks, self._api.simulation
         edges = tr.edges[i] if self.reactive and tr.edges else ()
         edge, pos, lane = sim.convertRoad(float(tr.x[r]), float(tr.y[r])) if edges else ("", 0.0, 0)
+        if edge.startswith(":") and edge not in edges:
+            return True  # within a junction: not yet
         if edge not in edges:
             api.add(vid, ROUTE, typeID=BG_TYPE)
             api.setSpeedMode(vid, 0)

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 import pytest
@@ -380,6 +381,50 @@ def test_reactive_replay_drives_vehicles_on_routes_matched_from_their_positions(
     v = obs.vehicles
     assert v.ids == ("rec/follow",)
     assert abs(v.d[0] - obs.ego.d) > 0.5 * road.lane_width or v.s[0] < obs.ego.s - 4.5
+
+
+def test_a_reactive_vehicle_first_recorded_within_a_junction_is_driven_by_sumo_after_it(tmp_path):
+    """'follow' enters the recording within a junction (its rows before that cut off): reactive, it waits
+    until its pose is on one of its edges and SUMO drives it from there, as every other; replayed from its
+    first pose, it would drive blind to the ego for the rest of the drive."""
+    from irlsim.data.recorded import recorded_episode
+    from irlsim.planner.config import PlannerConfig
+    from irlsim.sim.config import EpisodeConfig
+    from tests.data.test_recording_routes import _csv_without_lanes
+
+    road = load_road()
+    routes = tmp_path / "two.rou.xml"
+    routes.write_text(
+        '<routes><vType id="car" sigma="0" maxSpeed="12.5"/>'
+        f'<route id="loop" edges="{" ".join(road.edges)}"/>'
+        '<vehicle id="lead" type="car" route="loop" depart="0" departPos="20" departSpeed="max"/>'
+        '<vehicle id="follow" type="car" route="loop" depart="0" departPos="60" departSpeed="max"/></routes>'
+    )
+    fcd = tmp_path / "two.fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "50"]
+    subprocess.run([*cmd, "--fcd-output", str(fcd), "--no-step-log", "true"], check=True, capture_output=True)
+    inside = [  # the times 'follow' is within a junction
+        float(ts.get("time"))
+        for ts in ET.parse(fcd).getroot().iter("timestep")
+        for v in ts.iter("vehicle")
+        if v.get("id") == "follow" and v.get("lane").startswith(":")
+    ]
+    assert inside, "the recording's 'follow' crosses no junction: the test needs one"
+    csv = _csv_without_lanes(fcd, tmp_path / "two.csv")
+    table = pacsv.read_csv(csv, convert_options=pacsv.ConvertOptions(column_types={"id": pa.string()}))
+    late = pc.and_(pc.equal(table["id"], "follow"), pc.less(table["t"], inside[0]))
+    pacsv.write_csv(table.filter(pc.invert(late)), csv)
+    _, _, _, sim = recorded_episode(
+        str(csv), road, EpisodeConfig(), PlannerConfig(n_policies=50), "lead", reactive=True
+    )
+    with sim:
+        sim.reset(0)
+        waited = False
+        while (t := sim._api.simulation.getTime()) < inside[0] + 5.0 and not sim.done:
+            waited |= t > inside[0] and "rec/follow" not in sim._api.vehicle.getIDList()
+            sim.step(None)
+        assert "rec/follow" in sim._driven and sim._api.vehicle.getSpeedMode("rec/follow") != 0
+    assert waited  # it was not placed within the junction
 
 
 @pytest.mark.parametrize("reactive", [False, True])
