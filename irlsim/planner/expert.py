@@ -354,9 +354,8 @@ class ThetaDriver:
         distance = None
         if self._follow is not None and self.planner.last is not None:
             distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow)
-        rules = (self.heading, stopping, braking, distance)
-        how = (self.safe, self.choice, self.lane_change_bias)
-        idx = choose_index(ps, theta, *how, *rules, in_lane=self.in_lane)
+        rules = (self.heading, stopping, braking, distance, None, self.in_lane)  # None: the values of theta
+        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, *rules)
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None

@@ -90,8 +90,7 @@ class DriveRun:
     """> 0: a learned model keeps a safe following distance to the vehicle ahead, with this time headway
     [s] (a rule of the road; the expert's check: ``irlsim.planner.expert.FOLLOW_HEADWAY``)"""
     in_lane: bool = False
-    """with ``keep_distance``: the rule keeps the lane the reward chooses and picks the speed in it (a lane
-    change only where no policy in that lane keeps the distance)"""
+    """with ``keep_distance``: kept in the lane the reward chooses, where a policy there keeps it"""
 
 
 @dataclass
