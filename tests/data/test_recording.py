@@ -49,6 +49,16 @@ def fcd(tmp_path_factory) -> Path:
     return out
 
 
+def _sumo_fcd(road, routes: str, out: Path, end: float) -> Path:
+    """SUMO run on its own (the wheel's binary) on ``road``'s network with the ``routes`` XML for ``end``
+    seconds; its FCD output at ``out``."""
+    rou = out.with_suffix(".rou.xml")
+    rou.write_text(routes)
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(rou), "--end", str(end)]
+    subprocess.run([*cmd, "--fcd-output", str(out), "--no-step-log", "true"], check=True, capture_output=True)
+    return out
+
+
 def _fcd_rows(path: Path) -> list[tuple[str, float, float, float, float, float]]:
     """(id, t, x, y, speed, angle [deg]) of every <vehicle> as SUMO wrote it."""
     out = []
@@ -287,15 +297,12 @@ def test_an_ego_off_the_scenarios_route_drives_its_own(tmp_path, capsys):
     road = load_road(scenario="grid")
     path, _ = road.net.getShortestPath(road.net.getEdge("B3B2"), road.net.getEdge("A2A3"))
     own = [e.getID() for e in path]
-    routes = tmp_path / "grid.rou.xml"
-    routes.write_text(
+    routes = (
         f'<routes><route id="own" edges="{" ".join(own)}"/><route id="main" edges="{" ".join(road.edges)}"/>'
         '<vehicle id="side" route="own" depart="0" departSpeed="max"/>'
         '<vehicle id="main" route="main" depart="0" departSpeed="max"/></routes>'
     )
-    fcd = tmp_path / "grid.fcd.xml"
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "40"]
-    subprocess.run([*cmd, "--fcd-output", str(fcd), "--no-step-log", "true"], check=True, capture_output=True)
+    fcd = _sumo_fcd(road, routes, tmp_path / "grid.fcd.xml", 40)
     rec = load_recording(fcd, road.net, 0.1)
     side, main_ = ego_track(rec, "side", road), ego_track(rec, "main", road)
     assert not isinstance(side, str) and len(side.road.edges) >= 2  # the edges it drove in 40 s
@@ -313,8 +320,7 @@ def follower(tmp_path_factory) -> Path:
     """A recording of two cars in the oval's rightmost lane, 'follow' 60 m behind 'lead', 12.5 m/s."""
     tmp = tmp_path_factory.mktemp("follower")
     road = load_road()
-    routes = tmp / "two.rou.xml"
-    routes.write_text(
+    routes = (
         f'<routes><vType id="car" sigma="0" maxSpeed="12.5" lcStrategic="0" lcSpeedGain="0"/>'
         f'<route id="loop" edges="{" ".join(road.edges)}"/>'
         + "".join(
@@ -324,10 +330,7 @@ def follower(tmp_path_factory) -> Path:
         )
         + "</routes>"
     )
-    out = tmp / "two.fcd.xml"
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "30"]
-    subprocess.run([*cmd, "--fcd-output", str(out), "--no-step-log", "true"], check=True, capture_output=True)
-    return out
+    return _sumo_fcd(road, routes, tmp / "two.fcd.xml", 30)
 
 
 @pytest.mark.parametrize("reactive", [False, True])
@@ -393,16 +396,13 @@ def test_a_reactive_vehicle_first_recorded_within_a_junction_is_driven_by_sumo_a
     from tests.data.test_recording_routes import _csv_without_lanes
 
     road = load_road()
-    routes = tmp_path / "two.rou.xml"
-    routes.write_text(
+    routes = (
         '<routes><vType id="car" sigma="0" maxSpeed="12.5"/>'
         f'<route id="loop" edges="{" ".join(road.edges)}"/>'
         '<vehicle id="lead" type="car" route="loop" depart="0" departPos="20" departSpeed="max"/>'
         '<vehicle id="follow" type="car" route="loop" depart="0" departPos="60" departSpeed="max"/></routes>'
     )
-    fcd = tmp_path / "two.fcd.xml"
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "50"]
-    subprocess.run([*cmd, "--fcd-output", str(fcd), "--no-step-log", "true"], check=True, capture_output=True)
+    fcd = _sumo_fcd(road, routes, tmp_path / "two.fcd.xml", 50)
     inside = [  # the times 'follow' is within a junction
         float(ts.get("time"))
         for ts in ET.parse(fcd).getroot().iter("timestep")
