@@ -162,6 +162,7 @@ def others(rec: Recording, vid: str) -> Tracks:
         v=rec.v[rows],
         step=rec.step,
         edges=tuple(e for e, k in zip(rec.edges, keep, strict=True) if k),
+        size={c: col[keep] for c, col in rec.size.items()},
     )
 
 

@@ -7,13 +7,16 @@ Two formats (docs/guide/demonstrators.md, "Recordings"):
   lane .../>``; SUMO's angle is degrees from north, clockwise, and becomes the ENU heading in radians.
 - A columnar file (``.csv`` or ``.parquet``): one row per vehicle and time, columns ``id`` (text), ``t``
   [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's], ``v`` [m/s],
-  ``heading`` [rad, ENU: counter-clockwise from east]; ``lane`` (a SUMO lane id) optional.
+  ``heading`` [rad, ENU: counter-clockwise from east]; ``lane`` (a SUMO lane id) optional, and
+  ``length``, ``width`` [m] optional: the vehicle's size, one value per vehicle (the replay's vehicle
+  type's where not given).
 
-Checked, each refusal one line naming the file and the row or vehicle: missing columns, values that are
-not finite, time not increasing within a vehicle, gaps longer than ``max_gap``, headings that look like
-degrees, speeds that look like km/h (3.6 times what the positions travel), points off the network or a
-recording in another network's coordinates. Grouping by vehicle is a stable sort and a split (no loop
-over rows); each vehicle is then resampled to the step by linear interpolation (heading unwrapped).
+Checked, each refusal one line naming the file and the row or vehicle: missing columns, values that are not
+finite, time not increasing within a vehicle, gaps longer than ``max_gap``, headings that look like degrees,
+speeds that look like km/h (3.6 times what the positions travel), points off the network or a recording in
+another network's coordinates, sizes that are not one vehicle's in metres. Grouping by vehicle is a stable
+sort and a split (no loop over rows); each vehicle is then resampled to the step by linear interpolation
+(heading unwrapped).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from __future__ import annotations
 import hashlib
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +35,12 @@ from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
 
 COLUMNS = ("id", "t", "x", "y", "v", "heading")
+#: optional columns: a vehicle's length and width [m], one value per vehicle
+SIZES = ("length", "width")
+#: [m] the sizes a road vehicle has (bicycle to long truck); outside them a unit mistake (cm, feet)
+SIZE_RANGE = {"length": (1.0, 30.0), "width": (0.5, 4.0)}
+#: [m] how much a vehicle's recorded size may vary between its rows (a dataset's rounding)
+SIZE_TOL = 0.01
 FORMATS = (".xml", ".csv", ".parquet")
 #: [s] the longest time between two rows of one vehicle
 MAX_GAP = 1.0
@@ -60,6 +69,8 @@ class Rows:
     lane: np.ndarray | None  # [N] str, SUMO lane ids; None: not recorded
     row: np.ndarray  # [N] int
     fcd: bool  # SUMO's FCD (the heading was converted from degrees by definition)
+    #: [N] [m] the optional size columns (``SIZES``) present
+    size: dict[str, np.ndarray] = field(default_factory=dict)
 
     def where(self, i: int) -> str:
         """The file and the place of row ``i`` in it."""
@@ -85,6 +96,8 @@ class Recording:
     edges: tuple[tuple[str, ...], ...]
     #: per vehicle, why its positions match no connected route ('' where they do; a recording without lanes)
     unrouted: tuple[str, ...] = ()
+    #: [V] [m] per vehicle, its recorded length and width, where the recording has them
+    size: dict[str, np.ndarray] = field(default_factory=dict)
 
     def track(self, vid: str) -> dict[str, np.ndarray]:
         """One vehicle's arrays t, x, y, v, heading at the step."""
@@ -188,9 +201,14 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     if "lane" in table.column_names:
         lane = _text(table.column("lane"))
     ids = _text(table.column("id"))
-    return Rows(
-        p, ids, num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False
-    )
+    size = {}
+    for c in (c for c in SIZES if c in table.column_names):
+        try:
+            size[c] = np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
+        except (ValueError, TypeError) as e:
+            raise IrlsimError(f"recording {p}: the column {c} is not numeric ({e}): give metres") from None
+    rows = (num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False)
+    return Rows(p, ids, *rows, size=size)
 
 
 def _text(column: Any) -> np.ndarray:
@@ -244,7 +262,30 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
             f"more than the {max_gap:g} s allowed: give each stretch its own vehicle id, or fill the gap"
         )
     _check_speed_units(rows, order, starts)
+    _check_sizes(rows, order, starts)
     return order, starts
+
+
+def _check_sizes(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
+    """The optional length and width: metres within ``SIZE_RANGE``, one value per vehicle."""
+    for c, col in rows.size.items():
+        lo, hi = SIZE_RANGE[c]
+        bad = np.flatnonzero(~(np.isfinite(col) & (col >= lo) & (col <= hi)))
+        if len(bad):
+            i = bad[0]
+            raise IrlsimError(
+                f"{rows.where(i)}: {c} {col[i]:g} is not a vehicle's {c} in metres ({lo:g}-{hi:g} m): "
+                "give metres (centimetres and feet are converted before)"
+            )
+        v = col[order]
+        first = np.repeat(v[starts], np.diff(np.r_[starts, len(v)]))
+        varies = np.flatnonzero(np.abs(v - first) > SIZE_TOL)
+        if len(varies):
+            i = varies[0]
+            raise IrlsimError(
+                f"{rows.where(order[i])}: vehicle {rows.id[order[i]]} has {c} {v[i]:g} m after "
+                f"{first[i]:g} m: a vehicle has one {c}: give the same value in all its rows"
+            )
 
 
 def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
@@ -324,6 +365,7 @@ def resample(
     ``routes``: per vehicle its matched route or why none (a recording without lanes)."""
     bounds = np.r_[starts, len(order)]
     ids, start, t0s, parts, edges, unrouted = [], [0], [], [], [], []
+    kept: list[int] = []  # the vehicles (groups) kept
     for g, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):  # per vehicle, not per row
         idx = order[a:b]
         t = rows.t[idx]
@@ -335,6 +377,7 @@ def resample(
         cols = [np.interp(tq, t, c[idx]) for c in (rows.x, rows.y, rows.v)]
         parts.append(np.stack([*cols, np.asarray(wrap_angle(np.interp(tq, t, head)))]))
         ids.append(str(rows.id[idx[0]]))
+        kept.append(a)
         start.append(start[-1] + len(tq))
         t0s.append(k0 * step)
         route = routes[g] if routes is not None else ()
@@ -355,6 +398,7 @@ def resample(
         heading=data[3],
         edges=tuple(edges),
         unrouted=tuple(unrouted),
+        size={c: col[order[kept]] for c, col in rows.size.items()},
     )
 
 

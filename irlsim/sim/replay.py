@@ -52,6 +52,8 @@ class Tracks:
     step: float
     #: per vehicle, the edges it drove (empty: none recorded); reactive vehicles drive this route
     edges: tuple[tuple[str, ...], ...] = ()
+    #: [V] [m] per vehicle, its recorded 'length' and 'width' where recorded (else its SUMO type's)
+    size: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
 
     @property
     def top(self) -> np.ndarray:
@@ -140,6 +142,7 @@ class ReplaySimulation(Simulation):
             return True  # within a junction: not yet
         if edge not in edges:
             api.add(vid, ROUTE, typeID=BG_TYPE)
+            self._resize(vid, i)
             api.setSpeedMode(vid, 0)
             api.setLaneChangeMode(vid, 0)
             return False
@@ -155,5 +158,15 @@ class ReplaySimulation(Simulation):
             departSpeed=speed,
         )
         api.setMaxSpeed(vid, max(float(tr.top[i]), 0.1))
+        self._resize(vid, i)
         self._driven.add(vid)
         return True
+
+    def _resize(self, vid: str, i: int) -> None:
+        """Recorded vehicle ``i`` at its recorded size, where the recording has one (SUMO then drives and
+        collides it, and the observation reports it, at that size)."""
+        api, size = self._api.vehicle, self.tracks.size
+        if "length" in size:
+            api.setLength(vid, float(size["length"][i]))
+        if "width" in size:
+            api.setWidth(vid, float(size["width"][i]))

@@ -4,6 +4,7 @@ a second real tiny collection to aggregate with the expert's tiny dataset."""
 from __future__ import annotations
 
 import shutil
+import subprocess
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,8 @@ from irlsim.data.demos import DemoProjector
 from irlsim.data.layout import write_manifest
 from irlsim.data.writer import EpisodeWriter
 from irlsim.planner.policy_set import PolicySet
+from irlsim.road import load_road
+from irlsim.road.network import sumo_binary
 
 DT = 0.1  # [s]
 T = 51  # states over 5 s
@@ -108,3 +111,30 @@ def pair(tiny_dataset: Path, second_tiny: Path, tmp_path: Path) -> tuple[Path, P
     shutil.copytree(tiny_dataset, a, ignore=ignore)
     shutil.copytree(second_tiny, b, ignore=ignore)
     return a, b
+
+
+#: SUMO's step of the recording fixture: resampled to irlsim's 0.1 s
+RECORDING_STEP = 0.5
+
+
+@pytest.fixture(scope="module")
+def fcd(tmp_path_factory) -> Path:
+    """Five vehicles on the oval for 60 s, recorded by SUMO itself (--fcd-output)."""
+    tmp = tmp_path_factory.mktemp("recording")
+    road = load_road()
+    cars = "".join(
+        f'<vehicle id="veh{i}" type="car" route="loop" depart="{2 * i}" departLane="{i % 3}" '
+        f'departPos="{30 * i}" departSpeed="max"/>'
+        for i in range(5)
+    )
+    routes = tmp / "cars.rou.xml"
+    routes.write_text(
+        f'<routes><vType id="car" sigma="0" maxSpeed="{12 + 0.5}" lcStrategic="0" lcSpeedGain="0" '
+        f'lcKeepRight="0"/><route id="loop" edges="{" ".join(road.edges * 2)}"/>{cars}</routes>'
+    )
+    out = tmp / "fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "60"]
+    cmd += ["--step-length", str(RECORDING_STEP), "--fcd-output", str(out), "--no-step-log", "true"]
+    cmd += ["--seed", "1"]
+    subprocess.run(cmd, check=True, capture_output=True)
+    return out

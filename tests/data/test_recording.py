@@ -24,30 +24,6 @@ from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.road.network import sumo_binary
 
-STEP = 0.5  # SUMO's step of the recording: resampled to irlsim's 0.1 s
-
-
-@pytest.fixture(scope="module")
-def fcd(tmp_path_factory) -> Path:
-    """Five vehicles on the oval for 60 s, recorded by SUMO itself (--fcd-output)."""
-    tmp = tmp_path_factory.mktemp("recording")
-    road = load_road()
-    cars = "".join(
-        f'<vehicle id="veh{i}" type="car" route="loop" depart="{2 * i}" departLane="{i % 3}" '
-        f'departPos="{30 * i}" departSpeed="max"/>'
-        for i in range(5)
-    )
-    routes = tmp / "cars.rou.xml"
-    routes.write_text(
-        f'<routes><vType id="car" sigma="0" maxSpeed="{12 + 0.5}" lcStrategic="0" lcSpeedGain="0" '
-        f'lcKeepRight="0"/><route id="loop" edges="{" ".join(road.edges * 2)}"/>{cars}</routes>'
-    )
-    out = tmp / "fcd.xml"
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "60"]
-    cmd += ["--step-length", str(STEP), "--fcd-output", str(out), "--no-step-log", "true", "--seed", "1"]
-    subprocess.run(cmd, check=True, capture_output=True)
-    return out
-
 
 def _sumo_fcd(road, routes: str, out: Path, end: float) -> Path:
     """SUMO run on its own (the wheel's binary) on ``road``'s network with the ``routes`` XML for ``end``
