@@ -1,9 +1,9 @@
 r"""Which recorded cars a reactive replay does not hand to SUMO: per episode of a recording's drive
 config, the cars replayed (moved to their recorded poses, blind to the ego) instead of driven by SUMO.
 
-A reactive drive (``irlsim drive --reactive``) means every other car to yield to the ego; a car SUMO
-cannot take over (its positions on no route of its recorded edges) is replayed, and one that is can run
-into the ego. Drives the expert on each episode of ``--config`` (a studies/style_recording.py sample's
+In a reactive drive (``irlsim drive --reactive``) every other car is meant to see and yield to the ego; a
+car SUMO cannot take over (its positions on no route of its recorded edges) is replayed instead, and can
+run into the ego. Drives the expert on each episode of ``--config`` (a studies/style_recording.py sample's
 ``drive.toml``, e.g. ``runs/styles/recording-s3/drive.toml``) and prints the cars that were on the
 network and not driven by SUMO:
 
