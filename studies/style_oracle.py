@@ -46,7 +46,7 @@ import styles  # noqa: E402  (studies/styles.py: the study's folders, configs an
 
 from irlsim.config import load_config  # noqa: E402
 from irlsim.data.collection import CollectConfig, EpisodeJob, collect_episode, demo_projector  # noqa: E402
-from irlsim.data.demos import lane_jump_projection  # noqa: E402
+from irlsim.data.demos import lane_jump_projection, look_ahead_odometry  # noqa: E402
 from irlsim.errors import IrlsimError  # noqa: E402
 from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, choose_index, within_braking_curve  # noqa: E402
 from irlsim.planner.policy_set import PolicySet  # noqa: E402
@@ -101,7 +101,7 @@ class OracleDriver:
         ps = self.planner.plan(obs)
         e, ahead = obs.ego, self.look_ahead_by(self.horizon_steps)
         off = self.lane_offset_by()  # what the look ahead took off, for the lane-jump projection
-        seen = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d, x.yaw) for x in ahead]  # as DaggerDriver
+        seen = look_ahead_odometry(e, ahead)  # as DaggerDriver
         demo = self.projector.project_window(0, ps.t, (ps.s, ps.d, ps.yaw), seen)
         seen_d = np.array([r[2] for r in seen])
         demo = lane_jump_projection(demo, ps.d[:, -1], seen_d, self.road.lane_width, off)

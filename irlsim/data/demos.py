@@ -23,6 +23,7 @@ from irlsim.config import require
 
 if TYPE_CHECKING:
     from irlsim.data.tensors import Rows
+    from irlsim.sim.types import EgoState
 
 #: discount of the distance per time step of DT_DEMO = 0.1 s [-]; 0.95^50 ~ 0.08, so the end of the
 #: 5 s horizon still counts but the near future, which the driver controls best, dominates
@@ -323,6 +324,12 @@ class DemoProjector:
     def n_pending(self) -> int:
         """Number of buffered cycles whose window is not complete yet."""
         return len(self._pending)
+
+
+def look_ahead_odometry(ego: EgoState, ahead: Sequence[EgoState]) -> list[tuple[float, float, float, float]]:
+    """A look ahead from ``ego`` (the states SUMO's driver drove on from it) as
+    :meth:`DemoProjector.project_window`'s odometry: (t, s, d, yaw) of the ego, then of each state."""
+    return [(x.t, x.s, x.d, x.yaw) for x in (ego, *ahead)]
 
 
 #: [m] a placed ego's offset from its SUMO lane's centre beyond which a look ahead read at that centre

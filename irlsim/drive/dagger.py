@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.data.collection import CollectConfig, LabelledDriver
+from irlsim.data.demos import look_ahead_odometry
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.policy_set import PolicySet
 from irlsim.reward import LearnedReward, RewardDriver, load_reward
@@ -66,11 +67,10 @@ class DaggerDriver:
         ps, idx = self.decider.last_policy_set, self.decider.last_index
         assert ps is not None
         if self.look_ahead_by is not None:  # from this very state, before the learner's policy runs
-            e = obs.ego
             # SUMO's driver at the centres of its lanes: the offset it keeps is the placement's, not its
             ahead = self.look_ahead_by(self.horizon_steps)
             self.look_ahead_offset = self.lane_offset_by() if self.lane_offset_by is not None else 0.0
-            self.look_ahead = [(e.t, e.s, e.d, e.yaw)] + [(x.t, x.s, x.d, x.yaw) for x in ahead]
+            self.look_ahead = look_ahead_odometry(obs.ego, ahead)
         else:
             self.expert_index = self.expert.select(ps, obs)
         self.expert.follow(ps, idx)

@@ -354,8 +354,10 @@ class ThetaDriver:
         distance = None
         if self._follow is not None and self.planner.last is not None:
             distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow)
-        rules = (self.heading, stopping, braking, distance, None, self.in_lane)  # None: the values of theta
-        idx = choose_index(ps, theta, self.safe, self.choice, self.lane_change_bias, *rules)
+        rules = (self.heading, stopping, braking, distance)
+        idx = choose_index(
+            ps, theta, self.safe, self.choice, self.lane_change_bias, *rules, in_lane=self.in_lane
+        )
         if self.commit:
             start, end = int(ps.lane[idx, 0]), int(ps.lane[idx, -1])
             self.heading = end if end >= 0 and end != start else None
@@ -404,14 +406,18 @@ def choose_index(
     if distance is not None:
         if in_lane:
             lane = policy_set.lane[:, -1]
-            best = int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
-            allowed = _narrowed(allowed, distance & (lane == lane[best]))
+            allowed = _narrowed(allowed, distance & (lane == lane[_best(value, allowed)]))
         allowed = _narrowed(allowed, distance)
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
         allowed = _narrowed(allowed, there)
     if choice == "expected":
         return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
+    return _best(value, allowed)
+
+
+def _best(value: np.ndarray, allowed: np.ndarray | None) -> int:
+    """The index of the highest ``value`` among the ``allowed`` policies (None: all)."""
     return int(np.argmax(value if allowed is None else np.where(allowed, value, -np.inf)))
 
 
