@@ -11,7 +11,12 @@ gap to the leader in the ego's lane. :func:`style_summary` turns such arrays int
   median and 10th percentile (NaN when never following); ``style/following_s`` the time following;
 - ``style/lane_changes``, ``style/lane_changes_per_km``: changes of the ego's lane between steps;
 - ``style/rms_accel`` [m/s^2], ``style/rms_jerk`` [m/s^3]: RMS of the longitudinal acceleration and
-  jerk (finite differences of the speed);
+  jerk, finite differences of the speed over ``DERIVATIVE_BASE_S`` (1 s) at every step: the mean
+  acceleration over each second and its change from one second to the next. At the 0.1 s step the same
+  driving measured from a recording's 1 s rows (resampled to the step by linear interpolation) would show
+  2-3 times the jerk of its 0.1 s rows, and SUMO's single-step speed changes would count as style; over
+  1 s a recording at 1 s or finer and a simulated driving give comparable figures (docs/results/styles.md,
+  "Acceleration and jerk over a second");
 - ``style/full_stops``, ``style/stops_per_km``: entries into standstill (speed to ``STOP_SPEED`` or
   below from above it);
 - ``style/lane_share``: the share of time in each lane (route lane numbering, 0 = rightmost);
@@ -40,6 +45,8 @@ FOLLOW_RANGE = 100.0
 MIN_FOLLOW_SPEED = 1.0
 #: [m/s] standstill (the scenarios' stop_speed)
 STOP_SPEED = 0.1
+#: [s] the time base of the acceleration and jerk figures (at least one step)
+DERIVATIVE_BASE_S = 1.0
 #: the scalar figures the style distance compares (besides each lane's share)
 STYLE_FIGURES = (
     "style/mean_speed",
@@ -61,7 +68,8 @@ def style_summary(
 ) -> dict[str, Any]:
     """The style figures of one driving from per-step arrays [S]: time [s], route position s [m],
     speed [m/s], lane (int), gap [m] from the ego's front to its leader's rear in its lane (NaN: none).
-    Steps of equal spacing; at least two."""
+    Steps of equal spacing; at least two. Acceleration and jerk over ``DERIVATIVE_BASE_S`` (rounded to
+    whole steps, at least one); a driving shorter than two such spans has neither (0)."""
     t, s, v, gap = (np.asarray(a, dtype=np.float64) for a in (t, s, v, gap))
     lane = np.asarray(lane, dtype=np.int64)
     assert t.ndim == 1 and len(t) >= 2 and s.shape == v.shape == lane.shape == gap.shape == t.shape
@@ -70,8 +78,9 @@ def style_summary(
     km = float(np.abs(np.diff(s)).sum()) / 1000.0
     follow = np.isfinite(gap) & (gap <= FOLLOW_RANGE) & (v > MIN_FOLLOW_SPEED)
     headway = gap[follow] / v[follow]
-    acc = np.diff(v) / dt
-    jerk = np.diff(acc) / dt
+    lag = max(1, round(DERIVATIVE_BASE_S / dt))
+    acc = (v[lag:] - v[:-lag]) / (lag * dt)  # the mean acceleration over each span, at every step
+    jerk = (acc[lag:] - acc[:-lag]) / (lag * dt)
     changes = int(np.count_nonzero(np.diff(lane)))
     stops = int(np.count_nonzero((v[1:] <= STOP_SPEED) & (v[:-1] > STOP_SPEED)))
     share = np.bincount(np.maximum(lane, 0), minlength=int(lane.max(initial=0)) + 1) / len(lane)

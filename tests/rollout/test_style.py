@@ -8,7 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from irlsim.rollout.style import STYLE_FIGURES, pool_styles, style_distances, style_summary
+from irlsim.rollout.style import (
+    DERIVATIVE_BASE_S,
+    STYLE_FIGURES,
+    pool_styles,
+    style_distances,
+    style_summary,
+)
 
 DT = 0.1
 
@@ -65,11 +71,42 @@ def test_a_known_jerk_and_a_full_stop():
     s = 5.0 * t + j * t**3 / 6
     r = style_summary(t, s, v, np.zeros(201, int), np.full(201, np.nan))
     assert r["style/rms_jerk"] == pytest.approx(j, rel=1e-9)
-    acc = j * (t[:-1] + DT / 2)  # the finite difference of v: exact at the midpoints
+    base = DERIVATIVE_BASE_S  # the mean acceleration over each span: exact at the span's midpoint
+    acc = j * (t[: -round(base / DT)] + base / 2)
     assert r["style/rms_accel"] == pytest.approx(float(np.sqrt(np.mean(acc**2))), rel=1e-9)
     v = np.concatenate([np.full(50, 5.0), np.zeros(20), np.full(50, 5.0), np.zeros(10)])
     r = style_summary(np.arange(130) * DT, np.cumsum(v) * DT, v, np.zeros(130, int), np.full(130, np.nan))
     assert r["style/full_stops"] == 2
+
+
+def test_acceleration_and_jerk_do_not_depend_on_the_recording_rate():
+    """A smooth driving's figures from its 0.1 s rows and from its 1 s rows resampled to the step (as a
+    recording is) agree with each other and with the closed form; at the step itself they would not
+    (the resampled speed is piecewise linear: its jerk is all in single steps)."""
+    amp, w = 3.0, 0.5  # v = 12 + amp sin(w t): RMS accel amp w / sqrt(2), RMS jerk amp w^2 / sqrt(2)
+    t = np.arange(6001) * DT
+    v = 12.0 + amp * np.sin(w * t)
+    coarse = np.interp(t, t[::10], v[::10])  # a 1 s recording, linearly resampled to the step
+    fine, rec = (
+        style_summary(t, np.cumsum(x) * DT, x, np.zeros(len(t), int), np.full(len(t), np.nan))
+        for x in (v, coarse)
+    )
+    span = w * DERIVATIVE_BASE_S / 2  # a difference over the span sees sin(span) / span of the sinusoid
+    assert fine["style/rms_accel"] == pytest.approx(amp * w / math.sqrt(2) * math.sin(span) / span, rel=1e-3)
+    assert fine["style/rms_jerk"] == pytest.approx(
+        amp * w**2 / math.sqrt(2) * (math.sin(span) / span) ** 2, rel=1e-3
+    )
+    for k in ("style/rms_accel", "style/rms_jerk"):
+        assert rec[k] == pytest.approx(fine[k], rel=0.03)
+    step_jerk = np.sqrt(np.mean((np.diff(coarse, 2) / DT**2) ** 2))
+    assert step_jerk > 2.5 * fine["style/rms_jerk"]  # what the step basis would have measured
+
+
+def test_a_driving_shorter_than_two_spans_has_no_jerk():
+    t = np.arange(15) * DT  # 1.4 s: one span of acceleration, none of jerk
+    v = 5.0 + t
+    r = style_summary(t, np.cumsum(v) * DT, v, np.zeros(15, int), np.full(15, np.nan))
+    assert r["style/rms_accel"] == pytest.approx(1.0) and r["style/rms_jerk"] == 0.0
 
 
 def test_pooling_is_exact_for_additive_figures():
