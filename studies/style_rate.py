@@ -1,0 +1,129 @@
+r"""Does a driving's RMS acceleration and jerk depend on the rate it was recorded at?
+
+SUMO alone drives the style study's recording trips (``studies/styles.py``: 60 cars, one every 4 s, one
+lap of the default road, SUMO's default driver) twice, at SUMO's default 1 s step and at 0.1 s, each with
+its FCD output; the 0.1 s run is also cut to its whole seconds (the same driving recorded at 1 s). Each
+is read and resampled to the 0.1 s step as irlsim reads a recording, and every car's RMS acceleration and
+jerk are measured at the step (finite differences over 0.1 s) and over :data:`irlsim.rollout.style.
+DERIVATIVE_BASE_S` (the style's figures, :func:`irlsim.rollout.style.style_summary`), pooled over the cars
+as the style pools episodes. About a minute:
+
+    .venv/bin/python studies/style_rate.py --out runs/style-rate
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from irlsim.data.recording import load_recording
+from irlsim.road import load_road
+from irlsim.road.network import sumo_binary
+from irlsim.road.scenario import DEFAULT_SCENARIO
+from irlsim.rollout.style import DERIVATIVE_BASE_S, pool_styles, style_summary
+
+STEP = 0.1  # [s] the simulation step a recording is resampled to
+CARS, HEADWAY_S, SECONDS = 60, 4, 200  # studies/styles.py's recording: cars, departures' spacing, the tail
+
+
+def record(folder: Path, step: float, seed: int) -> Path:
+    """SUMO alone drives the trips at ``step`` with its FCD output (once)."""
+    road = load_road(scenario=DEFAULT_SCENARIO)
+    fcd = folder / f"fcd-{step:g}s.xml"
+    if fcd.is_file():
+        return fcd
+    first, last = road.edges[0], road.edges[-1]
+    trips = "".join(
+        f'<trip id="car{i}" depart="{HEADWAY_S * i}" from="{first}" to="{last}" departLane="best" '
+        f'departSpeed="max"/>'
+        for i in range(CARS)
+    )
+    (folder / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
+    tmp = fcd.with_suffix(".tmp")
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(folder / "cars.rou.xml")]
+    cmd += ["--fcd-output", str(tmp), "--no-step-log", "true", "--seed", str(seed)]
+    cmd += ["--end", str(HEADWAY_S * CARS + SECONDS), "--step-length", f"{step:g}"]
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    tmp.rename(fcd)
+    return fcd
+
+
+def whole_seconds(fcd: Path) -> Path:
+    """The FCD's timesteps at whole seconds only: the same driving recorded at 1 s."""
+    out = fcd.with_name(fcd.stem + "-cut-1s.xml")
+    if not out.is_file():
+        text = fcd.read_text()
+        steps = re.findall(r'<timestep time="([0-9.]+)">.*?</timestep>', text, flags=re.S)
+        kept = re.sub(
+            r'\s*<timestep time="([0-9.]+)">.*?</timestep>',
+            lambda m: m.group(0) if abs(float(m.group(1)) - round(float(m.group(1)))) < 1e-6 else "",
+            text,
+            flags=re.S,
+        )
+        out.write_text(kept)
+        print(f"{fcd.name}: {len(steps)} timesteps, cut to whole seconds in {out.name}")
+    return out
+
+
+def figures(fcd: Path) -> dict[str, float]:
+    """RMS acceleration and jerk of every car, at the step and over the style's base, pooled by time."""
+    rec = load_recording(fcd, load_road(scenario=DEFAULT_SCENARIO).net, STEP)
+    styles, step = [], []
+    for i in range(len(rec.ids)):
+        v = rec.v[rec.start[i] : rec.start[i + 1]]
+        if len(v) < 3:
+            continue
+        t = np.arange(len(v)) * STEP
+        styles.append(
+            style_summary(t, np.cumsum(v) * STEP, v, np.zeros(len(v), int), np.full(len(v), np.nan))
+        )
+        acc = np.diff(v) / STEP
+        step.append((float(t[-1]), np.mean(acc**2), np.mean((np.diff(acc) / STEP) ** 2)))
+    pooled = pool_styles(styles)
+    w, a2, j2 = (np.array(c) for c in zip(*step, strict=True))
+    return {
+        "accel_step": float(np.sqrt(np.average(a2, weights=w))),
+        "jerk_step": float(np.sqrt(np.average(j2, weights=w))),
+        "accel_base": pooled["style/rms_accel"],
+        "jerk_base": pooled["style/rms_jerk"],
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default="runs/style-rate", help="the FCD files' folder")
+    p.add_argument("--seed", type=int, default=1, help="SUMO's seed (the study's recording: 1)")
+    a = p.parse_args(argv)
+    folder = Path(a.out)
+    folder.mkdir(parents=True, exist_ok=True)
+    fine = record(folder, 0.1, a.seed)
+    runs = {
+        "SUMO at 1 s": record(folder, 1.0, a.seed),
+        "SUMO at 0.1 s": fine,
+        "SUMO at 0.1 s, cut to 1 s rows": whole_seconds(fine),
+    }
+    base = f"{DERIVATIVE_BASE_S:g} s"
+    lines = [
+        f"| recorded | RMS accel at the step / over {base} [m/s^2] "
+        f"| RMS jerk at the step / over {base} [m/s^3] |",
+        "|---|---|---|",
+    ]
+    for name, fcd in runs.items():
+        f = figures(fcd)
+        lines.append(
+            f"| {name} | {f['accel_step']:.3f} / {f['accel_base']:.3f} "
+            f"| {f['jerk_step']:.3f} / {f['jerk_base']:.3f} |"
+        )
+    print("\n".join(lines))
+    (folder / "rates.md").write_text("\n".join(lines) + "\n")
+    print(f"wrote {folder / 'rates.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
