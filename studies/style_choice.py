@@ -15,10 +15,12 @@ as defined and per episode, with the safety bounds):
     .venv/bin/python studies/style_choice.py --out runs/styles --eval-base 2000 --episodes 30 \
         --demonstrators expert cautious assertive --rows cautious assertive --workers 2
 
-The biases go to ``<out>/choice-biases[-s<base>][-<rule>].json``. ``--commit`` and ``--full-stop`` add the
-planner's rules (``<out>/drive[-s<base>][-commit][-stop]-choice/``); ``--dagger-rounds N`` drives the
-rewards of ``studies/style_dagger.py --rounds N`` instead (calibrated on their own training data: the
-driver's dataset and the rounds'):
+The biases go to ``<out>/choice-biases[-s<base>][-<rule>][-<model>].json`` (the model named unless
+PACNN+S); a row's drive folder holding another model's drives is refused before any work (give that
+model a study folder of its own). ``--commit`` and ``--full-stop`` add the planner's rules
+(``<out>/drive[-s<base>][-commit][-stop]-choice/``); ``--dagger-rounds N`` drives the rewards of
+``studies/style_dagger.py --rounds N`` instead (calibrated on their own training data: the driver's
+dataset and the rounds'):
 
     .venv/bin/python studies/style_choice.py --out runs/styles --eval-base 2000 --episodes 30 \
         --demonstrators expert cautious assertive-eidm --rows assertive-eidm --dagger-rounds 1 \
@@ -47,8 +49,19 @@ def row_bias(runs: Path, data: list[Path], model: str) -> float:
     return lane_change_bias(load_reward(model, runs=str(runs)), list(data))
 
 
+def other_model(folder: Path, model: str) -> str | None:
+    """Why ``folder`` (a row's drive folder) cannot hold ``model``'s drives: another model's are there."""
+    if not (folder / "drive.json").is_file():
+        return None
+    driven = {e["drive/model"] for e in json.loads((folder / "drive.json").read_text())["episodes"]}
+    if model in driven:
+        return None
+    held = ", ".join(sorted(driven))
+    return f"{folder} holds {held}'s drives, not {model}'s: give --out a study folder of its own"
+
+
 def drive(d: str, road: str, runs: Path, bias: float, out: Path, a: Any) -> None:
-    """``irlsim drive --choice expected`` of the row's models on the study's episodes (once)."""
+    """``irlsim drive --choice expected`` of the row's model on the study's episodes (once)."""
     if (out / "drive.json").is_file():
         return
     styles.run(
@@ -90,6 +103,15 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(a.out)
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
     tag = styles.drive_tag(commit=a.commit, stop=a.full_stop, choice=True)
+    folders = [
+        out / f"drive{at}{tag}" / road / f"{styles.learner(d, a)[0]}-seed{seed}"
+        for d in a.rows
+        for seed in a.seeds
+        for road in a.roads
+    ]
+    taken = [why for f in folders if (why := other_model(f, a.model))]
+    if taken:
+        sys.exit(f"style_choice: {taken[0]}")
     biases: dict[str, float] = {}
     for d in a.rows:
         for seed in a.seeds:
@@ -106,7 +128,8 @@ def main(argv: list[str] | None = None) -> int:
             for road in a.roads:
                 drive(d, road, runs, biases[runs.name], out / f"drive{at}{tag}" / road / runs.name, a)
     rule = "" if a.rule == "default" else f"-{a.rule}"
-    (out / f"choice-biases{at}{rule}.json").write_text(json.dumps(biases, indent=1) + "\n")
+    model = "" if a.model == "PACNN+S" else f"-{a.model}"
+    (out / f"choice-biases{at}{rule}{model}.json").write_text(json.dumps(biases, indent=1) + "\n")
     norms = ["--out", str(out), "--roads", *a.roads, "--demonstrators", *a.demonstrators]
     norms += ["--rows", *a.rows, "--seeds", *map(str, a.seeds), "--eval-base", str(a.eval_base), "--choice"]
     norms += ["--rule", a.rule] + ["--commit"] * a.commit + ["--full-stop"] * a.full_stop

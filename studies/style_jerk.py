@@ -5,8 +5,9 @@ as ``irlsim collect`` does) and, every 0.1 s step, reads SUMO's acceleration of 
 and its lane-change state to the left. The RMS jerk at the step (finite differences of the speed over
 0.1 s, the style's figure until :mod:`irlsim.rollout.style` measured it over 1 s) is split into the
 steps within 0.2 s of a step braking at the driver's full ``decel`` with no leader within 50 m
-("spikes": single steps a car following model does not take on a free road) and the rest; for the spikes, how often SUMO reports the change to the left blocked by a
-leader there (LC2013 slowing the ego to fall in behind a car in the next lane):
+("spikes": single steps a car following model does not take on a free road) and the rest; for the
+spikes, how often SUMO reports the change to the left blocked by a leader there (LC2013 slowing the ego
+to fall in behind a car in the next lane):
 
     .venv/bin/python studies/style_jerk.py --config configs/collect/styles/assertive.toml --episodes 5
 """
