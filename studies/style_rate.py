@@ -15,41 +15,28 @@ from __future__ import annotations
 
 import argparse
 import re
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 
-from irlsim.data.recording import load_recording
-from irlsim.road import load_road
-from irlsim.road.network import sumo_binary
-from irlsim.road.scenario import DEFAULT_SCENARIO
-from irlsim.rollout.style import DERIVATIVE_BASE_S, pool_styles, style_summary
+sys.path.insert(0, str(Path(__file__).parent))
+import styles  # noqa: E402  (studies/styles.py: the recording's trips)
+
+from irlsim.data.recording import load_recording  # noqa: E402
+from irlsim.road import load_road  # noqa: E402
+from irlsim.road.scenario import DEFAULT_SCENARIO  # noqa: E402
+from irlsim.rollout.style import DERIVATIVE_BASE_S, pool_styles, style_summary  # noqa: E402
 
 STEP = 0.1  # [s] the simulation step a recording is resampled to
-CARS, HEADWAY_S, SECONDS = 60, 4, 200  # studies/styles.py's recording: cars, departures' spacing, the tail
+SECONDS = styles.SIZES["rec_seconds"]  # the study's recording: seconds after the last departure
 
 
 def record(folder: Path, step: float, seed: int) -> Path:
-    """SUMO alone drives the trips at ``step`` with its FCD output (once)."""
-    road = load_road(scenario=DEFAULT_SCENARIO)
+    """SUMO alone drives the study's recording trips at ``step`` with its FCD output (once)."""
     fcd = folder / f"fcd-{step:g}s.xml"
-    if fcd.is_file():
-        return fcd
-    first, last = road.edges[0], road.edges[-1]
-    trips = "".join(
-        f'<trip id="car{i}" depart="{HEADWAY_S * i}" from="{first}" to="{last}" departLane="best" '
-        f'departSpeed="max"/>'
-        for i in range(CARS)
-    )
-    (folder / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
-    tmp = fcd.with_suffix(".tmp")
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(folder / "cars.rou.xml")]
-    cmd += ["--fcd-output", str(tmp), "--no-step-log", "true", "--seed", str(seed)]
-    cmd += ["--end", str(HEADWAY_S * CARS + SECONDS), "--step-length", f"{step:g}"]
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
-    tmp.rename(fcd)
+    if not fcd.is_file():
+        styles.sumo_alone(fcd, load_road(scenario=DEFAULT_SCENARIO), styles.REC_CARS, SECONDS, seed, step)
     return fcd
 
 

@@ -253,6 +253,25 @@ def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict
 # ------------------------------------------------------------------------------------------ recording
 
 
+def sumo_alone(fcd: Path, road: Any, cars: int, seconds: float, seed: int, step: float | None = None) -> None:
+    """SUMO alone drives ``cars`` trips of one lap of ``road`` (one every 4 s, SUMO's routing and default
+    driver type, SUMO's ``seed``; ``step``: its step length, SUMO's default 1 s if None) until ``seconds``
+    after the last departure, its FCD output written to ``fcd`` (whole or not at all), the trips beside it."""
+    fcd.parent.mkdir(parents=True, exist_ok=True)
+    first, last = road.edges[0], road.edges[-1]
+    trips = "".join(
+        f'<trip id="car{i}" depart="{4 * i}" from="{first}" to="{last}" departLane="best" departSpeed="max"/>'
+        for i in range(cars)
+    )
+    (fcd.parent / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(fcd.parent / "cars.rou.xml")]
+    cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
+    cmd += ["--seed", str(seed), "--end", str(4 * cars + seconds)]
+    cmd += [] if step is None else ["--step-length", f"{step:g}"]
+    run(cmd)
+    fcd.with_suffix(".tmp").rename(fcd)
+
+
 def record(out: Path, a: Any, seed: int = REC_SEED) -> tuple[str, str]:
     """SUMO alone drives ``REC_CARS`` cars round the default road (its own routing: each car a trip of
     one lap, SUMO's default driver type, SUMO's ``seed``; another seed: folder ``recording-s<seed>``) with
@@ -262,19 +281,7 @@ def record(out: Path, a: Any, seed: int = REC_SEED) -> tuple[str, str]:
     road = load_road(scenario=DEFAULT_SCENARIO)
     cars = a.rec_cars
     if not fcd.is_file():
-        folder.mkdir(parents=True, exist_ok=True)
-        first, last = road.edges[0], road.edges[-1]
-        trips = "".join(
-            f'<trip id="car{i}" depart="{4 * i}" from="{first}" to="{last}" departLane="best" '
-            f'departSpeed="max"/>'
-            for i in range(cars)
-        )
-        (folder / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
-        cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(folder / "cars.rou.xml")]
-        cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
-        cmd += ["--seed", str(seed), "--end", str(4 * cars + a.rec_seconds)]
-        run(cmd)
-        fcd.with_suffix(".tmp").rename(fcd)
+        sumo_alone(fcd, road, cars, a.rec_seconds, seed)
     n_train = a.rec_train
     train_egos = ",".join(f"car{i}" for i in range(n_train + 2))
     drive_egos = ",".join(f"car{i}" for i in range(n_train + 2, n_train + 2 + a.episodes))
