@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
-import styles  # noqa: E402  (studies/styles.py: the recording's trips)
+import styles  # noqa: E402  (studies/styles.py: the recording's sizes)
+from sumo_alone import sumo_alone  # noqa: E402
 
 from irlsim.data.recording import load_recording  # noqa: E402
 from irlsim.road import load_road  # noqa: E402
@@ -36,7 +37,7 @@ def record(folder: Path, step: float, seed: int) -> Path:
     """SUMO alone drives the study's recording trips at ``step`` with its FCD output (once)."""
     fcd = folder / f"fcd-{step:g}s.xml"
     if not fcd.is_file():
-        styles.sumo_alone(fcd, load_road(scenario=DEFAULT_SCENARIO), styles.REC_CARS, SECONDS, seed, step)
+        sumo_alone(fcd, load_road(scenario=DEFAULT_SCENARIO), styles.REC_CARS, SECONDS, seed, step)
     return fcd
 
 

@@ -69,9 +69,11 @@ import numpy as np
 
 from irlsim.config import MAX_SEED
 from irlsim.road import load_road
-from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import DEFAULT_SCENARIO
 from irlsim.rollout.style import pool_styles, style_distances
+
+sys.path.insert(0, str(Path(__file__).parent))
+from sumo_alone import sumo_alone  # noqa: E402  (studies/sumo_alone.py: SUMO drives the recording)
 
 #: the demonstrators' collect configs: the expert's, then each SUMO driver of configs/collect/styles/ by its
 #: file's name (``assertive_eidm.toml``: ``assertive-eidm``), each with its attributes' reasons
@@ -251,25 +253,6 @@ def table_one(data: list[Path], runs: Path, out: Path, a: Any) -> dict[str, dict
 
 
 # ------------------------------------------------------------------------------------------ recording
-
-
-def sumo_alone(fcd: Path, road: Any, cars: int, seconds: float, seed: int, step: float | None = None) -> None:
-    """SUMO alone drives ``cars`` trips of one lap of ``road`` (one every 4 s, SUMO's routing and default
-    driver type, SUMO's ``seed``; ``step``: its step length, SUMO's default 1 s if None) until ``seconds``
-    after the last departure, its FCD output written to ``fcd`` (whole or not at all), the trips beside it."""
-    fcd.parent.mkdir(parents=True, exist_ok=True)
-    first, last = road.edges[0], road.edges[-1]
-    trips = "".join(
-        f'<trip id="car{i}" depart="{4 * i}" from="{first}" to="{last}" departLane="best" departSpeed="max"/>'
-        for i in range(cars)
-    )
-    (fcd.parent / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(fcd.parent / "cars.rou.xml")]
-    cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
-    cmd += ["--seed", str(seed), "--end", str(4 * cars + seconds)]
-    cmd += [] if step is None else ["--step-length", f"{step:g}"]
-    run(cmd)
-    fcd.with_suffix(".tmp").rename(fcd)
 
 
 def record(out: Path, a: Any, seed: int = REC_SEED) -> tuple[str, str]:

@@ -1,0 +1,30 @@
+"""SUMO alone drives a study's recording: the trips, SUMO's own run and its FCD output (studies/styles.py's
+recording, studies/style_rate.py's two step lengths)."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+from typing import Any
+
+from irlsim.road.network import sumo_binary
+
+
+def sumo_alone(fcd: Path, road: Any, cars: int, seconds: float, seed: int, step: float | None = None) -> None:
+    """SUMO alone drives ``cars`` trips of one lap of ``road`` (one every 4 s, SUMO's routing and default
+    driver type, SUMO's ``seed``; ``step``: its step length, SUMO's default 1 s if None) until ``seconds``
+    after the last departure, its FCD output written to ``fcd`` (whole or not at all), the trips beside it."""
+    fcd.parent.mkdir(parents=True, exist_ok=True)
+    first, last = road.edges[0], road.edges[-1]
+    trips = "".join(
+        f'<trip id="car{i}" depart="{4 * i}" from="{first}" to="{last}" departLane="best" departSpeed="max"/>'
+        for i in range(cars)
+    )
+    (fcd.parent / "cars.rou.xml").write_text(f"<routes>{trips}</routes>\n")
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(fcd.parent / "cars.rou.xml")]
+    cmd += ["--fcd-output", str(fcd.with_suffix(".tmp")), "--no-step-log", "true"]
+    cmd += ["--seed", str(seed), "--end", str(4 * cars + seconds)]
+    cmd += [] if step is None else ["--step-length", f"{step:g}"]
+    print("$", " ".join(cmd), flush=True)
+    subprocess.run(cmd, check=True)
+    fcd.with_suffix(".tmp").rename(fcd)
