@@ -61,18 +61,18 @@ def whole_seconds(fcd: Path) -> Path:
 def figures(fcd: Path) -> dict[str, float]:
     """RMS acceleration and jerk of every car, at the step and over the style's base, pooled by time."""
     rec = load_recording(fcd, load_road(scenario=DEFAULT_SCENARIO).net, STEP)
-    styles, step = [], []
+    summaries, step = [], []
     for i in range(len(rec.ids)):
         v = rec.v[rec.start[i] : rec.start[i + 1]]
         if len(v) < 3:
             continue
         t = np.arange(len(v)) * STEP
-        styles.append(
+        summaries.append(
             style_summary(t, np.cumsum(v) * STEP, v, np.zeros(len(v), int), np.full(len(v), np.nan))
         )
         acc = np.diff(v) / STEP
         step.append((float(t[-1]), np.mean(acc**2), np.mean((np.diff(acc) / STEP) ** 2)))
-    pooled = pool_styles(styles)
+    pooled = pool_styles(summaries)
     w, a2, j2 = (np.array(c) for c in zip(*step, strict=True))
     return {
         "accel_step": float(np.sqrt(np.average(a2, weights=w))),
