@@ -189,13 +189,12 @@ def _read_columns(p: Path, suffix: str) -> Rows:
             f"recording {p} lacks the column(s) {', '.join(missing)}: give id, t [s], x, y [m], v [m/s], "
             "heading [rad] (lane optional)"
         )
-    try:
-        num = {
-            c: np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
-            for c in COLUMNS[1:]
-        }
-    except (ValueError, TypeError) as e:
-        raise IrlsimError(f"recording {p}: a column of t, x, y, v, heading is not numeric ({e})") from None
+    num = {}
+    for c in COLUMNS[1:]:
+        try:
+            num[c] = np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
+        except (ValueError, TypeError) as e:
+            raise IrlsimError(f"recording {p}: the column {c} is not numeric ({e}): give numbers") from None
     n = table.num_rows
     lane = None
     if "lane" in table.column_names:

@@ -135,6 +135,18 @@ def test_a_bad_recording_is_one_line_naming_the_row_or_vehicle(fcd, tmp_path, ki
     assert ("veh1" in msg) or ("row" in msg)
 
 
+@pytest.mark.parametrize("column", ["t", "v", "heading"])
+def test_a_column_that_is_not_numbers_is_named(fcd, tmp_path, column):
+    cols = _columns(fcd)
+    cols[column] = [str(x) for x in cols[column]]
+    cols[column][7] = "abc"
+    path = _csv(tmp_path / "text.csv", cols)
+    with pytest.raises(IrlsimError) as e:
+        load_recording(path, load_road().net, 0.1)
+    msg = str(e.value)
+    assert f"the column {column} is not numeric" in msg and str(path) in msg and "\n" not in msg, msg
+
+
 def test_another_networks_recording_is_named(fcd):
     with pytest.raises(IrlsimError, match="another network's coordinates"):
         load_recording(fcd, load_road(scenario="corridor").net, 0.1)
