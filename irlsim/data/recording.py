@@ -189,25 +189,23 @@ def _read_columns(p: Path, suffix: str) -> Rows:
             f"recording {p} lacks the column(s) {', '.join(missing)}: give id, t [s], x, y [m], v [m/s], "
             "heading [rad] (lane optional)"
         )
-    num = {}
-    for c in COLUMNS[1:]:
-        try:
-            num[c] = np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
-        except (ValueError, TypeError) as e:
-            raise IrlsimError(f"recording {p}: the column {c} is not numeric ({e}): give numbers") from None
+    num = {c: _numbers(table, c, p, "give numbers") for c in COLUMNS[1:]}
     n = table.num_rows
     lane = None
     if "lane" in table.column_names:
         lane = _text(table.column("lane"))
     ids = _text(table.column("id"))
-    size = {}
-    for c in (c for c in SIZES if c in table.column_names):
-        try:
-            size[c] = np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
-        except (ValueError, TypeError) as e:
-            raise IrlsimError(f"recording {p}: the column {c} is not numeric ({e}): give metres") from None
+    size = {c: _numbers(table, c, p, "give metres") for c in SIZES if c in table.column_names}
     rows = (num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False)
     return Rows(p, ids, *rows, size=size)
+
+
+def _numbers(table: Any, c: str, p: Path, fix: str) -> np.ndarray:
+    """Column ``c`` of a pyarrow ``table`` as float64; one line naming it where it is not numbers."""
+    try:
+        return np.asarray(table.column(c).to_numpy(zero_copy_only=False), dtype=np.float64)
+    except (ValueError, TypeError) as e:
+        raise IrlsimError(f"recording {p}: the column {c} is not numeric ({e}): {fix}") from None
 
 
 def _text(column: Any) -> np.ndarray:

@@ -64,16 +64,9 @@ class RewardDriver:
         else:
             self.planner = planner if planner is not None else Planner(road, planner_cfg)
             self.driver = ThetaDriver(
-                self.planner,
-                self._theta,
-                safety,
-                choice,
-                lane_change_bias,
-                commit,
-                full_stop,
-                keep_distance,
-                in_lane,
-            )
+                self.planner, self._theta, safety, choice, lane_change_bias,
+                commit=commit, full_stop=full_stop, keep_distance=keep_distance, in_lane=in_lane,
+            )  # fmt: skip
 
     def _theta(self, ps: PolicySet, obs: Observation) -> np.ndarray:
         t0 = time.perf_counter()
