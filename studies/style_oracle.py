@@ -252,6 +252,13 @@ def markdown(tables: dict[str, dict[str, Any]], driver: str) -> str:
     return "\n".join(lines) + "\n"
 
 
+def table_paths(out: Path, tag: str, driver: str) -> tuple[Path, Path]:
+    """(json, md) of an oracle's table: its seeds', rules' and --planner fields' ``tag``, then the driver.
+    The suffix is appended, never put with ``with_suffix``: a --planner value's dot is not a suffix."""
+    name = f"style-oracle{tag}-{driver}"
+    return out / f"{name}.json", out / f"{name}.md"
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default="runs/styles", help="a studies/styles.py run's folder")
@@ -306,10 +313,10 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"{road} episode {k}: {n} cycles{what}", flush=True)
                 stats.append(s)
             tables[road] = road_table(out, road, stats, a)
-    name = out / f"style-oracle{a.at}{tag}-{a.driver}"
-    name.with_suffix(".json").write_text(json.dumps(tables, indent=1) + "\n")
-    name.with_suffix(".md").write_text(markdown(tables, a.driver))
-    print(markdown(tables, a.driver) + f"wrote {name}.md and {name}.json")
+    js, md = table_paths(out, a.at + tag, a.driver)
+    js.write_text(json.dumps(tables, indent=1) + "\n")
+    md.write_text(markdown(tables, a.driver))
+    print(markdown(tables, a.driver) + f"wrote {md} and {js}")
     return 0
 
 

@@ -279,3 +279,12 @@ def test_the_oracle_executes_its_own_labels(tmp_path):
     assert set(gaps) == {"braking", "steady", "accelerating"}
     assert 0 < sum(g[0] for g in gaps.values()) <= len(cyc)
     assert (cyc["executed_index"].to_numpy()[has] == cyc["demo_index"].to_numpy()[has]).all()
+
+
+def test_style_oracle_names_its_table_by_every_planner_field_whole(tmp_path):
+    oracle = _study("style_oracle")
+    js, md = oracle.table_paths(tmp_path, "-s2000-commit-stop-lon_split=1.0-accel_ramp=0.5", "assertive")
+    assert md.name == "style-oracle-s2000-commit-stop-lon_split=1.0-accel_ramp=0.5-assertive.md"
+    assert js.parent == md.parent == tmp_path and js.name == md.name[:-3] + ".json"
+    other, _ = oracle.table_paths(tmp_path, "-s2000-commit-stop-lon_split=1.0-accel_ramp=0.7", "assertive")
+    assert other != js  # a field's decimals tell two tables apart
