@@ -41,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from irlsim.sim.inputs import reports_sumo_errors
 from irlsim.sim.simulation import EGO, Simulation
 from irlsim.sim.sumo_ego import sumo_step, take_over
 from irlsim.sim.types import EgoState
@@ -65,6 +66,7 @@ class BranchingSimulation(Simulation):
     def command(self, seed: int) -> list[str]:
         return [*super().command(seed), *BRANCH_OPTIONS]
 
+    @reports_sumo_errors
     def branch(self, n_steps: int) -> list[EgoState]:
         """SUMO's driver (the demonstrator's type; without one SUMO's own, as ``SumoDriver``) drives the ego
         ``n_steps`` steps from the current state; then the simulation is loaded back to that state and the

@@ -3,11 +3,14 @@ file at fault in one line, never blamed on the network or retried as a failed ep
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
 import tempfile
+import uuid
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 from xml.etree import ElementTree
 
 from irlsim.errors import IrlsimError
@@ -123,3 +126,65 @@ def _close(api: Any) -> None:
         api.close()
     except Exception:  # not started, or gone: nothing to release
         pass
+
+
+#: a method of a simulation (:func:`reports_sumo_errors`)
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+class SumoErrorLog:
+    """Where SUMO writes its errors (``--error-log``), read when libsumo stops an episode with nothing but
+    'Process Error': SUMO's own reason is written to the process's stderr, where a progress bar hides it,
+    and is lost to the line an episode's failure is reported by. A file in the temporary folder, unique
+    to its simulation; :meth:`remove` when the simulation closes."""
+
+    def __init__(self) -> None:
+        self.path = Path(tempfile.gettempdir()) / f"irlsim-sumo-{os.getpid()}-{uuid.uuid4().hex}.log"
+
+    def option(self) -> dict[str, str]:
+        return {"--error-log": str(self.path)}
+
+    def explain(self, error: Exception) -> Exception:
+        """``error`` as one IrlsimError line with SUMO's last error, when libsumo said no more than
+        'Process Error' and SUMO wrote one; else ``error`` itself."""
+        if str(error).strip() not in ("", "Process Error"):
+            return error
+        try:
+            lines = self.path.read_text(errors="replace").splitlines()
+        except OSError:
+            return error
+        errors = [ln.removeprefix("Error:").strip() for ln in lines if ln.startswith("Error:")]
+        if not errors:
+            return error
+        return IrlsimError(
+            f"SUMO stopped the episode: {errors[-1]} (SUMO's own words): check what SUMO runs here, the "
+            "[demonstrator]'s models and attributes or the scenario's files"
+        )
+
+    def remove(self) -> None:
+        self.path.unlink(missing_ok=True)
+
+
+def reports_sumo_errors(method: F) -> F:
+    """A simulation method whose libsumo 'Process Error' is re-raised with SUMO's reason (the
+    simulation's ``errors``, a :class:`SumoErrorLog`): SUMO has quit, and the simulation is closed first,
+    which flushes SUMO's log. Every other exception passes unchanged."""
+
+    @functools.wraps(method)
+    def wrapper(self: Any, *args: Any, **kwargs: Any) -> Any:
+        try:
+            return method(self, *args, **kwargs)
+        except IrlsimError:
+            raise
+        except Exception as e:  # libsumo raises its own exception types
+            if str(e).strip() not in ("", "Process Error"):
+                raise
+            log, self.errors = self.errors, SumoErrorLog()  # close() removes the new one, not this
+            self.close()
+            explained = log.explain(e)
+            log.remove()
+            if explained is e:
+                raise
+            raise explained from e
+
+    return wrapper  # type: ignore[return-value]

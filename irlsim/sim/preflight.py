@@ -4,13 +4,28 @@ worker. Apart from :mod:`.start` and :mod:`.simulation` because it needs both.""
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import replace
+from pathlib import Path
 
-from irlsim.road import load_road
+from irlsim.road import Road, load_road
+from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE
 from irlsim.road.scenario import Scenarios
+from irlsim.sim import simulation
 from irlsim.sim.config import EpisodeConfig
-from irlsim.sim.simulation import check_sumo_inputs
+from irlsim.sim.inputs import probe
 from irlsim.sim.start import check_start
+
+
+def check_sumo_inputs(road: Road, vtypes_file: str | Path | None = None) -> None:
+    """SUMO loads ``road``'s files, checked before a command's episodes (:func:`.inputs.probe`)."""
+    if simulation._ACTIVE is not None:
+        simulation._ACTIVE.close()  # libsumo: one simulation per process
+    probe(
+        importlib.import_module("libsumo"),
+        road,
+        Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE,
+    )
 
 
 def check_starts(scenario: EpisodeConfig, names: tuple[str, ...], scenarios: Scenarios | None = None) -> None:

@@ -28,7 +28,7 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import first_collision, obb_collide
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.inputs import check_inputs, probe, refusal, start_quietly
+from irlsim.sim.inputs import SumoErrorLog, check_inputs, refusal, reports_sumo_errors, start_quietly
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
@@ -94,6 +94,7 @@ class Simulation:
         self._ego_by_sumo = False  # SUMO's driver model has taken the ego over (SumoDriver)
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
+        self.errors = SumoErrorLog()  # SUMO's reason where libsumo says only 'Process Error'
         n_sig = len(self.road.signals)
         self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
         self.signal_binding = np.zeros(n_sig, dtype=bool)
@@ -125,6 +126,7 @@ class Simulation:
             "--collision.check-junctions": "true",
             "--collision.mingap-factor": "0",
             "--time-to-teleport": "-1",
+            **self.errors.option(),
         }
         if self.lane_change_duration:  # [s] lane changes that take time (SUMO's default: one step)
             options["--lanechange.duration"] = f"{self.lane_change_duration:g}"
@@ -169,6 +171,7 @@ class Simulation:
             _ACTIVE = None
         if self.demo_type is not None:
             self.demo_type.cleanup()
+        self.errors.remove()
 
     def __enter__(self) -> Simulation:
         return self
@@ -187,6 +190,7 @@ class Simulation:
         return self._api is not None
 
     # ------------------------------------------------------------------ episode
+    @reports_sumo_errors
     def reset(self, seed: int) -> Observation:
         """Start a new episode with ``seed`` (SUMO's --seed and the traffic's numpy Generator)."""
         seed = check_seed(seed)
@@ -391,6 +395,7 @@ class Simulation:
         return sum(1 for p in new if EGO in p)
 
     # ------------------------------------------------------------------ driving
+    @reports_sumo_errors
     def step(self, state: EgoState | None = None) -> None:
         """Advance one step with the ego placed at ``state`` (None: the ego stands where it is)."""
         self._require_episode()
@@ -399,6 +404,7 @@ class Simulation:
             state = dataclasses.replace(self.ego, v=0.0, a=0.0, d_dot=0.0, d_ddot=0.0)
         self._advance(state)
 
+    @reports_sumo_errors
     def execute(self, traj: Trajectory, n_steps: int | None = None) -> None:
         """Drive states 1..n_steps of ``traj`` (default: one planning cycle), stopping early when done."""
         self._require_episode()
@@ -486,14 +492,3 @@ class Simulation:
 
 #: wall-clock figures, which differ from run to run (see Simulation.stats): left out of determinism checks
 TIMING_KEYS = ("sim/steps_per_s", "sim/sumo_steps_per_s")
-
-
-def check_sumo_inputs(road: Road, vtypes_file: str | Path | None = None) -> None:
-    """SUMO loads ``road``'s files, checked before a command's episodes (:func:`.inputs.probe`)."""
-    if _ACTIVE is not None:
-        _ACTIVE.close()  # libsumo: one simulation per process
-    probe(
-        importlib.import_module("libsumo"),
-        road,
-        Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE,
-    )
