@@ -486,7 +486,11 @@ def _ray_reason(exc: BaseException) -> str:
 
 
 def describe_failures(failed: dict[str, str], limit: int = 5) -> str:
-    """``train/3 (worker process 123 died (SIGKILL)), validation/0 (...)``, at most ``limit`` named."""
-    items = [f"{k} ({v})" for k, v in failed.items()]
-    more = f" and {len(items) - limit} more" if len(items) > limit else ""
-    return ", ".join(items[:limit]) + more
+    """``train/3 (worker process 123 died (SIGKILL)), validation/0 and test/0 (...)``: the jobs with one
+    reason named together, in the order they failed, at most ``limit`` jobs named."""
+    groups: dict[str, list[str]] = {}
+    for key, reason in list(failed.items())[:limit]:
+        groups.setdefault(reason, []).append(key)
+    named = [(", ".join(keys[:-1]) + " and " if len(keys) > 1 else "") + keys[-1] for keys in groups.values()]
+    more = f" and {len(failed) - limit} more" if len(failed) > limit else ""
+    return ", ".join(f"{k} ({r})" for k, r in zip(named, groups, strict=True)) + more

@@ -24,7 +24,7 @@ import pytest
 import irlsim.executor
 from irlsim.cli import main
 from irlsim.data.layout import episode_paths
-from irlsim.executor import RAY_CANCEL_WAIT_S, Job, run_jobs
+from irlsim.executor import RAY_CANCEL_WAIT_S, Job, describe_failures, run_jobs
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
 
@@ -480,3 +480,13 @@ def test_drive_same_json_for_workers_and_executors(request, tiny_runs, tmp_path,
     assert [e["drive/seed"] for e in results["one"]["episodes"]] == [100, 101, 100, 101]
     assert results["one"]["episodes"][0]["drive/cycles"] == 25
     assert results[other] == results["one"]
+
+
+def test_failures_with_one_reason_are_named_together_in_the_order_they_failed():
+    same = "IrlsimError: SUMO stopped the episode: function call not allowed for rail model"
+    died = "worker process 12 died (SIGKILL)"
+    failed = {"train/0": same, "train/3": died, "validation/0": same, "test/0": same}
+    assert describe_failures(failed) == (f"train/0, validation/0 and test/0 ({same}), train/3 ({died})")
+    assert describe_failures({"a/1": "x"}) == "a/1 (x)"
+    many = {f"train/{i}": f"reason {i % 2}" for i in range(7)}
+    assert describe_failures(many, limit=3) == "train/0 and train/2 (reason 0), train/1 (reason 1) and 4 more"
