@@ -3,8 +3,9 @@ before any work and resampled to the simulation step.
 
 Two formats (docs/guide/demonstrators.md, "Recordings"):
 
-- SUMO's FCD output (``sumo --fcd-output``, ``.xml``): ``<timestep time=..><vehicle id x y angle speed
-  lane .../>``; SUMO's angle is degrees from north, clockwise, and becomes the ENU heading in radians.
+- SUMO's FCD output (``sumo --fcd-output``, ``.xml``, or ``.xml.gz`` as SUMO gzips it):
+  ``<timestep time=..><vehicle id x y angle speed lane .../>``; SUMO's angle is degrees from north,
+  clockwise, and becomes the ENU heading in radians.
 - A columnar file (``.csv`` or ``.parquet``): one row per vehicle and time, columns ``id`` (text), ``t``
   [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's], ``v`` [m/s],
   ``heading`` [rad, ENU: counter-clockwise from east]; ``lane`` (a SUMO lane id) optional, and
@@ -21,6 +22,7 @@ sort and a split (no loop over rows); each vehicle is then resampled to the step
 
 from __future__ import annotations
 
+import gzip
 import hashlib
 import math
 import xml.etree.ElementTree as ET
@@ -41,7 +43,9 @@ SIZES = ("length", "width")
 SIZE_RANGE = {"length": (1.0, 30.0), "width": (0.5, 4.0)}
 #: [m] how much a vehicle's recorded size may vary between its rows (a dataset's rounding)
 SIZE_TOL = 0.01
-FORMATS = (".xml", ".csv", ".parquet")
+FORMATS = (".xml", ".xml.gz", ".csv", ".parquet")
+#: the numeric attributes every FCD <vehicle> needs
+FCD_NUMBERS = ("x", "y", "angle", "speed")
 #: [s] the longest time between two rows of one vehicle
 MAX_GAP = 1.0
 #: [m] a point farther than this from every lane of the network is off the network
@@ -116,34 +120,51 @@ def read_rows(path: str | Path) -> Rows:
     p = Path(path)
     if not p.is_file():
         raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
-    suffix = p.suffix.lower()
+    suffix = "".join(p.suffixes[-2:]).lower() if p.suffix.lower() == ".gz" else p.suffix.lower()
     if suffix not in FORMATS:
-        raise IrlsimError(f"recording {p}: unknown format {suffix!r}: give an FCD .xml, a .csv or a .parquet")
-    if suffix == ".xml":
-        return _read_fcd(p)
+        raise IrlsimError(
+            f"recording {p}: unknown format {suffix!r}: give an FCD .xml (or SUMO's gzipped .xml.gz), "
+            "a .csv or a .parquet"
+        )
+    if suffix in (".xml", ".xml.gz"):
+        return _read_fcd(p, gzipped=suffix == ".xml.gz")
     return _read_columns(p, suffix)
 
 
-def _read_fcd(p: Path) -> Rows:
-    """SUMO's FCD output, streamed (xml.etree.iterparse); the angle (deg, north, clockwise) -> ENU rad."""
+def _no_attribute(p: Path, record: int, name: str) -> IrlsimError:
+    return IrlsimError(
+        f"recording {p}: vehicle record {record} has no {name!r} attribute: record the FCD output with x, y, "
+        "angle and speed (a --fcd-output.attributes list that names others leaves them out)"
+    )
+
+
+def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
+    """SUMO's FCD output (``gzipped``: as SUMO writes a ``.xml.gz``), streamed (xml.etree.iterparse); the
+    angle (deg, north, clockwise) -> ENU rad. A <vehicle> without x, y, angle or speed (SUMO's
+    ``--fcd-output.attributes`` naming others) is refused naming the attribute."""
     cols: dict[str, list[Any]] = {k: [] for k in ("id", "x", "y", "angle", "speed", "lane")}
     times: list[str] = []
     t = "nan"
     try:
-        for ev, el in ET.iterparse(p, events=("start", "end")):
-            if ev == "start" and el.tag == "timestep":
-                t = el.attrib.get("time", "nan")
-            elif ev == "start" and el.tag == "vehicle":
-                a = el.attrib
-                for k in ("x", "y", "angle", "speed"):
-                    cols[k].append(a.get(k, "nan"))
-                cols["id"].append(a.get("id", ""))
-                cols["lane"].append(a.get("lane", ""))
-                times.append(t)
-            elif ev == "end" and el.tag == "timestep":
-                el.clear()
+        with gzip.open(p) if gzipped else open(p, "rb") as f:
+            for ev, el in ET.iterparse(f, events=("start", "end")):
+                if ev == "start" and el.tag == "timestep":
+                    t = el.attrib.get("time", "nan")
+                elif ev == "start" and el.tag == "vehicle":
+                    a = el.attrib
+                    for k in FCD_NUMBERS:
+                        if k not in a:
+                            raise _no_attribute(p, len(times) + 1, k)
+                        cols[k].append(a[k])
+                    cols["id"].append(a.get("id", ""))
+                    cols["lane"].append(a.get("lane", ""))
+                    times.append(t)
+                elif ev == "end" and el.tag == "timestep":
+                    el.clear()
     except ET.ParseError as e:
         raise IrlsimError(f"recording {p} is not valid XML ({e}): give SUMO's FCD output unchanged") from None
+    except (OSError, EOFError) as e:  # a .gz that is not gzip, or cut short
+        raise IrlsimError(f"recording {p} cannot be read ({e}): give SUMO's FCD output unchanged") from None
     try:
         tt, x, y, angle, speed = (
             np.array(c, dtype=np.float64) for c in (times, cols["x"], cols["y"], cols["angle"], cols["speed"])
