@@ -31,6 +31,7 @@ drivings compared; a figure that does not vary, or is NaN for one of the two, is
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Sequence
 from typing import Any
@@ -164,9 +165,10 @@ def format_style(record: dict[str, Any]) -> str:
     if not record:
         return "style: not recorded (no episode figures with style)"
     share = "/".join(f"{100 * x:.0f}" for x in record["style/lane_share"])
+    median, p10 = record["style/headway_median_s"], record["style/headway_p10_s"]
+    headway = "no leader followed" if math.isnan(median) else f"headway median {median:.2f} s p10 {p10:.2f} s"
     return (
-        f"style: {3.6 * record['style/mean_speed']:.1f} km/h, headway median "
-        f"{record['style/headway_median_s']:.2f} s p10 {record['style/headway_p10_s']:.2f} s, "
+        f"style: {3.6 * record['style/mean_speed']:.1f} km/h, {headway}, "
         f"{record['style/lane_changes_per_km']:.2f} lane changes/km, RMS accel "
         f"{record['style/rms_accel']:.2f} m/s^2 jerk {record['style/rms_jerk']:.2f} m/s^3, "
         f"{record['style/full_stops']} full stops, lane share % {share} ({record['style/km']:.2f} km)"

@@ -11,6 +11,7 @@ import pytest
 from irlsim.rollout.style import (
     DERIVATIVE_BASE_S,
     STYLE_FIGURES,
+    format_style,
     pool_styles,
     style_distances,
     style_summary,
@@ -149,3 +150,10 @@ def test_style_distance_properties():
     twice = style_distances([styles[0], styles[0], styles[1], styles[2]])
     assert twice[0, 1] == pytest.approx(0.0, abs=1e-12)
     assert twice[0, 2] == pytest.approx(twice[1, 2])
+
+
+def test_the_terminal_line_says_when_no_leader_was_followed():
+    alone = format_style(style_summary(**_drive()))  # 1 km at 10 m/s, nobody ahead
+    assert "no leader followed" in alone and "nan" not in alone and "36.0 km/h" in alone
+    following = format_style(style_summary(**_drive(gap=20.0)))  # 20 m at 10 m/s: 2 s
+    assert "headway median 2.00 s p10 2.00 s" in following and "no leader" not in following
