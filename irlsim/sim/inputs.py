@@ -1,5 +1,6 @@
 """The files SUMO reads besides the network, checked before SUMO starts: each broken one is named as the
-file at fault in one line, never blamed on the network or retried as a failed episode."""
+file at fault in one line, never blamed on the network or retried as a failed episode. And SUMO's own
+reason when it stops an episode (:class:`SumoErrorLog`), which libsumo reduces to 'Process Error'."""
 
 from __future__ import annotations
 
@@ -128,6 +129,14 @@ def _close(api: Any) -> None:
         pass
 
 
+def sumo_stopped(error: BaseException) -> bool:
+    """``error`` is libsumo's (or traci's) saying no more than that SUMO stopped: 'Process Error'."""
+    return type(error).__module__.split(".")[0] in ("libsumo", "traci") and str(error).strip() in (
+        "",
+        "Process Error",
+    )
+
+
 #: a method of a simulation (:func:`reports_sumo_errors`)
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -147,7 +156,7 @@ class SumoErrorLog:
     def explain(self, error: Exception) -> Exception:
         """``error`` as one IrlsimError line with SUMO's last error, when libsumo said no more than
         'Process Error' and SUMO wrote one; else ``error`` itself."""
-        if str(error).strip() not in ("", "Process Error"):
+        if not sumo_stopped(error):
             return error
         try:
             lines = self.path.read_text(errors="replace").splitlines()
@@ -177,7 +186,7 @@ def reports_sumo_errors(method: F) -> F:
         except IrlsimError:
             raise
         except Exception as e:  # libsumo raises its own exception types
-            if str(e).strip() not in ("", "Process Error"):
+            if not sumo_stopped(e):
                 raise
             log, self.errors = self.errors, SumoErrorLog()  # close() removes the new one, not this
             self.close()

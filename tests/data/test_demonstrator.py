@@ -12,6 +12,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
+import libsumo
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
@@ -242,12 +243,14 @@ def test_a_model_sumo_stops_mid_episode_is_named_in_sumos_words(tmp_path, capsys
 def test_sumo_error_log_passes_every_other_error_unchanged(tmp_path):
     log = SumoErrorLog()
     log.path = tmp_path / "sumo.log"
-    error = RuntimeError("vehicle 'ego' is not known")
-    assert log.explain(error) is error  # a message of its own: kept
-    stopped = RuntimeError("Process Error")
+    own = libsumo.TraCIException("Vehicle 'ego' is not known")
+    assert log.explain(own) is own  # a message of its own: kept
+    stopped = libsumo.FatalTraCIError("Process Error")
     assert log.explain(stopped) is stopped  # no log written: nothing better to say
     log.path.write_text("Warning: a teleport\nError: the first\nError: the last\n")
     assert str(log.explain(stopped)).startswith("SUMO stopped the episode: the last ")
+    ours, bare = RuntimeError("Process Error"), AssertionError()  # irlsim's own, never taken for SUMO's
+    assert log.explain(ours) is ours and log.explain(bare) is bare
     log.remove()
     log.remove()  # twice is fine
     assert not log.path.exists()
