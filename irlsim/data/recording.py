@@ -364,9 +364,15 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
             f"{hi[1] - 2 * bound:.0f} m): another network's coordinates: give the scenario it was recorded on"
         )
     i = off[0]
+    n_off, n_all = len(np.unique(rows.id[off])), len(np.unique(rows.id))
+    many, fix = "", ""
+    if n_off > 1:  # several vehicles: perhaps another network whose lanes pass near many of its points
+        many = f"; so are {len(off) / len(on):.0%} of the points, of {n_off} of its {n_all} vehicles"
+        fix = ", or give the scenario the recording was made on"
     raise IrlsimError(
         f"{rows.where(i)}: vehicle {rows.id[i]} at t = {rows.t[i]:g} s, ({rows.x[i]:.1f}, {rows.y[i]:.1f}), "
-        f"is off the network (over {bound:g} m from every lane): drop the vehicle or fix its coordinates"
+        f"is off the network (over {bound:g} m from every lane{many}): drop the vehicle or fix its "
+        f"coordinates{fix}"
     )
 
 

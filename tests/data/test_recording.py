@@ -23,6 +23,7 @@ from irlsim.data.recording import load_recording
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.road.network import sumo_binary
+from irlsim.road.scenario import Scenarios
 from tests.data.conftest import RECORDING_STEP
 
 
@@ -471,3 +472,18 @@ def test_an_fcd_without_speeds_names_the_attribute(fcd, tmp_path):
     msg = str(e.value)
     assert "vehicle record 1 has no 'speed' attribute" in msg and "--fcd-output.attributes" in msg, msg
     assert "\n" not in msg
+
+
+def test_a_recording_on_a_network_whose_lanes_pass_near_it_is_told_to_check_the_scenario(fcd, tmp_path):
+    # the own-driver example's oval recording against the grid: the grid's dense lanes pass within 5 m of
+    # 90 % of its points, too few off for "another network's coordinates", too many vehicles for one's fault
+    grid = load_road(scenario=Scenarios()("grid")).net
+    with pytest.raises(IrlsimError) as e:
+        load_recording("examples/mydriver/recording.csv", grid, 0.1)
+    msg = str(e.value)
+    assert "so are 10% of the points, of 5 of its 6 vehicles" in msg, msg
+    assert msg.endswith("or give the scenario the recording was made on")
+    one = _csv(tmp_path / "one.csv", _bad(_columns(fcd), "off the network"))  # one vehicle's one point
+    with pytest.raises(IrlsimError) as e:
+        load_recording(one, load_road().net, 0.1)
+    assert "veh1" in str(e.value) and "scenario" not in str(e.value)
