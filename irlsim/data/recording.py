@@ -13,11 +13,11 @@ Two formats (docs/guide/demonstrators.md, "Recordings"):
   type's where not given).
 
 Checked, each refusal one line naming the file and the row or vehicle: missing columns, values that are not
-finite, time not increasing within a vehicle, gaps longer than ``max_gap``, headings that look like degrees,
-speeds that look like km/h (3.6 times what the positions travel), points off the network or a recording in
-another network's coordinates, sizes that are not one vehicle's in metres. Grouping by vehicle is a stable
-sort and a split (no loop over rows); each vehicle is then resampled to the step by linear interpolation
-(heading unwrapped).
+finite, time not increasing within a vehicle, gaps longer than ``max_gap`` (or time in milliseconds),
+headings that look like degrees, speeds that look like km/h (3.6 times what the positions travel), points
+off the network or a recording in another network's coordinates, sizes that are not one vehicle's in
+metres. Grouping by vehicle is a stable sort and a split (no loop over rows); each vehicle is then
+resampled to the step by linear interpolation (heading unwrapped).
 """
 
 from __future__ import annotations
@@ -54,6 +54,8 @@ OFF_NETWORK_M = 5.0
 FOREIGN_SHARE = 0.5
 #: recorded speed / speed of the displacement in this band: km/h given for m/s (3.6)
 KMH_BAND = (2.6, 5.0)
+#: the same ratio of a recording whose time is in milliseconds (a thousand), with a margin for rounding
+MS_BAND = (300.0, 3000.0)
 #: [m/s] a vehicle slower than this (displacement over time) is not tested for km/h
 KMH_MIN_SPEED = 2.0
 
@@ -273,6 +275,12 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
             "increase within each vehicle: sort the rows by time (and drop duplicates)"
         )
     gap = np.flatnonzero(same & (dt > max_gap))
+    if len(gap) and _time_in_milliseconds(rows, order, starts):
+        raise IrlsimError(
+            f"{rows.path}: its speeds travel about a thousand times the distance its positions do, and a "
+            f"vehicle's rows are {np.median(dt[same]):g} apart: t looks like milliseconds, give seconds "
+            "(divide by 1000)"
+        )
     if len(gap):
         i = gap[0]
         raise IrlsimError(
@@ -306,15 +314,15 @@ def _check_sizes(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
             )
 
 
-def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
-    """Per vehicle, the mean recorded speed against the speed of its displacement: km/h is 3.6 times."""
+def _travel_ratio(rows: Rows, order: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Per vehicle: (the recorded speed integrated over time (trapezoids) over the distance its positions
+    travel, that distance, the integrated one, whether it moves faster than ``KMH_MIN_SPEED``)."""
     x, y, t, v = rows.x[order], rows.y[order], rows.t[order], rows.v[order]
     step = np.r_[0.0, np.hypot(np.diff(x), np.diff(y))]
     step[starts] = 0.0
     dist = np.add.reduceat(step, starts)
     ends = np.r_[starts[1:], len(t)] - 1
     dur = t[ends] - t[starts]
-    # the recorded speed integrated over time (trapezoids) against the distance
     dtt = np.r_[0.0, np.diff(t)]
     dtt[starts] = 0.0
     vv = np.r_[0.0, 0.5 * (v[1:] + v[:-1])] * dtt
@@ -322,6 +330,12 @@ def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> Non
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = travelled / dist
         moving = (dur > 0) & (dist / np.where(dur > 0, dur, 1.0) > KMH_MIN_SPEED)
+    return ratio, dist, travelled, moving
+
+
+def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
+    """Per vehicle, the mean recorded speed against the speed of its displacement: km/h is 3.6 times."""
+    ratio, dist, travelled, moving = _travel_ratio(rows, order, starts)
     bad = np.flatnonzero(moving & (ratio > KMH_BAND[0]) & (ratio < KMH_BAND[1]))
     if len(bad):
         k = bad[0]
@@ -330,6 +344,14 @@ def _check_speed_units(rows: Rows, order: np.ndarray, starts: np.ndarray) -> Non
             f"distance its positions do ({travelled[k]:.0f} m against {dist[k]:.0f} m): v looks like km/h, "
             "give m/s (divide by 3.6)"
         )
+
+
+def _time_in_milliseconds(rows: Rows, order: np.ndarray, starts: np.ndarray) -> bool:
+    """Most vehicles' speeds travel about a thousand times what their positions do: t in ms (a vehicle
+    that moves is one that travels over 20 m: its speed over time would say nothing, time being off)."""
+    ratio, dist, _, _ = _travel_ratio(rows, order, starts)
+    far = dist > 20.0
+    return bool(far.any()) and MS_BAND[0] < float(np.median(ratio[far])) < MS_BAND[1]
 
 
 def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None:

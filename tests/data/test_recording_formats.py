@@ -1,0 +1,79 @@
+"""Recordings as users bring them, with real SUMO: SUMO's gzipped FCD, an FCD without speeds, time in
+milliseconds, a recording given with another scenario whose lanes pass near its points."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from irlsim.data.recording import load_recording
+from irlsim.errors import IrlsimError
+from irlsim.road import load_road
+from irlsim.road.network import sumo_binary
+from irlsim.road.scenario import Scenarios
+from tests.data.conftest import RECORDING_STEP
+from tests.data.test_recording import _bad, _columns, _csv
+
+
+def _sumo_again(fcd: Path, out: Path, *options: str) -> Path:
+    """The ``fcd`` fixture's SUMO run again (its routes, seed, step), written to ``out`` with ``options``."""
+    road, routes = load_road(), str(fcd.parent / "cars.rou.xml")
+    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", routes, "--end", "60", "--seed", "1"]
+    cmd += ["--step-length", str(RECORDING_STEP), "--fcd-output", str(out), "--no-step-log", "true"]
+    subprocess.run([*cmd, *options], check=True, capture_output=True)
+    return out
+
+
+def test_sumos_gzipped_fcd_is_the_same_recording(fcd, tmp_path):
+    gz = _sumo_again(fcd, tmp_path / "fcd.xml.gz")  # SUMO gzips an output whose name ends in .gz
+    assert gz.read_bytes()[:2] == b"\x1f\x8b"
+    net = load_road().net
+    plain, packed = load_recording(fcd, net, 0.1), load_recording(gz, net, 0.1)
+    assert packed.ids == plain.ids and packed.edges == plain.edges
+    for vid in plain.ids:
+        a, b = plain.track(vid), packed.track(vid)
+        assert all(np.array_equal(a[k], b[k]) for k in ("t", "x", "y", "v", "heading"))
+    broken = tmp_path / "cut.xml.gz"
+    broken.write_bytes(gz.read_bytes()[: len(gz.read_bytes()) // 2])
+    with pytest.raises(IrlsimError, match=r"cut\.xml\.gz cannot be read .*give SUMO's FCD output unchanged"):
+        load_recording(broken, net, 0.1)
+
+
+def test_an_fcd_without_speeds_names_the_attribute(fcd, tmp_path):
+    bare = _sumo_again(fcd, tmp_path / "bare.xml", "--fcd-output.attributes", "x,y,angle")
+    with pytest.raises(IrlsimError) as e:
+        load_recording(bare, load_road().net, 0.1)
+    msg = str(e.value)
+    assert "vehicle record 1 has no 'speed' attribute" in msg and "--fcd-output.attributes" in msg, msg
+    assert "\n" not in msg
+
+
+def test_a_recording_on_a_network_whose_lanes_pass_near_it_is_told_to_check_the_scenario(fcd, tmp_path):
+    # the own-driver example's oval recording against the grid: the grid's dense lanes pass within 5 m of
+    # 90 % of its points, too few off for "another network's coordinates", too many vehicles for one's fault
+    grid = load_road(scenario=Scenarios()("grid")).net
+    with pytest.raises(IrlsimError) as e:
+        load_recording("examples/mydriver/recording.csv", grid, 0.1)
+    msg = str(e.value)
+    assert "so are 10% of the points, of 5 of its 6 vehicles" in msg, msg
+    assert msg.endswith("or give the scenario the recording was made on")
+    one = _csv(tmp_path / "one.csv", _bad(_columns(fcd), "off the network"))  # one vehicle's one point
+    with pytest.raises(IrlsimError) as e:
+        load_recording(one, load_road().net, 0.1)
+    assert "veh1" in str(e.value) and "scenario" not in str(e.value)
+
+
+def test_time_in_milliseconds_is_named_as_such(fcd, tmp_path):
+    cols = _columns(fcd)
+    cols["t"] = [1000.0 * t for t in cols["t"]]  # 0.5 s rows written as 500 ms
+    path = _csv(tmp_path / "ms.csv", cols)
+    with pytest.raises(IrlsimError) as e:
+        load_recording(path, load_road().net, 0.1)
+    msg = str(e.value)
+    assert "rows are 500 apart: t looks like milliseconds" in msg and "\n" not in msg, msg
+    cols["t"] = [t / 1000.0 * 3.0 for t in cols["t"]]  # rows 1.5 s apart: a gap, not milliseconds
+    with pytest.raises(IrlsimError, match="has a gap of 1.5 s"):
+        load_recording(_csv(tmp_path / "slow.csv", cols), load_road().net, 0.1)
