@@ -77,3 +77,17 @@ def test_time_in_milliseconds_is_named_as_such(fcd, tmp_path):
     cols["t"] = [t / 1000.0 * 3.0 for t in cols["t"]]  # rows 1.5 s apart: a gap, not milliseconds
     with pytest.raises(IrlsimError, match="has a gap of 1.5 s"):
         load_recording(_csv(tmp_path / "slow.csv", cols), load_road().net, 0.1)
+
+
+@pytest.mark.parametrize("mistake", ["north, clockwise", "x and y swapped"])
+def test_headings_in_another_convention_are_refused_before_any_work(fcd, tmp_path, mistake):
+    cols = _columns(fcd)  # ENU headings, as the format asks: accepted (the columnar format's own test)
+    if mistake == "north, clockwise":  # SUMO's angle convention in radians: every cycle had lost its label
+        cols["heading"] = [float(np.mod(np.pi / 2 - h, 2 * np.pi)) for h in cols["heading"]]
+    else:
+        cols["x"], cols["y"] = cols["y"], cols["x"]
+    with pytest.raises(IrlsimError) as e:
+        load_recording(_csv(tmp_path / "h.csv", cols), load_road().net, 0.1)
+    msg = str(e.value)
+    assert "headings differ from the direction its positions move in" in msg and "\n" not in msg, msg
+    assert "radians(90 - angle)" in msg and "x and y are swapped" in msg
