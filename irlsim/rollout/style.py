@@ -204,11 +204,17 @@ class StyleObserver(StepListener):
 
 
 def style_report(summaries: list[dict[str, Any]]) -> str:
-    """Each model's driving style on one line, and with several models their style distances
-    (:func:`irlsim.rollout.style.style_distances`)."""
+    """Each model's driving style on one line, and with three models or more their style distances
+    (:func:`irlsim.rollout.style.style_distances`; between two drivings alone every figure that differs
+    counts exactly 2, so two get a line that says so instead of a number)."""
     names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
     lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
-    if len(summaries) > 1:
+    if len(summaries) == 2:
+        lines.append(
+            "style distance: needs three drivings or more (each figure is divided by its spread across the "
+            "drivings compared: between two, every figure that differs counts 2): add a model"
+        )
+    if len(summaries) > 2:
         dist = style_distances([s.get("style") or {} for s in summaries])
         lines.append(
             "style distance: "

@@ -14,6 +14,7 @@ from irlsim.rollout.style import (
     format_style,
     pool_styles,
     style_distances,
+    style_report,
     style_summary,
 )
 
@@ -157,3 +158,15 @@ def test_the_terminal_line_says_when_no_leader_was_followed():
     assert "no leader followed" in alone and "nan" not in alone and "36.0 km/h" in alone
     following = format_style(style_summary(**_drive(gap=20.0)))  # 20 m at 10 m/s: 2 s
     assert "headway median 2.00 s p10 2.00 s" in following and "no leader" not in following
+
+
+def test_the_report_gives_distances_from_three_drivings_and_says_why_not_for_two():
+    drivings = [
+        {"drive/model": name, "style": style_summary(**_drive(v=v, gap=g))}
+        for name, v, g in (("a", 10.0, 20.0), ("b", 12.0, 30.0), ("c", 14.0, 20.0))
+    ]
+    two = style_report(drivings[:2])
+    assert "needs three drivings or more" in two and "a vs b" not in two
+    three = style_report(drivings).strip().splitlines()[-1]
+    d = style_distances([r["style"] for r in drivings])
+    assert three == f"style distance: a vs b {d[0, 1]:.2f}; a vs c {d[0, 2]:.2f}; b vs c {d[1, 2]:.2f}"
