@@ -77,9 +77,18 @@ def _message(error: Exception, stderr: str) -> str:
     text = str(error).strip()
     if text in ("", "Process Error"):
         lines = [ln.strip() for ln in stderr.splitlines() if ln.strip()]
-        first = next((ln for ln in lines if ln.startswith("Error:")), lines[0] if lines else "")
-        text = first.removeprefix("Error:").strip() or text or type(error).__name__
+        errors = sumo_errors(stderr)
+        text = (errors[0] if errors else lines[0] if lines else "") or text or type(error).__name__
     return " ".join(text.split())
+
+
+def sumo_errors(text: str) -> list[str]:
+    """SUMO's 'Error:' lines in ``text`` (what it writes to stderr or its error log), without the prefix."""
+    return [
+        ln.strip().removeprefix("Error:").strip()
+        for ln in text.splitlines()
+        if ln.strip().startswith("Error:")
+    ]
 
 
 def refusal(api: Any, road: Road, vtypes_file: Path, why: str) -> IrlsimError:
@@ -159,10 +168,9 @@ class SumoErrorLog:
         if not sumo_stopped(error):
             return error
         try:
-            lines = self.path.read_text(errors="replace").splitlines()
+            errors = sumo_errors(self.path.read_text(errors="replace"))
         except OSError:
             return error
-        errors = [ln.removeprefix("Error:").strip() for ln in lines if ln.startswith("Error:")]
         if not errors:
             return error
         return IrlsimError(

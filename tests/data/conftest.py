@@ -132,9 +132,15 @@ def fcd(tmp_path_factory) -> Path:
         f'<routes><vType id="car" sigma="0" maxSpeed="{12 + 0.5}" lcStrategic="0" lcSpeedGain="0" '
         f'lcKeepRight="0"/><route id="loop" edges="{" ".join(road.edges * 2)}"/>{cars}</routes>'
     )
-    out = tmp / "fcd.xml"
+    return record_fcd(routes, tmp / "fcd.xml")
+
+
+def record_fcd(routes: Path, out: Path, *options: str) -> Path:
+    """SUMO alone (the wheel's binary) drives ``routes`` on the oval for 60 s at ``RECORDING_STEP``, seed
+    1, its FCD output at ``out`` (SUMO gzips it when the name ends in .gz), with ``options`` added."""
+    road = load_road()
     cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", str(routes), "--end", "60"]
     cmd += ["--step-length", str(RECORDING_STEP), "--fcd-output", str(out), "--no-step-log", "true"]
-    cmd += ["--seed", "1"]
+    cmd += ["--seed", "1", *options]
     subprocess.run(cmd, check=True, capture_output=True)
     return out

@@ -3,32 +3,20 @@ milliseconds, a recording given with another scenario whose lanes pass near its 
 
 from __future__ import annotations
 
-import subprocess
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from irlsim.data.recording import load_recording
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
-from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import Scenarios
-from tests.data.conftest import RECORDING_STEP
+from tests.data.conftest import record_fcd
 from tests.data.test_recording import _bad, _columns, _csv
 
 
-def _sumo_again(fcd: Path, out: Path, *options: str) -> Path:
-    """The ``fcd`` fixture's SUMO run again (its routes, seed, step), written to ``out`` with ``options``."""
-    road, routes = load_road(), str(fcd.parent / "cars.rou.xml")
-    cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-r", routes, "--end", "60", "--seed", "1"]
-    cmd += ["--step-length", str(RECORDING_STEP), "--fcd-output", str(out), "--no-step-log", "true"]
-    subprocess.run([*cmd, *options], check=True, capture_output=True)
-    return out
-
-
 def test_sumos_gzipped_fcd_is_the_same_recording(fcd, tmp_path):
-    gz = _sumo_again(fcd, tmp_path / "fcd.xml.gz")  # SUMO gzips an output whose name ends in .gz
+    routes = fcd.parent / "cars.rou.xml"  # the fixture's run again, written gzipped (the name ends in .gz)
+    gz = record_fcd(routes, tmp_path / "fcd.xml.gz")
     assert gz.read_bytes()[:2] == b"\x1f\x8b"
     net = load_road().net
     plain, packed = load_recording(fcd, net, 0.1), load_recording(gz, net, 0.1)
@@ -43,7 +31,8 @@ def test_sumos_gzipped_fcd_is_the_same_recording(fcd, tmp_path):
 
 
 def test_an_fcd_without_speeds_names_the_attribute(fcd, tmp_path):
-    bare = _sumo_again(fcd, tmp_path / "bare.xml", "--fcd-output.attributes", "x,y,angle")
+    routes = fcd.parent / "cars.rou.xml"
+    bare = record_fcd(routes, tmp_path / "bare.xml", "--fcd-output.attributes", "x,y,angle")
     with pytest.raises(IrlsimError) as e:
         load_recording(bare, load_road().net, 0.1)
     msg = str(e.value)
