@@ -34,8 +34,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         "--model",
         default="expert",
         help="comma-separated: expert (hand-tuned theta + model-based selection), expert-theta (that theta "
-        "alone, argmax V), LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S or checkpoint paths "
-        "(default: expert)",
+        "alone, argmax V), demonstrator (the --config's SUMO driver or recorded ego, to compare styles "
+        "with), LIRL, 1DCNN, Bi1DCNN, PACNN, PACNN+S, PTACNN, PTACNN+S or checkpoint paths (default: expert)",
     )
     p.add_argument("--episodes", type=int_in(1), default=1, help="episodes per model (default: 1)")
     p.add_argument("--laps", type=int_in(1), default=1, help="laps per episode (default: 1)")

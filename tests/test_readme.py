@@ -89,9 +89,10 @@ def test_own_driver_commands_run_as_written(tmp_path, monkeypatch, capsys):
     # the learned reward drove the held-out car's recording, and the styles were compared
     drive = json.loads((tmp_path / "runs" / "mydriver" / "drive" / "drive.json").read_text())
     assert drive["config"]["recording"]["egos"] == ["car4"]
-    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S"]
-    styles = [ln for ln in out.splitlines() if ln.startswith(("style: ", "expert: style", "PACNN+S: style"))]
-    assert len(styles) >= 3 and "style distance: needs three drivings or more" in out
+    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
+    heads = ("style: ", "expert: style", "PACNN+S: style", "demonstrator: style")
+    styles = [ln for ln in out.splitlines() if ln.startswith(heads)]
+    assert len(styles) >= 4 and "PACNN+S vs demonstrator" in out  # the distance to the recorded driver
 
 
 def documented_commands(text: str) -> list[str]:

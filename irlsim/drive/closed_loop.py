@@ -6,7 +6,8 @@ thetas, kept by :class:`~irlsim.reward.predictor.RewardPredictor` and reset per 
 executes the policy of highest value V = -theta^T f for one cycle. As in the paper, learned models drive
 without a model-based collision check; ``safety=True`` adds the planner's label filter (drop policies
 predicted to collide, leave the road or take an exit). ``'expert'`` drives the demonstrator itself
-(hand-tuned theta plus its model-based selection), the reference row of the closed-loop table.
+(hand-tuned theta plus its model-based selection), the reference row of the closed-loop table;
+``'demonstrator'`` the collect config's SUMO driver or recorded ego (:mod:`irlsim.drive.demonstrated`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ import numpy as np
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING
 from irlsim.data.recorded import recorded_episode
+from irlsim.drive.demonstrated import DemonstratorModel, demonstrator_episode, is_demonstrator
 from irlsim.drive.metrics import episode_metrics, missed_checkpoints
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
@@ -182,7 +184,7 @@ class _Progress(ObserverBase):
 
 
 def drive_episode(
-    model: LearnedReward | str | Path,
+    model: LearnedReward | DemonstratorModel | str | Path,
     road: Road,
     cfg: CollectConfig,
     seed: int,
@@ -206,7 +208,9 @@ def drive_episode(
     """Drive one SUMO episode (seed ``seed``) until ``laps`` laps, a collision, an exit or the time-out.
 
     ``model``: a :class:`~irlsim.reward.LearnedReward` (load it once with :func:`~irlsim.reward.load_reward`
-    to drive several episodes), or a spec string resolved against ``runs``. ``cfg``: the collect config
+    to drive several episodes), or a spec string resolved against ``runs``; ``'demonstrator'`` (or a
+    :class:`~irlsim.drive.demonstrated.DemonstratorModel`): ``cfg``'s demonstrator drives, no pictures
+    (:mod:`irlsim.drive.demonstrated`). ``cfg``: the collect config
     the model was trained with (its planner and scenario; ``scenario.laps`` is replaced by ``laps``).
     ``max_cycles`` > 0 stops early (end reason 'max_cycles'). ``pictures``: stills and an animation.
     ``expert_progress``: the expert's ``_progress`` on the same seed, for the scorecard (:func:`_scores`);
@@ -219,19 +223,17 @@ def drive_episode(
     ``drive/pictures`` (paths written), ``_inference_ms`` (every cycle's inference time [ms], for pooled
     percentiles) and ``_progress`` ((t, s) per step); the last two are not meant for JSON.
     """
-    road, scenario, sim = _simulation(cfg, road, laps, episode, reactive)
-    if not isinstance(model, LearnedReward):
-        model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
-    seed_everything(seed)
-    rules = (commit, full_stop, keep_distance, in_lane)
-    decider = RewardDriver(model, road, cfg.planner, safety, None, choice, lane_change_bias, *rules)
+    how = (choice, lane_change_bias, commit, full_stop, keep_distance, in_lane)
+    reward, decider, road, scenario, sim = _decider(
+        model, cfg, road, laps, episode, reactive, runs, seed, safety, how
+    )
     recorder = (
-        FrameRecorder(pictures, road, model.name, (scenario.ego_length, scenario.ego_width))
-        if pictures is not None and pictures.frames > 0
+        FrameRecorder(pictures, road, reward.name, (scenario.ego_length, scenario.ego_width))
+        if pictures is not None and pictures.frames > 0 and not is_demonstrator(reward)
         else None
     )
     t_start = time.perf_counter()
-    bar = _bar(scenario, max_cycles, f"drive {model.name} seed {seed}", show_progress)
+    bar = _bar(scenario, max_cycles, f"drive {reward.name} seed {seed}", show_progress)
     timing = _Timing(decider)
     observers: list[Observer] = [timing] + ([_Pictures(recorder, decider)] if recorder is not None else [])
     scorer = ScorecardObserver()  # records every simulation step for the scorecard
@@ -246,7 +248,7 @@ def drive_episode(
         odometry,
         timing.inference_ms,
         timing.plan_ms,
-        model=model.name,
+        model=reward.name,
         episode=episode,
         seed=seed,
         safety=safety,
@@ -258,7 +260,7 @@ def drive_episode(
     rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
     rec["drive/checkpoints_missed"] = missed_checkpoints(sim.episode.events if sim.episode else [])
     rec["drive/first_collision"] = sim.first_collision
-    rec.update({**_scores(scorer, dict(result.stats), model.is_expert, expert_progress), **style.summary()})
+    rec.update({**_scores(scorer, dict(result.stats), reward.is_expert, expert_progress), **style.summary()})
     rec["_inference_ms"] = timing.inference_ms
     return rec
 
@@ -270,6 +272,40 @@ def _bar(scenario: EpisodeConfig, max_cycles: int, desc: str, show: bool) -> Any
     return progress(total=total, desc=desc, unit="cycle", leave=False, disable=not show)
 
 
+def _decider(
+    model: Any,
+    cfg: CollectConfig,
+    road: Road,
+    laps: int,
+    episode: int,
+    reactive: bool,
+    runs: str | Path | None,
+    seed: int,
+    safety: bool,
+    how: tuple[Any, ...],
+) -> tuple[LearnedReward | DemonstratorModel, Any, Road, EpisodeConfig, Simulation]:
+    """The model (a spec loaded), what decides every cycle, and the episode's road, settings and
+    simulation; the random generators seeded with ``seed`` before the decider is made. ``how``:
+    RewardDriver's choice, lane-change bias and rules (the demonstrator has none of them)."""
+    if is_demonstrator(model):
+        scenario = _with_laps(cfg.scenario, laps)
+        decider, road, scenario, sim = demonstrator_episode(cfg, road, scenario, episode, reactive)
+        seed_everything(seed)
+        return DemonstratorModel(), decider, road, scenario, sim
+    road, scenario, sim = _simulation(cfg, road, laps, episode, reactive)
+    if not isinstance(model, LearnedReward):
+        model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
+    seed_everything(seed)
+    return model, RewardDriver(model, road, cfg.planner, safety, None, *how), road, scenario, sim
+
+
+def _with_laps(scenario: EpisodeConfig, laps: int) -> EpisodeConfig:
+    """The scenario with ``laps`` laps (``--laps``, checked)."""
+    if laps < 1:
+        raise IrlsimError(f"--laps must be >= 1, got {laps}")
+    return dataclasses.replace(scenario, laps=int(laps))
+
+
 def _simulation(
     cfg: CollectConfig, road: Road, laps: int, episode: int, reactive: bool
 ) -> tuple[Road, EpisodeConfig, Simulation]:
@@ -278,9 +314,7 @@ def _simulation(
     replaying their recorded motion (non-reactive) or, ``reactive``, driven by SUMO from their first
     recorded pose on. A SUMO demonstrator's lane change duration holds for the other vehicles here too:
     the learned reward drives in its demonstrator's traffic."""
-    if laps < 1:
-        raise IrlsimError(f"--laps must be >= 1, got {laps}")
-    scenario = dataclasses.replace(cfg.scenario, laps=int(laps))
+    scenario = _with_laps(cfg.scenario, laps)
     if cfg.demonstrator.kind != RECORDING:
         return (
             road,

@@ -23,19 +23,20 @@ from irlsim.config import MAX_SEED, load_config
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING, resolve_recording
 from irlsim.drive.closed_loop import PictureSpec, drive_episode
+from irlsim.drive.demonstrated import DEMONSTRATOR, check_demonstrator, resolve_model
 from irlsim.drive.metrics import markdown_table, summarize
 from irlsim.drive.scorecard import scorecard_table
 from irlsim.errors import IrlsimError
 from irlsim.executor import Job, check_executor, describe_failures, run_jobs
 from irlsim.outputs import check_output_dir
 from irlsim.planner.choice import CHOICES
-from irlsim.reward import load_reward
 from irlsim.road import load_road
 from irlsim.road.scenario import Scenario, Scenarios, recorded_name
 from irlsim.rollout.style import pool_styles, style_report
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
+from irlsim.workflows.drive_seeds import check_seeds_unseen
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,8 @@ class DriveRun:
     """Closed-loop drives of several models: what ``irlsim drive`` parses its arguments into."""
 
     models: tuple[str, ...] = ("expert",)
-    """what drives: 'expert', 'expert-theta', model names found in ``runs``, or checkpoint paths"""
+    """what drives: 'expert', 'expert-theta', 'demonstrator' (the config's SUMO driver or recorded ego), model
+    names found in ``runs``, or checkpoint paths"""
     runs: Path | None = None
     """the runs folder 'irlsim train --out' wrote"""
     episodes: int = 1
@@ -142,7 +144,7 @@ def _drive(job: DriveJob) -> dict[str, Any]:
     key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
     if key not in _MODELS:
         n_policies = job.cfg.planner.n_policies
-        _MODELS[key] = load_reward(job.spec, job.runs, n_policies=n_policies, threads=job.threads)
+        _MODELS[key] = resolve_model(job.spec, job.runs, n_policies, job.threads)
     name = job.cfg.scenario.name
     if name not in _ROAD:
         _ROAD[name] = load_road(scenario=job.road if job.road is not None else name)
@@ -343,8 +345,10 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
-    models = [load_reward(s, run.runs, n_policies=cfg.planner.n_policies, threads=run.threads) for s in specs]
-    _check_seeds_unseen(models, run.seed, run.episodes)
+    if DEMONSTRATOR in specs:
+        check_demonstrator(cfg)
+    models = [resolve_model(s, run.runs, cfg.planner.n_policies, run.threads) for s in specs]
+    check_seeds_unseen(models, run.seed, run.episodes)
     runs = str(run.runs.resolve()) if run.runs else None
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, run.threads)] = model
@@ -406,30 +410,6 @@ def _recording_record(cfg: CollectConfig, run: DriveRun) -> dict[str, Any]:
         return {}
     egos = cfg.demonstrator.ego.split(",")[: run.episodes]
     return {"recording": {"file": cfg.demonstrator.file, "egos": egos, "reactive": run.reactive}}
-
-
-def _check_seeds_unseen(models: list[Any], seed: int, episodes: int) -> None:
-    """Refuse (one line) episode seeds seed..seed+episodes-1 that are seeds of the dataset a learned model
-    was trained on (any split: train, validation or test), read from its checkpoint's ``dataset_seeds``.
-    Checkpoints without them (trained on an in-memory dataset) are not checked."""
-    asked = set(range(seed, seed + episodes))
-    for model in models:
-        recorded = model.trained or {}
-        trained = set(recorded.get("dataset_seeds") or ())
-        if recorded.get("dataset") and recorded.get("dataset_seeds") is None:
-            print(
-                f"note: {model.name} records no training seeds (trained before they were recorded): "
-                "its seeds are not checked; retrain it to have them refused",
-                file=sys.stderr,
-            )
-        overlap = sorted(asked & trained)
-        if overlap:
-            shown = ", ".join(map(str, sorted(trained)[:8])) + (", ..." if len(trained) > 8 else "")
-            raise IrlsimError(
-                f"--seed {seed} --episodes {episodes}: episode seed(s) {', '.join(map(str, overlap[:5]))} "
-                f"are seeds of the data {model.name} was trained on ({shown}): evaluate on unseen seeds, "
-                "choose another --seed"
-            )
 
 
 def _drive_jobs(

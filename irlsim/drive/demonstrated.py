@@ -1,0 +1,118 @@
+"""``irlsim drive --model demonstrator``: the collect config's own demonstrator drives the ego, on the same
+seeds and scenario as the rewards beside it, so that ``drive`` compares a learned reward's style with its
+driver's (three drivings or more give a style distance).
+
+- a SUMO demonstrator: SUMO's car-following and lane-change models drive the ego with the demonstrator's
+  vehicle type (as in collection, :class:`~irlsim.data.demonstrator.SumoDemonstrator`);
+- a recording: episode i's recorded ego drives as it was recorded, the others replayed or, with
+  ``--reactive``, driven by SUMO (:class:`~irlsim.data.recorded.RecordingDemonstrator`).
+
+The expert has no such row: ``--model expert`` drives it. No reward is inferred and no policy of the set
+is executed (the planner still samples it every cycle, as in collection), so the rules of the choice
+(``--choice``, ``--commit``, ...) do not apply and the drive has no pictures.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import (
+    EXPERT,
+    RECORDING,
+    SumoDemonstrator,
+    demonstrator_simulation,
+)
+from irlsim.data.recorded import recorded_episode
+from irlsim.errors import IrlsimError
+from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.policy_set import PolicySet
+from irlsim.reward import LearnedReward, load_reward
+from irlsim.road import Road
+from irlsim.sim.config import EpisodeConfig
+from irlsim.sim.simulation import Simulation
+from irlsim.sim.types import Observation, Trajectory
+
+DEMONSTRATOR = "demonstrator"
+
+
+class DemonstratorModel:
+    """What ``--model demonstrator`` resolves to: no reward; the attributes of
+    :class:`~irlsim.reward.LearnedReward` that ``irlsim drive`` reads (no checkpoint, no training seeds)."""
+
+    name = DEMONSTRATOR
+    checkpoint: Path | None = None
+    trained: dict[str, Any] | None = None
+    is_expert = False
+
+
+def resolve_model(spec: str, runs: str | Path | None, n_policies: int, threads: int) -> Any:
+    """``--model``'s entry: the demonstrator, or :func:`irlsim.reward.load_reward`'s reward."""
+    if spec == DEMONSTRATOR:
+        return DemonstratorModel()
+    return load_reward(spec, runs, n_policies=n_policies, threads=threads)
+
+
+def check_demonstrator(cfg: CollectConfig) -> None:
+    """One line, before any work, when the config's demonstrator is the expert."""
+    if cfg.demonstrator.kind == EXPERT:
+        raise IrlsimError(
+            "--model demonstrator drives the config's [demonstrator], and this config's is the expert: "
+            "--model expert drives it (or give a --config with SUMO's driver or a recording)"
+        )
+
+
+class DemonstratorDecider:
+    """A demonstrator behind :class:`~irlsim.reward.RewardDriver`'s interface: ``plan(obs)``,
+    ``last_policy_set``, ``last_index`` (-1: no policy executed), ``theta`` and ``info`` (none inferred),
+    ``plan_ms`` (the cycle: the planner's sampling and the demonstrator's own), ``inference_ms`` (0)."""
+
+    def __init__(self, driver: Any):
+        self.driver = driver
+        self.theta: np.ndarray = THETA_EXPERT
+        self.info: dict[str, Any] = {}
+        self.plan_ms = 0.0
+        self.inference_ms = 0.0
+
+    @property
+    def last_policy_set(self) -> PolicySet | None:
+        ps: PolicySet | None = self.driver.last_policy_set
+        return ps
+
+    @property
+    def last_index(self) -> int:
+        return -1
+
+    def reset(self) -> None:
+        """Nothing carries over between episodes."""
+
+    def plan(self, obs: Observation) -> Trajectory:
+        t0 = time.perf_counter()
+        trajectory: Trajectory = self.driver.plan(obs)
+        self.plan_ms = (time.perf_counter() - t0) * 1e3
+        return trajectory
+
+
+def demonstrator_episode(
+    cfg: CollectConfig, road: Road, scenario: EpisodeConfig, episode: int, reactive: bool
+) -> tuple[DemonstratorDecider, Road, EpisodeConfig, Simulation]:
+    """The decider, road, settings and simulation of episode ``episode`` driven by ``cfg``'s demonstrator:
+    a recording's ego number ``episode`` (its egos resolved into ``cfg.demonstrator.ego``) as recorded,
+    or SUMO's driver with the demonstrator's type on ``scenario``."""
+    check_demonstrator(cfg)
+    if cfg.demonstrator.kind == RECORDING:
+        ego = cfg.demonstrator.ego.split(",")[episode]
+        file = cfg.demonstrator.file
+        driver, road, scenario, replay = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)
+        return DemonstratorDecider(driver), road, scenario, replay
+    sim = demonstrator_simulation(road, scenario, cfg.demonstrator)
+    return DemonstratorDecider(SumoDemonstrator(road, cfg.planner, scenario)), road, scenario, sim
+
+
+def is_demonstrator(model: LearnedReward | DemonstratorModel | str | Path) -> bool:
+    """Whether ``model`` (an object or a spec) is the demonstrator."""
+    return isinstance(model, DemonstratorModel) or str(model) == DEMONSTRATOR
