@@ -60,6 +60,28 @@ STYLE_FIGURES = (
 )
 
 
+def lane_changes(lane: np.ndarray, dt: float, min_visit_s: float = 0.0) -> int:
+    """The lane changes of a per-step lane sequence (steps ``dt`` apart): every change of lane, except that
+    a visit to a lane lasting at most ``min_visit_s`` and returning to the lane it left is none (its two
+    changes are dropped and the visits around it merge; repeatedly, so a flicker of several such returns
+    is none either). ``min_visit_s`` 0: every change. Vectorised over the steps; the loop is over visits."""
+    lane = np.asarray(lane)
+    if len(lane) < 2:
+        return 0
+    edges = np.flatnonzero(lane[1:] != lane[:-1]) + 1
+    if min_visit_s <= 0 or not len(edges):
+        return len(edges)
+    bounds = np.concatenate([[0], edges, [len(lane)]])
+    kept: list[list[float]] = []  # [lane, duration [s]] of the visits so far
+    for which, steps in zip(lane[bounds[:-1]].tolist(), np.diff(bounds).tolist(), strict=True):
+        if len(kept) >= 2 and kept[-1][1] <= min_visit_s + 1e-9 and kept[-2][0] == which:
+            short = kept.pop()
+            kept[-1][1] += short[1] + steps * dt
+        else:
+            kept.append([which, steps * dt])
+    return len(kept) - 1
+
+
 def _per_km(n: float, km: float) -> float:
     return float(n / km) if km > 0 else 0.0
 

@@ -12,6 +12,7 @@ from irlsim.rollout.style import (
     DERIVATIVE_BASE_S,
     STYLE_FIGURES,
     format_style,
+    lane_changes,
     pool_styles,
     style_distances,
     style_report,
@@ -64,6 +65,22 @@ def test_one_lane_change_over_a_known_distance_and_the_lane_shares():
     assert r["style/lane_changes"] == 1
     assert r["style/lane_changes_per_km"] == pytest.approx(2.0)
     assert r["style/lane_share"] == pytest.approx([125 / 501, 376 / 501])
+
+
+def test_lane_changes_with_short_returns_not_counted():
+    # lanes 0 (2 s), 1 (0.3 s), 0 (2 s), 1 (3 s), 2 (0.5 s), 1 (0.2 s), 2 (4 s), at 0.1 s steps
+    lane = np.repeat([0, 1, 0, 1, 2, 1, 2], [20, 3, 20, 30, 5, 2, 40])
+    assert (
+        lane_changes(lane, DT)
+        == 6
+        == style_summary(**_drive(n=len(lane)) | {"lane": lane})["style/lane_changes"]
+    )
+    assert lane_changes(lane, DT, 1.0) == 2  # both returns dropped: 0 -> 1 -> 2
+    assert lane_changes(lane, DT, 0.25) == 4  # only the 0.2 s return dropped
+    flicker = np.repeat([1, 2, 1, 2, 1, 2, 1], [30, 1, 1, 1, 1, 1, 30])  # a flicker of returns: none
+    assert lane_changes(flicker, DT, 1.0) == 0 and lane_changes(flicker, DT) == 6
+    assert lane_changes(np.repeat([0, 1], [5, 5]), DT, 1.0) == 1  # a change that does not return counts
+    assert lane_changes(np.array([2]), DT, 1.0) == 0
 
 
 def test_a_known_jerk_and_a_full_stop():
