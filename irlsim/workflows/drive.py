@@ -259,6 +259,7 @@ def _write_outputs(
     table = markdown_table(summaries)
     scores = scorecard_table(summaries)
     safety = "with" if run.safety else "without"
+    own = "; the demonstrator: none, it drives as collected" if DEMONSTRATOR in specs else ""
     md = (
         f"# Closed-loop driving\n\n{run.episodes} episode(s) per model, {run.laps} lap(s) each, seeds "
         f"{run.seed}..{run.seed + run.episodes - 1}; learned models {safety} the model-based safety "
@@ -266,7 +267,7 @@ def _write_outputs(
         f"{cfg.planner.n_policies} policies per cycle.\n\n{table}\n"
         "stop compliance: stop lines crossed after a full stop / crossed; checkpoints in lane: passed in the "
         "required lane / passed; RMS jerk of the executed odometry; inference: reward prediction per 0.2 s "
-        "cycle (the expert: its model-based selection).\n\n"
+        f"cycle (the expert: its model-based selection{own}).\n\n"
         "## Scorecard (nuPlan-style, means over episodes)\n\n"
         f"{scores}\n"
         "score = 100 x no collision x no exit x stop lines x drivable area x making progress x the weighted "

@@ -62,6 +62,7 @@ def test_a_recorded_car_drives_as_recorded_beside_a_reward(tmp_path, monkeypatch
     assert main([*args, "--frames", "0", "--out", str(out)]) == 0
     rows = {s["drive/model"]: s for s in json.loads((out / "drive.json").read_text())["summary"]}
     assert set(rows) == {"expert", "expert-theta", "demonstrator"}
+    assert "the demonstrator: none, it drives as collected" in (out / "drive.md").read_text()
     np.testing.assert_equal(_styles(rows["demonstrator"]["style"]), _styles(collected))
 
 
