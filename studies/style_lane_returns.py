@@ -6,7 +6,8 @@ last; the lane changes per km with returning visits of at most 1 s and at most 5
 (:func:`irlsim.rollout.style.lane_changes`); and the same driving cut to whole-second rows (every 5th
 cycle, averaged over the five phases): how much of the count depends on the rate it is read at. Then, by
 situation label (:mod:`irlsim.data.situations`), the share of cycles and the share of them whose lane 5 s
-later is another. Reads datasets only:
+later is another. And the longitudinal jerk over 1 s (the style's base, from the cycles' speeds) within 2 s of
+a lane change and elsewhere: how much of a driver's jerk its lane changes carry. Reads datasets only:
 
     .venv/bin/python studies/style_lane_returns.py runs/styles-dev/reference-s2000/assertive/oval \
         runs/styles-dev/reference-s2000/cautious/oval runs/styles-dev/data/expert/oval
@@ -35,6 +36,7 @@ from irlsim.rollout.style import lane_changes
 CYCLE = 0.2  # [s] a planning cycle: the cycles table's row spacing
 EVERY_SECOND = 5  # cycles per second
 AHEAD = 25  # cycles: 5 s
+NEAR = 10  # cycles: 2 s
 
 
 def visits(lane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -98,6 +100,49 @@ def situations_table(folders: list[Path]) -> str:
         cells = [f"{got[n][0]:.3f}: {got[n][1]:.2f}" if n in got else "-" for n in SITUATION_NAMES]
         lines.append(f"| {folder} | " + " | ".join(cells) + " |")
     return "share of the cycles: share of them in another lane 5 s later\n" + "\n".join(lines)
+
+
+def jerk_near_changes(folder: Path) -> dict[str, float]:
+    """The share of the time within ``NEAR`` cycles of a lane change, the share of the squared jerk
+    (over 1 s) there, and the RMS jerk there and elsewhere [m/s^3]."""
+    near_j, far_j = [], []
+    for f in sorted(folder.glob("*/episode_*.cycles.parquet")):
+        t = pq.read_table(f, columns=["ego_lane", "ego_v"]).to_pandas()
+        lane, v = t["ego_lane"].to_numpy(), t["ego_v"].to_numpy()
+        if len(v) <= 4 * EVERY_SECOND:
+            continue
+        acc = v[EVERY_SECOND:] - v[:-EVERY_SECOND]  # [m/s^2]: the mean over each second
+        jerk = acc[EVERY_SECOND:] - acc[:-EVERY_SECOND]  # [m/s^3]: its change over a second
+        changes = np.flatnonzero(lane[1:] != lane[:-1]) + 1
+        near = np.zeros(len(v), dtype=np.int64)  # a window of +-NEAR cycles around every change
+        np.add.at(near, np.clip(changes - NEAR, 0, len(v) - 1), 1)
+        np.add.at(near, np.clip(changes + NEAR, 0, len(v) - 1), -1)
+        mask = np.cumsum(near)[EVERY_SECOND : len(v) - EVERY_SECOND] > 0  # centred on each jerk's span
+        near_j.append(jerk[mask])
+        far_j.append(jerk[~mask])
+    jn, jf = np.concatenate(near_j), np.concatenate(far_j)
+    total = float(np.sum(jn**2) + np.sum(jf**2))
+    rms = lambda j: float(np.sqrt(np.mean(j**2))) if len(j) else float("nan")  # noqa: E731
+    return {
+        "time": len(jn) / max(len(jn) + len(jf), 1),
+        "jerk^2": float(np.sum(jn**2)) / total if total > 0 else 0.0,
+        "near": rms(jn),
+        "elsewhere": rms(jf),
+    }
+
+
+def jerk_table(folders: list[Path]) -> str:
+    lines = [
+        "| dataset | time within 2 s of a lane change | its share of the squared jerk | RMS jerk there / "
+        "elsewhere [m/s^3] |",
+        "|---|---|---|---|",
+    ]
+    for folder in folders:
+        j = jerk_near_changes(folder)
+        lines.append(
+            f"| {folder} | {j['time']:.2f} | {j['jerk^2']:.2f} | {j['near']:.2f} / {j['elsewhere']:.2f} |"
+        )
+    return "\n".join(lines)
 
 
 def table(folders: list[Path]) -> str:
@@ -174,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     if a.data:
         print(table(a.data))
         print(situations_table(a.data))
+        print(jerk_table(a.data))
     if a.probe:
         probe(a.probe, a.seed, a.cycles, a.shown)
     return 0
