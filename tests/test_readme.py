@@ -93,6 +93,7 @@ def test_own_driver_commands_run_as_written(tmp_path, monkeypatch, capsys):
     heads = ("style: ", "expert: style", "PACNN+S: style", "demonstrator: style")
     styles = [ln for ln in out.splitlines() if ln.startswith(heads)]
     assert len(styles) >= 4 and "PACNN+S vs demonstrator" in out  # the distance to the recorded driver
+    assert "nearest the demonstrator's style: " in out
 
 
 def documented_commands(text: str) -> list[str]:

@@ -225,10 +225,12 @@ class StyleObserver(StepListener):
         return style_summary(t, s, v, lane, gap)
 
 
-def style_report(summaries: list[dict[str, Any]]) -> str:
+def style_report(summaries: list[dict[str, Any]], reference: str | None = None) -> str:
     """Each model's driving style on one line, and with three models or more their style distances
     (:func:`irlsim.rollout.style.style_distances`; between two drivings alone every figure that differs
-    counts exactly 2, so two get a line that says so instead of a number)."""
+    counts exactly 2, so two get a line that says so instead of a number). ``reference``: the name of a
+    driving the others are compared with (``irlsim drive``'s demonstrator): a last line names the one
+    nearest it."""
     names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
     lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
     if len(summaries) == 2:
@@ -246,4 +248,12 @@ def style_report(summaries: list[dict[str, Any]]) -> str:
                 for j in range(i + 1, len(names))
             )
         )
+        if reference in names:
+            r = names.index(reference)
+            others = sorted((float(dist[r, i]), names[i]) for i in range(len(names)) if i != r)
+            lines.append(
+                f"nearest the {reference}'s style: {others[0][1]} ({others[0][0]:.2f}; "
+                + ", ".join(f"{n} {d:.2f}" for d, n in others[1:])
+                + ")"
+            )
     return "\n".join(["", *lines, ""])

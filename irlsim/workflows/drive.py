@@ -304,7 +304,7 @@ def _write_outputs(
     print(table, end="")
     print()
     print(scores, end="")
-    print(style_report(summaries), end="")
+    print(style_report(summaries, DEMONSTRATOR if DEMONSTRATOR in specs else None), end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (

@@ -187,3 +187,11 @@ def test_the_report_gives_distances_from_three_drivings_and_says_why_not_for_two
     three = style_report(drivings).strip().splitlines()[-1]
     d = style_distances([r["style"] for r in drivings])
     assert three == f"style distance: a vs b {d[0, 1]:.2f}; a vs c {d[0, 2]:.2f}; b vs c {d[1, 2]:.2f}"
+    # against a reference driving: the others by their distance to it, the nearest named first
+    near = style_report(drivings, reference="c").strip().splitlines()[-1]
+    (first, d_first), (second, d_second) = sorted(
+        ((n, d[2, i]) for i, n in enumerate("ab")), key=lambda x: x[1]
+    )
+    assert near == f"nearest the c's style: {first} ({d_first:.2f}; {second} {d_second:.2f})"
+    assert d_first < d_second
+    assert "nearest" not in style_report(drivings, reference="x") and "nearest" not in two
