@@ -30,7 +30,7 @@ from irlsim.reward.choice import lane_change_bias
 from irlsim.road import load_road
 from irlsim.rollout import EpisodeRunner
 from irlsim.rollout.runner import StepListener
-from irlsim.rollout.style import FOLLOW_RANGE, MIN_FOLLOW_SPEED
+from irlsim.rollout.style import FOLLOW_RANGE, MIN_FOLLOW_SPEED, leader_ahead
 from irlsim.sim.simulation import Simulation
 from irlsim.utils import seed_everything
 
@@ -44,15 +44,10 @@ class Following(StepListener):
         self.rows: list[tuple[float, float, float]] = []
 
     def on_step(self, sim: Any) -> None:
-        e, veh = sim.ego, sim.vehicles
-        if not veh.count or e.v <= MIN_FOLLOW_SPEED:
-            return
-        ahead = (veh.s - e.s) % sim.road.lap_length
-        same = np.asarray(sim.road.lane_of_d(veh.d)) == e.lane
-        gap = np.where(same & (ahead > 0), ahead - veh.length, np.inf)
-        k = int(np.argmin(gap))
-        if gap[k] <= FOLLOW_RANGE:
-            self.rows.append((float(gap[k] / e.v), float(e.v), float(veh.v[k])))
+        e = sim.ego
+        gap, k = leader_ahead(sim)  # the style's leader
+        if k >= 0 and gap <= FOLLOW_RANGE and e.v > MIN_FOLLOW_SPEED:
+            self.rows.append((gap / e.v, float(e.v), float(sim.vehicles.v[k])))
 
 
 def summary(name: str, rows: list[tuple[float, float, float]], step: float) -> str:

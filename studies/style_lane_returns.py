@@ -31,19 +31,12 @@ import numpy as np
 import pyarrow.parquet as pq
 
 from irlsim.data.situations import SITUATION_NAMES
-from irlsim.rollout.style import lane_changes
+from irlsim.rollout.style import lane_changes, lane_visits
 
 CYCLE = 0.2  # [s] a planning cycle: the cycles table's row spacing
 EVERY_SECOND = 5  # cycles per second
 AHEAD = 25  # cycles: 5 s
 NEAR = 10  # cycles: 2 s
-
-
-def visits(lane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The lane and the length [rows] of each visit of a lane sequence."""
-    edges = np.flatnonzero(lane[1:] != lane[:-1]) + 1
-    bounds = np.concatenate([[0], edges, [len(lane)]])
-    return lane[bounds[:-1]], np.diff(bounds)
 
 
 def figures(folder: Path) -> dict[str, Any]:
@@ -58,7 +51,7 @@ def figures(folder: Path) -> dict[str, Any]:
         counts["1 s"] += lane_changes(lane, CYCLE, 1.0)
         counts["5 s"] += lane_changes(lane, CYCLE, 5.0)
         counts["every, 1 s rows"] += np.mean([lane_changes(lane[p::EVERY_SECOND], 1.0) for p in range(5)])
-        which, length = visits(lane)
+        which, length = lane_visits(lane)
         back = np.flatnonzero(which[:-2] == which[2:]) + 1
         returns += (length[back] * CYCLE).tolist()
         pairs += [tuple(sorted((int(which[i - 1]), int(which[i])))) for i in back.tolist()]

@@ -60,20 +60,39 @@ STYLE_FIGURES = (
 )
 
 
+def lane_visits(lane: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The lane and the length [steps] of each visit of a per-step lane sequence (vectorised)."""
+    lane = np.asarray(lane)
+    edges = np.flatnonzero(lane[1:] != lane[:-1]) + 1
+    bounds = np.concatenate([[0], edges, [len(lane)]])
+    return lane[bounds[:-1]], np.diff(bounds)
+
+
+def leader_ahead(sim: Any) -> tuple[float, int]:
+    """The bumper gap [m] to the nearest vehicle ahead in the ego's lane and its index in
+    ``sim.vehicles`` ((inf, -1) without one), vectorised over the vehicles."""
+    e, veh = sim.ego, sim.vehicles
+    if not veh.count:
+        return float("inf"), -1
+    ahead = (veh.s - e.s) % sim.road.lap_length
+    same = np.asarray(sim.road.lane_of_d(veh.d)) == e.lane
+    g = np.where(same & (ahead > 0), ahead - veh.length, np.inf)
+    k = int(np.argmin(g))
+    return (float(g[k]), k) if np.isfinite(g[k]) else (float("inf"), -1)
+
+
 def lane_changes(lane: np.ndarray, dt: float, min_visit_s: float = 0.0) -> int:
     """The lane changes of a per-step lane sequence (steps ``dt`` apart): every change of lane, except that
     a visit to a lane lasting at most ``min_visit_s`` and returning to the lane it left is none (its two
     changes are dropped and the visits around it merge; repeatedly, so a flicker of several such returns
     is none either). ``min_visit_s`` 0: every change. Vectorised over the steps; the loop is over visits."""
-    lane = np.asarray(lane)
     if len(lane) < 2:
         return 0
-    edges = np.flatnonzero(lane[1:] != lane[:-1]) + 1
-    if min_visit_s <= 0 or not len(edges):
-        return len(edges)
-    bounds = np.concatenate([[0], edges, [len(lane)]])
+    lanes, lengths = lane_visits(lane)
+    if min_visit_s <= 0 or len(lanes) == 1:
+        return len(lanes) - 1
     kept: list[list[float]] = []  # [lane, duration [s]] of the visits so far
-    for which, steps in zip(lane[bounds[:-1]].tolist(), np.diff(bounds).tolist(), strict=True):
+    for which, steps in zip(lanes.tolist(), lengths.tolist(), strict=True):
         if len(kept) >= 2 and kept[-1][1] <= min_visit_s + 1e-9 and kept[-2][0] == which:
             short = kept.pop()
             kept[-1][1] += short[1] + steps * dt
@@ -104,7 +123,7 @@ def style_summary(
     lag = max(1, round(DERIVATIVE_BASE_S / dt))
     acc = (v[lag:] - v[:-lag]) / (lag * dt)  # the mean acceleration over each span, at every step
     jerk = (acc[lag:] - acc[:-lag]) / (lag * dt)
-    changes = int(np.count_nonzero(np.diff(lane)))
+    changes = lane_changes(lane, dt)
     stops = int(np.count_nonzero((v[1:] <= STOP_SPEED) & (v[:-1] > STOP_SPEED)))
     share = np.bincount(np.maximum(lane, 0), minlength=int(lane.max(initial=0)) + 1) / len(lane)
     return {
@@ -208,14 +227,9 @@ class StyleObserver(StepListener):
         self.rows = []
 
     def on_step(self, sim: Any) -> None:
-        e, veh = sim.ego, sim.vehicles
-        gap = float("nan")
-        if veh.count:  # the leader in the ego's lane: vectorised over the vehicles
-            ahead = (veh.s - e.s) % sim.road.lap_length
-            same = np.asarray(sim.road.lane_of_d(veh.d)) == e.lane
-            g = np.where(same & (ahead > 0), ahead - veh.length, np.inf)
-            gap = float(g.min()) if np.isfinite(g).any() else gap
-        self.rows.append((e.t, e.s, e.v, int(e.lane), gap))
+        e = sim.ego
+        gap, k = leader_ahead(sim)  # the leader in the ego's lane
+        self.rows.append((e.t, e.s, e.v, int(e.lane), gap if k >= 0 else float("nan")))
 
     def summary(self) -> dict[str, Any]:
         """The episode's style figures (empty before two steps were recorded)."""
