@@ -83,17 +83,29 @@ def _without_demand(road: Road) -> Road:
     return out
 
 
-def ego_track(rec: Recording, vid: str, scenario_road: Road) -> EgoTrack | str:
-    """Vehicle ``vid`` of ``rec`` as an ego, or why it cannot be one (a phrase)."""
+def ego_track(
+    rec: Recording, vid: str, scenario_road: Road, routes: dict[tuple[str, ...], Road | str] | None = None
+) -> EgoTrack | str:
+    """Vehicle ``vid`` of ``rec`` as an ego, or why it cannot be one (a phrase). ``routes``: the roads
+    of the routes met so far (or why each is none), shared by the vehicles that drove the same edges."""
     k = rec.ids.index(vid)
-    if rec.unrouted and rec.unrouted[k]:
-        return f"its positions match no connected route of the network ({rec.unrouted[k]})"
+    why = rec.unrouted[k] if rec.unrouted else ""
+    if why:
+        return why if why.startswith("it ") else f"it drove no connected route of the network ({why})"
     road = scenario_road
     if rec.edges[k] and not set(rec.edges[k]) <= set(scenario_road.edges):
-        try:
-            road = Road(scenario_road.net_file, rec.edges[k], name=f"{scenario_road.name}:{vid}")
-        except IrlsimError as e:
-            return f"its recorded edges are no route of the network ({e})"
+        own = (routes or {}).get(rec.edges[k])
+        if own is None:
+            try:
+                own = Road(scenario_road.net_file, rec.edges[k], name=scenario_road.name)
+            except IrlsimError as e:
+                own = f"its recorded edges are no route of the network ({e})"
+            if routes is not None:
+                routes[rec.edges[k]] = own
+        if isinstance(own, str):
+            return own
+        road = copy.copy(own)
+        road.name = f"{scenario_road.name}:{vid}"
     road = _without_demand(road)
     tr = rec.track(vid)
     s_w, d = road.to_frenet(tr["x"], tr["y"])
@@ -129,9 +141,10 @@ def egos(rec: Recording, scenario_road: Road, wanted: tuple[str, ...], min_durat
             f"recording {rec.path} has no vehicle {unknown[0]!r}: name one of {', '.join(rec.ids[:8])}"
             + (", ..." if len(rec.ids) > 8 else "")
         )
-    out = []
+    out: list[str] = []
+    routes: dict[tuple[str, ...], Road | str] = {}
     for vid in wanted or rec.ids:
-        et = ego_track(rec, vid, scenario_road)
+        et = ego_track(rec, vid, scenario_road, routes)
         why = et if isinstance(et, str) else None
         if why is None and isinstance(et, EgoTrack) and et.duration < min_duration:
             why = (
