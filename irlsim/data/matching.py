@@ -9,6 +9,13 @@ driven on X, folded into A) become a connected route: each edge followed by the 
 by the shortest path between them when that path is no longer than the distance driven from one to the
 other (the recorded speed over time, plus ``SLACK_M``); otherwise the vehicle's positions match no
 connected route, said in a phrase.
+
+A recording with lanes (SUMO's FCD) gives each point its recorded lane's edge instead, and the same
+joining makes its route connected: SUMO records one lane a step, so a vehicle crosses an edge shorter than
+a step's travel (OpenStreetMap networks have edges of a few decimetres) without a record on it. Routes are
+a passenger car's (the ego's class, and the class of the vehicles SUMO drives in a reactive replay):
+gaps are filled over edges a car may use (not over a walking area), and a vehicle most of whose points
+lie on lanes a car may not use (a bicycle on its lane, a tram) has no route, said in a phrase.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.road.angles import atan2
+from irlsim.road.route import CAR_CLASS
 
 #: [rad] a lane matches a point when its direction there is within this of the point's heading
 MAX_ANGLE = math.radians(60.0)
@@ -31,6 +39,8 @@ SLACK_M = 20.0
 FOLD_M = 10.0
 #: points matched per block (bounds the candidates' memory)
 BLOCK = 4096
+#: a vehicle with more than this share of its points on lanes a car may not use is no car
+NOT_CAR_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -43,6 +53,7 @@ class LaneSamples:
     lane: np.ndarray  # [P] int
     ids: tuple[str, ...]  # [L] SUMO lane ids
     edge: tuple[str, ...]  # [L] the lane's edge; '' for a junction's internal lane
+    car: tuple[bool, ...] = ()  # [L] a passenger car may use the lane (a junction's: True)
 
 
 def lane_samples(net: Any) -> LaneSamples:
@@ -52,6 +63,7 @@ def lane_samples(net: Any) -> LaneSamples:
     lane: list[np.ndarray] = []
     ids: list[str] = []
     edge: list[str] = []
+    car: list[bool] = []
     for e in net.getEdges(withInternal=True):
         internal = e.getFunction() == "internal" or e.getID().startswith(":")
         for ln in e.getLanes():
@@ -65,8 +77,9 @@ def lane_samples(net: Any) -> LaneSamples:
             lane.append(np.full(int(n.sum()) + 1, len(ids)))
             ids.append(ln.getID())
             edge.append("" if internal else e.getID())
+            car.append(internal or bool(ln.allows(CAR_CLASS)))
     return LaneSamples(
-        np.concatenate(xy), np.concatenate(angle), np.concatenate(lane), tuple(ids), tuple(edge)
+        np.concatenate(xy), np.concatenate(angle), np.concatenate(lane), tuple(ids), tuple(edge), tuple(car)
     )
 
 
@@ -135,10 +148,10 @@ def connect(net: Any, edges: list[str], dist: np.ndarray) -> tuple[str, ...] | s
     route = [names[0]]
     for k in range(1, len(names)):  # over the vehicle's edges, not its points
         prev, nxt = net.getEdge(route[-1]), net.getEdge(names[k])
-        if nxt in prev.getOutgoing():
+        if nxt in prev.getAllowedOutgoing(CAR_CLASS):
             route.append(names[k])
             continue
-        path, _ = net.getShortestPath(prev, nxt)
+        path, _ = net.getShortestPath(prev, nxt, vClass=CAR_CLASS)
         driven = first[k] - last[k - 1]
         if not path:
             return f"edge {route[-1]} does not lead to edge {names[k]}"
@@ -161,11 +174,45 @@ def match_routes(
     samples = lane_samples(net)
     lane = nearest_lanes(samples, cols["x"], cols["y"], cols["heading"], bound)
     edge_of = np.array([*samples.edge, ""], dtype=object)  # -1: no lane
-    edges = edge_of[lane]
-    t, v = cols["t"], cols["v"]
+    car = np.array([*samples.car, True])
+    names = np.array([*samples.ids, ""], dtype=object)
+    return _routes(net, edge_of[lane], car[lane], names[lane], cols["t"], cols["v"], bounds)
+
+
+def lane_routes(
+    net: Any, lanes: np.ndarray, cols: dict[str, np.ndarray], bounds: np.ndarray
+) -> list[tuple[str, ...] | str]:
+    """Per vehicle, as :func:`match_routes`, from its recorded ``lanes`` (SUMO lane ids, '' for none;
+    every one a lane of ``net``) instead of its positions."""
+    table = {ln.getID(): ln for e in net.getEdges(withInternal=True) for ln in e.getLanes()}
+    uniq, inv = np.unique(lanes.astype(str), return_inverse=True)
+    edge = np.array(
+        ["" if not u or u.startswith(":") else table[u].getEdge().getID() for u in uniq], dtype=object
+    )
+    car = np.array([not u or u.startswith(":") or bool(table[u].allows(CAR_CLASS)) for u in uniq])
+    return _routes(net, edge[inv], car[inv], uniq.astype(object)[inv], cols["t"], cols["v"], bounds)
+
+
+def _routes(
+    net: Any,
+    edges: np.ndarray,
+    car: np.ndarray,
+    lanes: np.ndarray,
+    t: np.ndarray,
+    v: np.ndarray,
+    bounds: np.ndarray,
+) -> list[tuple[str, ...] | str]:
+    """Per vehicle, the connected route of its points' ``edges`` ('' for none) or why there is none; a
+    point on a lane a car may not use (``car`` False) gives no edge, and a vehicle with more than
+    ``NOT_CAR_SHARE`` of its points on such lanes has no route."""
     step = np.r_[0.0, 0.5 * (v[1:] + v[:-1]) * np.diff(t)]  # trapezoids; a vehicle's first is dropped below
     out: list[tuple[str, ...] | str] = []
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):  # per vehicle
+        off = ~car[a:b]
+        if off.mean() > NOT_CAR_SHARE:
+            lane = lanes[a + int(np.argmax(off))]
+            out.append(f"it drove on lane {lane}, which a passenger car may not use")
+            continue
         dist = np.cumsum(np.r_[0.0, step[a + 1 : b]])
-        out.append(connect(net, edges[a:b].tolist(), dist))
+        out.append(connect(net, np.where(off, "", edges[a:b]).tolist(), dist))
     return out

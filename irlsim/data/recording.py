@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.matching import lane_samples, match_routes
+from irlsim.data.matching import lane_routes, lane_samples, match_routes
 from irlsim.data.recording_read import Rows, read_rows
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
@@ -62,8 +62,9 @@ HEADING_MAX_DIFF = math.radians(45.0)
 @dataclass(frozen=True)
 class Recording:
     """Every vehicle's track at the simulation step: vehicle ``k`` owns rows ``start[k]:start[k + 1]``,
-    at times ``t0[k] + j * step``. ``edges[k]``: the network edges it drove, in order (internal ones left
-    out; empty when the recording has no lanes)."""
+    at times ``t0[k] + j * step``. ``edges[k]``: the network edges it drove, in order, a connected route
+    a passenger car may drive (internal ones left out; from its recorded lanes, else its positions;
+    empty where there is none, ``unrouted[k]`` saying why)."""
 
     path: Path
     sha256: str
@@ -76,7 +77,7 @@ class Recording:
     v: np.ndarray
     heading: np.ndarray
     edges: tuple[tuple[str, ...], ...]
-    #: per vehicle, why its positions match no connected route ('' where they do; a recording without lanes)
+    #: per vehicle, why it drove no connected route a car may drive ('' where it did)
     unrouted: tuple[str, ...] = ()
     #: [V] [m] per vehicle, its recorded length and width, where the recording has them
     size: dict[str, np.ndarray] = field(default_factory=dict)
@@ -286,7 +287,7 @@ def resample(
 ) -> Recording:
     """Each vehicle at the times ``k * step`` inside its recorded span, by linear interpolation (the
     heading unwrapped, then wrapped); a vehicle shorter than one step keeps no row and is left out.
-    ``routes``: per vehicle its matched route or why none (a recording without lanes)."""
+    ``routes``: per vehicle its route or why none (:mod:`irlsim.data.matching`)."""
     bounds = np.r_[starts, len(order)]
     ids, start, t0s, parts, edges, unrouted = [], [0], [], [], [], []
     kept: list[int] = []  # the vehicles (groups) kept
@@ -306,7 +307,7 @@ def resample(
         t0s.append(k0 * step)
         route = routes[g] if routes is not None else ()
         matched = route if isinstance(route, tuple) else ()
-        edges.append(_edges_of(rows.lane[idx]) if rows.lane is not None else matched)
+        edges.append(matched)
         unrouted.append(route if isinstance(route, str) else "")
     data = np.concatenate(parts, axis=1) if parts else np.zeros((4, 0))
     return Recording(
@@ -326,13 +327,6 @@ def resample(
     )
 
 
-def _edges_of(lanes: np.ndarray) -> tuple[str, ...]:
-    """The edges of a vehicle's recorded lanes in the order driven, internal (junction) ones left out and
-    consecutive repeats merged."""
-    names = [str(x).rsplit("_", 1)[0] for x in lanes if x and not str(x).startswith(":")]
-    return tuple(e for i, e in enumerate(names) if i == 0 or names[i - 1] != e)
-
-
 def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX_GAP) -> Recording:
     """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network)."""
     rows = read_rows(path)
@@ -346,9 +340,11 @@ def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX
                 f"recording {rows.path}: lane {unknown[0]} is not a lane of this network: give the scenario "
                 "it was recorded on (or drop the lane column)"
             )
-    routes = None
+    cols = {k: getattr(rows, k)[order] for k in ("t", "x", "y", "v", "heading")}
+    bounds = np.r_[starts, len(order)]
     if rows.lane is None:  # each vehicle's route from its positions
-        cols = {k: getattr(rows, k)[order] for k in ("t", "x", "y", "v", "heading")}
-        routes = match_routes(net, cols, np.r_[starts, len(order)], OFF_NETWORK_M)
+        routes = match_routes(net, cols, bounds, OFF_NETWORK_M)
+    else:  # from its recorded lanes, made connected
+        routes = lane_routes(net, rows.lane[order], cols, bounds)
     sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
     return resample(rows, order, starts, step, sha, routes)

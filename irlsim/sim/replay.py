@@ -2,14 +2,16 @@
 (non-reactive, as nuPlan's non-reactive agents) instead of irlsim's background traffic.
 
 Every step, before SUMO steps, each recorded vehicle present at that time of the recording is inserted
-(once, type ``bg``, SUMO's speed and lane-change control off) and moved to its recorded pose with
-``moveToXY(keepRoute=2)``; a vehicle whose recording has ended is removed. SUMO reports the speed of the
+(once, the background type ``bg`` of the class that may use every lane, SUMO's speed and lane-change
+control off) and moved to its recorded pose with ``moveToXY(keepRoute=2)``, on the lane SUMO finds
+there (a bicycle's lane too); a vehicle whose recording has ended is removed. SUMO reports the speed of the
 move, so the observation's vehicles carry their recorded position, heading and speed. The ego is driven
 as in any simulation (a recording demonstrator places it at its own recorded poses).
 
 Reactive (``reactive=True``, closed-loop evaluation): a recorded vehicle with recorded edges is inserted
-by SUMO at its first recorded position on one of its edges (``simulation.convertRoad``; a vehicle first
-recorded within a junction enters when it has left it) and speed on the rest of the route of its edges,
+by SUMO at its first recorded position on one of its edges (``simulation.convertRoad``, on the nearest
+lane a car may use; a vehicle first recorded within a junction enters when it has left it) and speed on
+the rest of the route of its edges (a route SUMO refuses for a car: replayed instead),
 and from then on SUMO drives it (SUMO's default vehicle type, speed factor 1, at most its
 recorded top speed): it follows, brakes for, changes lanes around and yields to the ego.
 """
@@ -23,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road
+from irlsim.road.route import CAR_CLASS
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.traffic import BG_TYPE
@@ -33,6 +36,10 @@ PREFIX = "rec/"
 ROUTE = "replay"
 #: the type of the vehicles SUMO drives in a reactive replay: SUMO's default (Krauss, LC2013), speedFactor 1
 REACTIVE_TYPE = "replay-reactive"
+#: the type of the replayed vehicles: the background traffic's, of SUMO's class that may use every lane, so
+#: that SUMO puts a replayed bicycle on its bicycle lane (a car's class would take the car lane beside it,
+#: and the cars SUMO drives in a reactive replay would queue behind it)
+REPLAY_TYPE = "replay-recorded"
 #: [m] background vehicles are recycled this far behind the ego: never, in a replay
 NEVER = 1e12
 
@@ -109,6 +116,8 @@ class ReplaySimulation(Simulation):
                 types.copy("DEFAULT_VEHTYPE", REACTIVE_TYPE)  # SUMO's default driver, at its own speed
                 types.setSpeedFactor(REACTIVE_TYPE, 1.0)
                 types.setSpeedDeviation(REACTIVE_TYPE, 0.0)
+                types.copy(BG_TYPE, REPLAY_TYPE)
+                types.setVehicleClass(REPLAY_TYPE, "ignoring")
                 state = state if self.recorded_start is None else self.recorded_start
             self.place_others(self.t_begin + t_next - self._t_reset)
         super()._advance(state, bookkeeping, placed)
@@ -135,28 +144,42 @@ class ReplaySimulation(Simulation):
         its pose is on one of its edges, a few steps later; inserted at once and replayed, it would drive
         blind to the ego for the rest of the drive), else it is replayed (SUMO's control off) and moved to
         its pose."""
-        api, tr, sim = self._api.vehicle, self.tracks, self._api.simulation
+        tr, sim = self.tracks, self._api.simulation
         edges = tr.edges[i] if self.reactive and tr.edges else ()
-        edge, pos, lane = sim.convertRoad(float(tr.x[r]), float(tr.y[r])) if edges else ("", 0.0, 0)
+        # the nearest lane a car may use (a car's pose is never taken for the bicycle lane beside it)
+        xy = (float(tr.x[r]), float(tr.y[r]))
+        edge, pos, lane = sim.convertRoad(*xy, False, CAR_CLASS) if edges else ("", 0.0, 0)
         if edge.startswith(":") and edge not in edges:
             return True  # within a junction: not yet
-        if edge not in edges:
-            api.add(vid, ROUTE, typeID=BG_TYPE)
-            self._resize(vid, i)
-            api.setSpeedMode(vid, 0)
-            api.setLaneChangeMode(vid, 0)
-            return False
-        self._api.route.add(f"{ROUTE}@{vid}", list(edges[edges.index(edge) :]))
-        limit = float(self._api.lane.getMaxSpeed(f"{edge}_{lane}")) - 0.01  # SUMO refuses a faster departure
+        if edge in edges and self._drive(vid, i, r, edges[edges.index(edge) :], pos, lane):
+            return True
+        api = self._api.vehicle
+        api.add(vid, ROUTE, typeID=REPLAY_TYPE)
+        self._resize(vid, i)
+        api.setSpeedMode(vid, 0)
+        api.setLaneChangeMode(vid, 0)
+        return False
+
+    def _drive(self, vid: str, i: int, r: int, route: tuple[str, ...], pos: float, lane: int) -> bool:
+        """Hand recorded vehicle ``i`` to SUMO at its row ``r``, at lane position ``pos`` of lane ``lane``
+        of the first edge of ``route``; False where SUMO refuses the route (a turn its connections allow
+        only buses), and the vehicle is then replayed."""
+        api, tr = self._api.vehicle, self.tracks
+        self._api.route.add(f"{ROUTE}@{vid}", list(route))
+        # SUMO refuses a departure faster than the lane's limit
+        limit = float(self._api.lane.getMaxSpeed(f"{route[0]}_{lane}")) - 0.01
         speed = f"{min(float(tr.v[r]), limit):.3f}"
-        api.add(
-            vid,
-            f"{ROUTE}@{vid}",
-            typeID=REACTIVE_TYPE,
-            departLane=str(lane),
-            departPos=f"{pos:.3f}",
-            departSpeed=speed,
-        )
+        try:
+            api.add(
+                vid,
+                f"{ROUTE}@{vid}",
+                typeID=REACTIVE_TYPE,
+                departLane=str(lane),
+                departPos=f"{pos:.3f}",
+                departSpeed=speed,
+            )
+        except self._api.TraCIException:
+            return False
         api.setMaxSpeed(vid, max(float(tr.top[i]), 0.1))
         self._resize(vid, i)
         self._driven.add(vid)

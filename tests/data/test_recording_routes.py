@@ -95,7 +95,7 @@ def test_positions_that_match_no_connected_route_are_one_line(grid_fcd, tmp_path
     with pytest.raises(IrlsimError) as e:
         egos(rec, road, ("straight",), 20.0)
     msg = str(e.value)
-    assert "vehicle straight cannot be an ego: its positions match no connected route" in msg
+    assert "vehicle straight cannot be an ego: it drove no connected route" in msg
     assert "\n" not in msg and str(path) in msg
 
 

@@ -1,0 +1,111 @@
+"""A recording on a city street, with real netconvert and real SUMO: two lanes for cars beside a bicycle
+lane and a sidewalk, and an edge half a metre long between two junctions, which SUMO's FCD at 1 s records
+no car on (as OpenStreetMap networks have such edges). A car's route is connected all the same, the edge
+filled in, from its recorded lanes as from its positions alone; a bicycle on its lane is no car: no ego,
+and replayed on its own lane while SUMO drives the cars in a reactive replay; roads on one network share
+the network, read once."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from irlsim.data.recorded import egos, recorded_episode
+from irlsim.data.recording import load_recording
+from irlsim.errors import IrlsimError
+from irlsim.planner.config import PlannerConfig
+from irlsim.road import Road, load_road
+from irlsim.road.network import sumo_binary
+from irlsim.sim.config import EpisodeConfig
+from tests.data.test_recording_routes import _csv_without_lanes
+
+ROUTE = ("ab", "bc", "cd")
+LANES = 'numLanes="2" speed="20" sidewalkWidth="2" bikeLaneWidth="1.5"'
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory) -> tuple[Path, Path]:
+    """(the scenario's folder, SUMO's FCD of two cars and a bicycle along the street, every 1 s)."""
+    tmp = tmp_path_factory.mktemp("street")
+    nodes = {"a": 0.0, "b": 300.0, "c": 300.5, "d": 600.0}
+    (tmp / "n.nod.xml").write_text(
+        "<nodes>" + "".join(f'<node id="{k}" x="{x}" y="0"/>' for k, x in nodes.items()) + "</nodes>"
+    )
+    (tmp / "n.edg.xml").write_text(
+        "<edges>" + "".join(f'<edge id="{e}" from="{e[0]}" to="{e[1]}" {LANES}/>' for e in ROUTE) + "</edges>"
+    )
+    net = tmp / "street.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp / "n.nod.xml"), "-e", str(tmp / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    edges = " ".join(ROUTE)
+    (tmp / "r.rou.xml").write_text(
+        '<routes><vType id="car" sigma="0"/><vType id="bike" vClass="bicycle" sigma="0"/>'
+        f'<vehicle id="car0" type="car" depart="0" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        f'<vehicle id="bike" type="bike" depart="1" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        f'<vehicle id="car1" type="car" depart="5" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        "</routes>"
+    )
+    fcd = tmp / "fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp / "r.rou.xml"), "--step-length", "1"]
+    subprocess.run([*cmd, "--end", "80", "--fcd-output", str(fcd), "--no-step-log", "true"], check=True)
+    route = ", ".join(f'"{e}"' for e in ROUTE)
+    (tmp / "scenario.toml").write_text(
+        f'name = "street"\n[network]\nfile = "{net.name}"\n[route]\nedges = [{route}]\n'
+    )
+    return tmp, fcd
+
+
+def test_a_route_crosses_the_edge_the_recording_skips(street, tmp_path):
+    folder, fcd = street
+    road = load_road(scenario=folder)
+    text = fcd.read_text()
+    assert 'lane="ab_' in text and 'lane="cd_' in text and 'lane="bc_' not in text  # SUMO skipped it
+    with_lanes = load_recording(fcd, road.net, 0.1)
+    without = load_recording(_csv_without_lanes(fcd, tmp_path / "rec.csv"), road.net, 0.1)
+    for rec in (with_lanes, without):
+        for car in ("car0", "car1"):
+            k = rec.ids.index(car)
+            assert rec.edges[k] == ROUTE and rec.unrouted[k] == "", (rec.path, car)
+
+
+def test_a_bicycle_on_its_lane_is_no_ego_and_is_replayed_on_it(street):
+    folder, fcd = street
+    road = load_road(scenario=folder)
+    rec = load_recording(fcd, road.net, 0.1)
+    bike = rec.ids.index("bike")
+    assert rec.edges[bike] == () and "which a passenger car may not use" in rec.unrouted[bike]
+    assert egos(rec, road, (), 10.0) == ["car0", "car1"]
+    with pytest.raises(IrlsimError) as e:
+        egos(rec, road, ("bike",), 10.0)
+    msg = str(e.value)
+    assert "vehicle bike cannot be an ego: it drove on lane ab_1, which a passenger car may not use" in msg
+    assert "\n" not in msg
+    # reactive: SUMO drives the car ahead; the bicycle is replayed, on its bicycle lane (not the car lane
+    # beside it, where the car SUMO drives would queue behind it)
+    _, _, _, sim = recorded_episode(
+        str(fcd), road, EpisodeConfig(name="street"), PlannerConfig(n_policies=50), "car1", reactive=True
+    )
+    lanes: set[str] = set()
+    with sim:
+        sim.reset(0)
+        for _ in range(30):
+            if "rec/bike" in sim._api.vehicle.getIDList():
+                lanes.add(sim._api.vehicle.getLaneID("rec/bike"))
+            sim.step(None)
+        driven = set(sim._driven)
+    assert driven == {"rec/car0"}
+    assert lanes and {ln.split("_")[0] for ln in lanes} <= {"ab", "bc", "cd"}
+    assert {ln.rsplit("_", 1)[1] for ln in lanes} == {"1"}  # lane 0 is the sidewalk, 1 the bicycles'
+
+
+def test_roads_on_one_network_share_it_until_it_changes(street):
+    folder, _ = street
+    net = folder / "street.net.xml"
+    first, second = Road(net, ROUTE), Road(net, ROUTE[:2])
+    assert first.net is second.net
+    st = net.stat()
+    os.utime(net, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
+    assert Road(net, ROUTE).net is not first.net
