@@ -49,6 +49,13 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="the collect TOML the models were trained with (planner and scenario; default: built-in)",
     )
     p.add_argument(
+        "--set",
+        action="append",
+        metavar="KEY=VALUE",
+        help="override a field of --config, as the collection did, e.g. --set planner.n_policies=500 "
+        "(repeatable)",
+    )
+    p.add_argument(
         "--reactive",
         action="store_true",
         help="on a recording (a --config with [demonstrator] kind = 'recording'): SUMO drives the other "
@@ -182,6 +189,7 @@ def request(args: argparse.Namespace) -> DriveRun:
         full_stop=args.full_stop,
         keep_distance=args.keep_distance,
         in_lane=args.in_lane,
+        overrides=tuple(args.set or ()),
     )
 
 

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from irlsim import devices
-from irlsim.config import MAX_SEED, load_config
+from irlsim.config import MAX_SEED, load_config, parse_overrides
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING, resolve_recording
 from irlsim.drive.closed_loop import PictureSpec, drive_episode
@@ -93,6 +93,8 @@ class DriveRun:
     [s] (a rule of the road; the expert's check: ``irlsim.planner.expert.FOLLOW_HEADWAY``)"""
     in_lane: bool = False
     """with ``keep_distance``: kept in the lane the reward chooses, where a policy there keeps it"""
+    overrides: tuple[str, ...] = ()
+    """config fields set over the ``config_file``'s, ``KEY=VALUE`` (as ``irlsim collect --set``)"""
 
 
 @dataclass
@@ -294,6 +296,7 @@ def _write_outputs(
             }
             # the road, unless it is the default (left out of records), and a recording
             | ({"scenario": name} if (name := recorded_name(cfg.scenario.name)) else {})
+            | ({"set": list(run.overrides)} if run.overrides else {})
             | _recording_record(cfg, run),
             "summary": summaries,
             "episodes": episodes,
@@ -338,9 +341,11 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     else:
         print("note: --model has no expert, so the scorecard's progress is null (add expert to measure it)")
     check_executor(run.executor, run.workers, run.address)
-    scenario = {"scenario.name": str(run.scenario)} if run.scenario is not None else None
+    over = parse_overrides(list(run.overrides)) | (
+        {"scenario.name": str(run.scenario)} if run.scenario is not None else {}
+    )
     scenarios = Scenarios()  # the road's file read once: for the config's [defaults] and every episode
-    cfg = load_config(CollectConfig, run.config_file, scenario, scenarios=scenarios)
+    cfg = load_config(CollectConfig, run.config_file, over or None, scenarios=scenarios)
     cfg = _recording(cfg, run, scenarios)
     check_starts(cfg.scenario, (cfg.scenario.name,), scenarios)  # a route too short for the ego's start
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))

@@ -220,3 +220,18 @@ def test_the_choice_options_drive_through_the_cli_and_are_recorded(tiny_runs, ti
     with pytest.raises(IrlsimError, match="--in-lane keeps the following distance in the reward's lane: add"):
         drive_models(replace(run, choice="argmax", in_lane=True))
     assert not (tmp_path / "x").exists()
+
+
+def test_drive_sets_config_fields_as_the_collection_did(tmp_path, capsys):
+    """``--set KEY=VALUE`` overrides a field of --config (a collection made with --set drives with the
+    same); it is recorded, and a key the config lacks is one line before any work."""
+    from irlsim.cli import main
+
+    common = ["drive", "--model", "expert", "--max-cycles", "5", "--frames", "0"]
+    assert main([*common, "--set", "planner.n_policies=120", "--out", str(tmp_path / "s")]) == 0
+    config = json.loads((tmp_path / "s" / "drive.json").read_text())["config"]
+    assert config["n_policies"] == 120 and config["set"] == ["planner.n_policies=120"]
+    assert main([*common, "--set", "planner.n_polices=120", "--out", str(tmp_path / "bad")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("irlsim: error: config: --set planner.n_polices: unknown key 'planner.n_polices'")
+    assert not (tmp_path / "bad").exists()
