@@ -257,6 +257,13 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
     off = np.flatnonzero(~on)
     if not len(off):
         return
+    geo = bool((np.abs(rows.x) <= 180.0).all() and (np.abs(rows.y) <= 90.0).all())
+    if len(off) > FOREIGN_SHARE * len(on) and geo:
+        raise IrlsimError(
+            f"recording {rows.path}: its points lie off this network and within x -180..180, y -90..90: "
+            "longitude and latitude (as sumo --fcd-output.geo writes them): record x and y in the network's "
+            "coordinates (sumo's --fcd-output without .geo)"
+        )
     if len(off) > FOREIGN_SHARE * len(on):
         raise IrlsimError(
             f"recording {rows.path}: {len(off) / len(on):.0%} of its points lie off this network (x "

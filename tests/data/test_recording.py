@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -150,6 +151,24 @@ def test_a_column_that_is_not_numbers_is_named(fcd, tmp_path, column):
 def test_another_networks_recording_is_named(fcd):
     with pytest.raises(IrlsimError, match="another network's coordinates"):
         load_recording(fcd, load_road(scenario="corridor").net, 0.1)
+
+
+def test_longitude_and_latitude_are_named(fcd, tmp_path):
+    """SUMO's --fcd-output.geo writes longitude and latitude where x and y were: named as such."""
+    text = fcd.read_text()
+    geo = re.sub(
+        r' x="([-\d.]+)" y="([-\d.]+)"',
+        lambda m: f' x="{11 + float(m[1]) / 1e5:.7f}" y="{48 + float(m[2]) / 1e5:.7f}"',
+        text,
+    )
+    assert geo != text
+    path = tmp_path / "geo.fcd.xml"
+    path.write_text(geo)
+    with pytest.raises(IrlsimError) as e:
+        load_recording(path, load_road().net, 0.1)
+    msg = str(e.value)
+    assert "longitude and latitude (as sumo --fcd-output.geo writes them)" in msg and str(path) in msg
+    assert "\n" not in msg
 
 
 COLLECT = """
