@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 from typing import NoReturn
 
@@ -53,7 +54,15 @@ def build_parser(command: str | None) -> argparse.ArgumentParser:
     return parser
 
 
+#: numpy's BLAS on one thread unless the user says otherwise: irlsim runs in parallel by processes
+#: (``--workers``, each on one thread), and a matrix product split over threads rounds otherwise than on
+#: one, so a collection in this process (``--workers 1``) would not give a worker's bytes (measured on
+#: dense traffic); set before the command's module imports numpy
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "1")
+
+
 def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault(*BLAS_THREADS)
     argv = list(sys.argv[1:] if argv is None else argv)
     command = next((a for a in argv if not a.startswith("-")), None)
     if command is not None and command not in COMMANDS:

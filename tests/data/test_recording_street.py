@@ -3,12 +3,14 @@ lane and a sidewalk, and an edge half a metre long between two junctions, which 
 no car on (as OpenStreetMap networks have such edges). A car's route is connected all the same, the edge
 filled in, from its recorded lanes as from its positions alone; a bicycle on its lane is no car: no ego,
 and replayed on its own lane while SUMO drives the cars in a reactive replay; roads on one network share
-the network, read once."""
+the network, read once; and a dense recording collects the same bytes in the command's process as in
+workers."""
 
 from __future__ import annotations
 
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -26,10 +28,8 @@ ROUTE = ("ab", "bc", "cd")
 LANES = 'numLanes="2" speed="20" sidewalkWidth="2" bikeLaneWidth="1.5"'
 
 
-@pytest.fixture(scope="module")
-def street(tmp_path_factory) -> tuple[Path, Path]:
-    """(the scenario's folder, SUMO's FCD of two cars and a bicycle along the street, every 1 s)."""
-    tmp = tmp_path_factory.mktemp("street")
+def _street(tmp: Path) -> Path:
+    """The street's network and its scenario file in ``tmp``; the network's path."""
     nodes = {"a": 0.0, "b": 300.0, "c": 300.5, "d": 600.0}
     (tmp / "n.nod.xml").write_text(
         "<nodes>" + "".join(f'<node id="{k}" x="{x}" y="0"/>' for k, x in nodes.items()) + "</nodes>"
@@ -40,21 +40,39 @@ def street(tmp_path_factory) -> tuple[Path, Path]:
     net = tmp / "street.net.xml"
     cmd = [sumo_binary("netconvert"), "-n", str(tmp / "n.nod.xml"), "-e", str(tmp / "n.edg.xml")]
     subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
-    edges = " ".join(ROUTE)
-    (tmp / "r.rou.xml").write_text(
-        '<routes><vType id="car" sigma="0"/><vType id="bike" vClass="bicycle" sigma="0"/>'
-        f'<vehicle id="car0" type="car" depart="0" departSpeed="max"><route edges="{edges}"/></vehicle>'
-        f'<vehicle id="bike" type="bike" depart="1" departSpeed="max"><route edges="{edges}"/></vehicle>'
-        f'<vehicle id="car1" type="car" depart="5" departSpeed="max"><route edges="{edges}"/></vehicle>'
-        "</routes>"
-    )
-    fcd = tmp / "fcd.xml"
-    cmd = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp / "r.rou.xml"), "--step-length", "1"]
-    subprocess.run([*cmd, "--end", "80", "--fcd-output", str(fcd), "--no-step-log", "true"], check=True)
     route = ", ".join(f'"{e}"' for e in ROUTE)
     (tmp / "scenario.toml").write_text(
         f'name = "street"\n[network]\nfile = "{net.name}"\n[route]\nedges = [{route}]\n'
     )
+    return net
+
+
+def _record(tmp: Path, net: Path, vehicles: str, step: str, end: str) -> Path:
+    """SUMO's FCD of ``vehicles`` (route XML) on the street, every ``step`` seconds."""
+    (tmp / "r.rou.xml").write_text(f'<routes><vType id="car" sigma="0"/>{vehicles}</routes>')
+    fcd = tmp / "fcd.xml"
+    cmd = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp / "r.rou.xml"), "--step-length", step]
+    subprocess.run(
+        [*cmd, "--end", end, "--fcd-output", str(fcd), "--no-step-log", "true"],
+        check=True,
+        capture_output=True,
+    )
+    return fcd
+
+
+@pytest.fixture(scope="module")
+def street(tmp_path_factory) -> tuple[Path, Path]:
+    """(the scenario's folder, SUMO's FCD of two cars and a bicycle along the street, every 1 s)."""
+    tmp = tmp_path_factory.mktemp("street")
+    net = _street(tmp)
+    edges = " ".join(ROUTE)
+    vehicles = (
+        '<vType id="bike" vClass="bicycle" sigma="0"/>'
+        f'<vehicle id="car0" type="car" depart="0" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        f'<vehicle id="bike" type="bike" depart="1" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        f'<vehicle id="car1" type="car" depart="5" departSpeed="max"><route edges="{edges}"/></vehicle>'
+    )
+    fcd = _record(tmp, net, vehicles, "1", "80")
     return tmp, fcd
 
 
@@ -109,3 +127,30 @@ def test_roads_on_one_network_share_it_until_it_changes(street):
     st = net.stat()
     os.utime(net, ns=(st.st_atime_ns, st.st_mtime_ns + 1_000_000_000))
     assert Road(net, ROUTE).net is not first.net
+
+
+def test_dense_traffic_collects_the_same_bytes_in_this_process_and_in_workers(tmp_path):
+    """80 recorded cars around the ego: products over them large enough for numpy's BLAS to split over
+    threads, which rounds otherwise than one thread; the irlsim command keeps BLAS on one thread, so
+    --workers 1 (in its process) writes a worker's bytes."""
+    net = _street(tmp_path)
+    cars = "".join(
+        f'<vehicle id="c{i}" type="car" depart="{i // 2}" departLane="{2 + i % 2}" departSpeed="max">'
+        f'<route edges="{" ".join(ROUTE)}"/></vehicle>'
+        for i in range(80)
+    )
+    fcd = _record(tmp_path, net, cars, "0.5", "60")
+    config = tmp_path / "collect.toml"
+    config.write_text(
+        "seed = 0\ntrain_episodes = 2\nvalidation_episodes = 0\ntest_episodes = 0\nmax_cycles = 30\n"
+        f'[planner]\nn_policies = 500\n[demonstrator]\nkind = "recording"\nfile = "{fcd}"\nego = "c30,c31"\n'
+    )
+    env = {k: v for k, v in os.environ.items() if k not in {"OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"}}
+    for workers in (1, 2):
+        cmd = [sys.executable, "-m", "irlsim.cli", "collect", "--config", str(config), "--scenario"]
+        cmd += [str(tmp_path), "--workers", str(workers), "--out", str(tmp_path / f"w{workers}")]
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+    files = sorted(p.relative_to(tmp_path / "w1") for p in (tmp_path / "w1").rglob("*.parquet"))
+    assert len(files) == 4
+    for f in files:
+        assert (tmp_path / "w1" / f).read_bytes() == (tmp_path / "w2" / f).read_bytes(), f
