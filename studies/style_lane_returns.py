@@ -18,6 +18,10 @@ irlsim's lane (from the ego's offset to its route), step by step:
 
     .venv/bin/python studies/style_lane_returns.py --probe configs/collect/styles/assertive.toml \
         --seed 2000000000 --cycles 150
+
+With ``--episodes K`` the probe drives K episodes (seeds from ``--seed`` on) and counts, over them, the
+lane changes and quick returns that follow an insertion or removal of a vehicle by irlsim's spawner within
+1 s, against the share of the steps such windows cover: are the returns the spawner's?
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ CYCLE = 0.2  # [s] a planning cycle: the cycles table's row spacing
 EVERY_SECOND = 5  # cycles per second
 AHEAD = 25  # cycles: 5 s
 NEAR = 10  # cycles: 2 s
+SECOND_STEPS = 10  # simulation steps (0.1 s): 1 s
 
 
 def figures(folder: Path) -> dict[str, Any]:
@@ -156,8 +161,10 @@ def table(folders: list[Path]) -> str:
     return "\n".join(lines)
 
 
-def probe(config: str, seed: int, cycles: int, shown: int) -> None:
-    """One episode of the config's SUMO demonstrator; its first ``shown`` lane changes, step by step."""
+def probe(config: str, seed: int, cycles: int, shown: int, episodes: int = 1) -> None:
+    """``episodes`` episodes of the config's SUMO demonstrator from ``seed`` on; the first one's first
+    ``shown`` lane changes step by step, then over all of them how many quick returns (back to the lane
+    left within 1 s) follow an insertion or removal of a vehicle by irlsim's spawner within 1 s."""
     from irlsim.config import load_config
     from irlsim.data.collection import CollectConfig
     from irlsim.data.demonstrator import SUMO, SumoDemonstrator, demonstrator_simulation
@@ -170,33 +177,65 @@ def probe(config: str, seed: int, cycles: int, shown: int) -> None:
     cfg = load_config(CollectConfig, config)
     if cfg.demonstrator.kind != SUMO:
         sys.exit(f"style_lane_returns: --probe needs a config with a SUMO demonstrator, not {config}")
-    rows: list[tuple[Any, ...]] = []
 
     class Probe(StepListener):
+        def __init__(self, rows: list[tuple[Any, ...]]) -> None:
+            self.rows = rows
+
         def on_step(self, sim: Any) -> None:
             api = sim._api  # the simulation's libsumo: SUMO's own view of the ego
             left, right = (api.vehicle.getLaneChangeStatePretty(EGO, side)[0] for side in (1, -1))
-            lane_id = api.vehicle.getLaneID(EGO)
-            rows.append((sim.ego.t, sim.ego.lane, api.vehicle.getLaneIndex(EGO), lane_id, left, right))
+            lane_id, ids = api.vehicle.getLaneID(EGO), frozenset(api.vehicle.getIDList())
+            self.rows.append(
+                (sim.ego.t, sim.ego.lane, api.vehicle.getLaneIndex(EGO), lane_id, left, right, ids)
+            )
 
     road = load_road(scenario=cfg.scenario.name)
-    seed_everything(seed)
-    driver = SumoDemonstrator(road, cfg.planner, cfg.scenario)
-    with demonstrator_simulation(road, cfg.scenario, cfg.demonstrator) as sim:
-        EpisodeRunner(sim, observers=[Probe()], max_cycles=cycles).run(driver, seed)
-    ours = np.array([r[1] for r in rows])
-    sumo = np.array([r[2] for r in rows])
-    print(
-        f"{len(rows)} steps: irlsim's lane changes {lane_changes(ours, 0.1)}, SUMO's lane index changes "
-        f"{lane_changes(sumo, 0.1)}, steps where they differ {int(np.sum(ours != sumo))}"
-    )
-    for k in (np.flatnonzero(ours[1:] != ours[:-1]) + 1)[:shown]:
-        for t, lane, index, lane_id, left, right in rows[k - 1 : k + 1]:
+    counts = np.zeros(5, dtype=np.int64)  # lane changes, after an event; quick returns, after one; steps
+    covered = 0
+    for ep in range(episodes):
+        rows: list[tuple[Any, ...]] = []
+        seed_everything(seed + ep)
+        driver = SumoDemonstrator(road, cfg.planner, cfg.scenario)
+        with demonstrator_simulation(road, cfg.scenario, cfg.demonstrator) as sim:
+            EpisodeRunner(sim, observers=[Probe(rows)], max_cycles=cycles).run(driver, seed + ep)
+        ours = np.array([r[1] for r in rows])
+        sumo = np.array([r[2] for r in rows])
+        if ep == 0:
             print(
-                f"  t {t:6.1f} s  irlsim lane {lane}  SUMO {lane_id} ({index})  to the left: "
-                f"{','.join(left) or '-'}  to the right: {','.join(right) or '-'}"
+                f"{len(rows)} steps: irlsim's lane changes {lane_changes(ours, 0.1)}, SUMO's lane index "
+                f"changes {lane_changes(sumo, 0.1)}, steps where they differ {int(np.sum(ours != sumo))}"
             )
-        print("  --")
+            for k in (np.flatnonzero(ours[1:] != ours[:-1]) + 1)[:shown]:
+                for t, lane, index, lane_id, left, right, _ in rows[k - 1 : k + 1]:
+                    print(
+                        f"  t {t:6.1f} s  irlsim lane {lane}  SUMO {lane_id} ({index})  to the left: "
+                        f"{','.join(left) or '-'}  to the right: {','.join(right) or '-'}"
+                    )
+                print("  --")
+        event = np.array([False] + [rows[k][6] != rows[k - 1][6] for k in range(1, len(rows))])
+        recent = np.convolve(event, np.ones(SECOND_STEPS + 1))[: len(event)] > 0  # one within the last 1 s
+        ch = np.flatnonzero(sumo[1:] != sumo[:-1]) + 1
+        quick = [
+            a
+            for a, b in zip(ch[:-1], ch[1:], strict=True)
+            if b - a <= SECOND_STEPS and sumo[b] == sumo[a - 1]
+        ]
+        counts += [
+            len(ch),
+            int(recent[ch - 1].sum()),
+            len(quick),
+            int(sum(recent[a - 1] for a in quick)),
+            len(sumo),
+        ]
+        covered += int(recent.sum())
+    n, n_ev, q, q_ev, steps = counts.tolist()
+    print(
+        f"{episodes} episode(s): {n} lane changes, {n_ev / max(n, 1):.2f} of them within 1 s after the "
+        f"spawner inserted or removed a vehicle; {q} quick returns (to the lane left within 1 s), "
+        f"{q_ev / max(q, 1):.2f} of them after such an event; such 1 s windows cover "
+        f"{covered / max(steps, 1):.2f} of the steps"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -206,6 +245,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=2_000_000_000, help="the probe's episode seed")
     p.add_argument("--cycles", type=int, default=150, help="the probe's planning cycles")
     p.add_argument("--shown", type=int, default=10, help="lane changes the probe prints")
+    p.add_argument("--episodes", type=int, default=1, help="the probe's episodes (seeds from --seed on)")
     a = p.parse_args(argv)
     if not a.data and not a.probe:
         p.error("give dataset folders, or --probe CONFIG")
@@ -214,7 +254,7 @@ def main(argv: list[str] | None = None) -> int:
         print(situations_table(a.data))
         print(jerk_table(a.data))
     if a.probe:
-        probe(a.probe, a.seed, a.cycles, a.shown)
+        probe(a.probe, a.seed, a.cycles, a.shown, a.episodes)
     return 0
 
 
