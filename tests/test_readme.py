@@ -13,6 +13,8 @@ import shlex
 import shutil
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parent.parent
 #: the pages whose commands are parsed; HISTORY.md keeps commands of older versions as they were run
 DOC_PAGES = [
@@ -93,6 +95,31 @@ def test_own_driver_commands_run_as_written(tmp_path, monkeypatch, capsys):
     heads = ("style: ", "expert: style", "PACNN+S: style", "demonstrator: style")
     styles = [ln for ln in out.splitlines() if ln.startswith(heads)]
     assert len(styles) >= 4 and "PACNN+S vs demonstrator" in out  # the distance to the recorded driver
+    assert "nearest the demonstrator's style: " in out
+
+
+@pytest.mark.slow
+def test_city_recording_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    """SUMO's own traffic on its Ingolstadt network, recorded by SUMO, learned and driven reactively."""
+    import json
+    import subprocess
+    import sys
+
+    shutil.copytree(ROOT / "configs", tmp_path / "configs")
+    shutil.copytree(
+        ROOT / "examples" / "city",
+        tmp_path / "examples" / "city",
+        ignore=shutil.ignore_patterns("*.net.xml", "*.fcd.xml.gz"),
+    )
+    monkeypatch.chdir(tmp_path)
+    subprocess.run([sys.executable, "examples/city/record.py"], check=True, capture_output=True)
+    run_walkthrough("city", "docs/guide/demonstrators.md")
+    out = capsys.readouterr().out
+    record = json.loads((tmp_path / "data" / "city" / "manifest.json").read_text())["demonstrator"]
+    assert record["kind"] == "recording" and len(record["egos"]) >= 5 and "1_horizontal.3" in record["egos"]
+    drive = json.loads((tmp_path / "runs" / "city" / "drive" / "drive.json").read_text())
+    assert drive["config"]["recording"]["egos"] == ["1_horizontal.3"]
+    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
     assert "nearest the demonstrator's style: " in out
 
 
