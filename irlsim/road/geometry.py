@@ -1065,7 +1065,9 @@ def _read_net(net_file: Path, scenario_file: Path | None = None) -> Any:
     if net_file.is_file():
         st = net_file.stat()
         key = (str(net_file.resolve()), st.st_mtime_ns, st.st_size)
-        net = _NETS.pop(key, None) or _parse_net(net_file, scenario_file)
+        net = _NETS.pop(key, None)
+        if net is None:
+            net = _parse_net(net_file, scenario_file)
         _NETS[key] = net
         while len(_NETS) > _MAX_NETS:
             del _NETS[next(iter(_NETS))]
