@@ -61,6 +61,7 @@ from gymnasium import spaces
 from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.config import load_config
 from irlsim.data.collection import CollectConfig
+from irlsim.data.demonstrator import RECORDING
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import ExpertDriver
@@ -250,6 +251,12 @@ class PlanningEnv(gym.Env):
             given = {**(overrides or {}), **named}  # a bad value names the argument it came from
             labels = {k: f"overrides[{k!r}]" for k in overrides or {}} | {"scenario.name": "scenario="}
             cfg = load_config(CollectConfig, config, given, labels, scenarios)
+        if cfg.demonstrator.kind == RECORDING:  # its traffic would be silently irlsim's own
+            raise IrlsimError(
+                f"config {config} has a recording as its demonstrator: this environment drives irlsim's own "
+                "traffic, not a replay; drive a reward on the recording with irlsim drive --config, or give "
+                "the environment a config without the recording [demonstrator]"
+            )
         sc = cfg.scenario
         if scenario is not None:
             sc = dataclasses.replace(sc, name=str(scenario))

@@ -139,6 +139,9 @@ def test_truncation_terminated_and_bad_input():
         make(reward="NoSuchModel")
     with pytest.raises(IrlsimError, match="render_mode"):
         irlsim.envs.PlanningEnv(render_mode="human")
+    # a recording's config: the environment's traffic is irlsim's own, so it is refused, not ignored
+    with pytest.raises(IrlsimError, match="has a recording as its demonstrator: this environment drives"):
+        irlsim.envs.PlanningEnv(config="examples/mydriver/drive.toml")
 
 
 def test_learned_and_callable_rewards(tiny_runs):
