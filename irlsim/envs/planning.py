@@ -207,6 +207,18 @@ class _CallableReward:
             reset()
 
 
+def _no_recording(cfg: CollectConfig, config: Any) -> None:
+    """Refuse a config whose demonstrator is a recording: the environment's traffic is irlsim's own, and
+    a replay would otherwise be silently replaced by it."""
+    if cfg.demonstrator.kind == RECORDING:
+        name = "given" if isinstance(config, CollectConfig) else config
+        raise IrlsimError(
+            f"config {name} has a recording as its demonstrator: this environment drives irlsim's own "
+            "traffic, not a replay; drive a reward on the recording with irlsim drive --config, or give "
+            "the environment a config without the recording [demonstrator]"
+        )
+
+
 class PlanningEnv(gym.Env):
     """A road, the oval unless ``scenario`` names another (see the module docstring for spaces, reward,
     episode end and seeding).
@@ -251,12 +263,7 @@ class PlanningEnv(gym.Env):
             given = {**(overrides or {}), **named}  # a bad value names the argument it came from
             labels = {k: f"overrides[{k!r}]" for k in overrides or {}} | {"scenario.name": "scenario="}
             cfg = load_config(CollectConfig, config, given, labels, scenarios)
-        if cfg.demonstrator.kind == RECORDING:  # its traffic would be silently irlsim's own
-            raise IrlsimError(
-                f"config {config} has a recording as its demonstrator: this environment drives irlsim's own "
-                "traffic, not a replay; drive a reward on the recording with irlsim drive --config, or give "
-                "the environment a config without the recording [demonstrator]"
-            )
+        _no_recording(cfg, config)
         sc = cfg.scenario
         if scenario is not None:
             sc = dataclasses.replace(sc, name=str(scenario))
