@@ -187,7 +187,11 @@ def resolve_recording(
     manifest record: kind, the file's path and sha256, the egos."""
     rec = open_recording(cfg.file, road, step)
     wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
-    ids = recorded_egos(rec, road, wanted, cfg.min_duration)
+    refused: dict[str, int] = {}
+    ids = recorded_egos(rec, road, wanted, cfg.min_duration, refused)
+    if refused:  # every vehicle was asked: say which were not egos, and why
+        why = ", ".join(f"{n} {words}" for words, n in sorted(refused.items(), key=lambda kv: -kv[1]))
+        print(f"recording {cfg.file}: {len(ids)} of {len(rec.ids)} vehicles are egos; not: {why}", flush=True)
     if len(ids) < episodes:
         raise IrlsimError(
             f"recording {cfg.file} gives {len(ids)} ego(s) (vehicles on a route of the network for "

@@ -132,9 +132,30 @@ def ego_track(
     )
 
 
-def egos(rec: Recording, scenario_road: Road, wanted: tuple[str, ...], min_duration: float) -> list[str]:
+#: why a vehicle is no ego, by how the phrase begins (:func:`ego_track`, :func:`egos`) -> a few words
+NOT_EGO = (
+    ("it drove on lane", "on lanes a car may not use"),
+    ("it is recorded", "recorded under min_duration on their route"),
+    ("it leaves its route", "leaving their route"),
+    ("it never leaves a junction", "within a junction only"),
+)
+
+
+def not_ego(why: str) -> str:
+    """The few words :func:`egos` counts a vehicle's reason under (a route of the network for the rest)."""
+    return next((words for start, words in NOT_EGO if why.startswith(start)), "on no connected route")
+
+
+def egos(
+    rec: Recording,
+    scenario_road: Road,
+    wanted: tuple[str, ...],
+    min_duration: float,
+    refused: dict[str, int] | None = None,
+) -> list[str]:
     """The ego vehicles of ``rec``: ``wanted`` (each refused in one line unless it can be one), else every
-    vehicle that can be one for ``min_duration`` seconds, in the recording's order."""
+    vehicle that can be one for ``min_duration`` seconds, in the recording's order; ``refused`` counts the
+    others by their reason (:func:`not_ego`)."""
     unknown = [v for v in wanted if v not in rec.ids]
     if unknown:
         raise IrlsimError(
@@ -152,7 +173,9 @@ def egos(rec: Recording, scenario_road: Road, wanted: tuple[str, ...], min_durat
             )
         if why is None:
             out.append(vid)
-        elif wanted:
+        elif refused is not None and not wanted:
+            refused[not_ego(why)] = refused.get(not_ego(why), 0) + 1
+        if why is not None and wanted:
             raise IrlsimError(
                 f"recording {rec.path}: vehicle {vid} cannot be an ego: {why}: choose another or lower "
                 "demonstrator.min_duration"

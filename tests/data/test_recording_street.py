@@ -95,7 +95,9 @@ def test_a_bicycle_on_its_lane_is_no_ego_and_is_replayed_on_it(street):
     rec = load_recording(fcd, road.net, 0.1)
     bike = rec.ids.index("bike")
     assert rec.edges[bike] == () and "which a passenger car may not use" in rec.unrouted[bike]
-    assert egos(rec, road, (), 10.0) == ["car0", "car1"]
+    refused: dict[str, int] = {}
+    assert egos(rec, road, (), 10.0, refused) == ["car0", "car1"]
+    assert refused == {"on lanes a car may not use": 1}  # what collect prints of the vehicles not taken
     with pytest.raises(IrlsimError) as e:
         egos(rec, road, ("bike",), 10.0)
     msg = str(e.value)
