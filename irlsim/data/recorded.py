@@ -173,13 +173,13 @@ def egos(
             )
         if why is None:
             out.append(vid)
-        elif refused is not None and not wanted:
-            refused[not_ego(why)] = refused.get(not_ego(why), 0) + 1
-        if why is not None and wanted:
+        elif wanted:
             raise IrlsimError(
                 f"recording {rec.path}: vehicle {vid} cannot be an ego: {why}: choose another or lower "
                 "demonstrator.min_duration"
             )
+        elif refused is not None:
+            refused[not_ego(why)] = refused.get(not_ego(why), 0) + 1
     return out
 
 

@@ -24,8 +24,12 @@ import numpy as np
 
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING
-from irlsim.data.recorded import recorded_episode
-from irlsim.drive.demonstrated import DemonstratorModel, demonstrator_episode, is_demonstrator
+from irlsim.drive.demonstrated import (
+    DemonstratorModel,
+    demonstrator_episode,
+    is_demonstrator,
+    recorded_ego_episode,
+)
 from irlsim.drive.metrics import episode_metrics, missed_checkpoints
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
@@ -321,9 +325,7 @@ def _simulation(
             scenario,
             Simulation(road, scenario, lane_change_duration=cfg.demonstrator.lane_change_duration),
         )
-    ego = cfg.demonstrator.ego.split(",")[episode]
-    file = cfg.demonstrator.file
-    _, road, scenario, sim = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)
+    _, road, scenario, sim = recorded_ego_episode(cfg, road, scenario, episode, reactive)
     return road, scenario, sim
 
 

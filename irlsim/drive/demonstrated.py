@@ -105,12 +105,20 @@ def demonstrator_episode(
     or SUMO's driver with the demonstrator's type on ``scenario``."""
     check_demonstrator(cfg)
     if cfg.demonstrator.kind == RECORDING:
-        ego = cfg.demonstrator.ego.split(",")[episode]
-        file = cfg.demonstrator.file
-        driver, road, scenario, replay = recorded_episode(file, road, scenario, cfg.planner, ego, reactive)
+        driver, road, scenario, replay = recorded_ego_episode(cfg, road, scenario, episode, reactive)
         return DemonstratorDecider(driver), road, scenario, replay
     sim = demonstrator_simulation(road, scenario, cfg.demonstrator)
     return DemonstratorDecider(SumoDemonstrator(road, cfg.planner, scenario)), road, scenario, sim
+
+
+def recorded_ego_episode(
+    cfg: CollectConfig, road: Road, scenario: EpisodeConfig, episode: int, reactive: bool
+) -> tuple[Any, Road, EpisodeConfig, Simulation]:
+    """Episode ``episode`` of ``cfg``'s recording (its egos resolved into ``cfg.demonstrator.ego``): the
+    recorded ego's driver, its road, settings and the replay (:func:`irlsim.data.recorded.recorded_episode`),
+    whoever then drives it."""
+    ego = cfg.demonstrator.ego.split(",")[episode]
+    return recorded_episode(cfg.demonstrator.file, road, scenario, cfg.planner, ego, reactive)
 
 
 def is_demonstrator(model: LearnedReward | DemonstratorModel | str | Path) -> bool:
