@@ -52,8 +52,11 @@ KMH_BAND = (2.6, 5.0)
 MS_BAND = (300.0, 3000.0)
 #: [m/s] a vehicle slower than this (displacement over time) is not tested for km/h
 KMH_MIN_SPEED = 2.0
-#: [m] rows this far apart or more tell the direction a vehicle moves in (its heading is checked against it)
-HEADING_MIN_STEP = 0.5
+#: [s] the direction a vehicle moves in is read between its rows about this far apart in time, and
+#: [m] only where they lie this far apart or more (its heading is checked against it): a standing car's
+#: position noise (a tracker's, a GPS's: 0.5 m apart row to row is common) points anywhere
+HEADING_BASE_S = 1.0
+HEADING_MIN_STEP = 2.0
 #: [rad] the median difference between heading and direction of motion above which the headings are in
 #: another convention
 HEADING_MAX_DIFF = math.radians(45.0)
@@ -150,17 +153,24 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
 
 
 def _check_heading(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
-    """The headings against the direction the positions move (between rows at least ``HEADING_MIN_STEP``
-    apart): a median difference over ``HEADING_MAX_DIFF`` is another angle convention (SUMO's angle from
-    north, clockwise, or x and y swapped), which would leave every cycle without a demonstration."""
-    x, y, h = rows.x[order], rows.y[order], rows.heading[order]
-    dx, dy = np.diff(x), np.diff(y)
-    within = np.ones(len(x) - 1, dtype=bool)
-    within[starts[1:] - 1] = False  # no pair across two vehicles
-    moved = within & (np.hypot(dx, dy) > HEADING_MIN_STEP)
+    """The headings against the direction the positions move (between a vehicle's rows about
+    ``HEADING_BASE_S`` apart, at least ``HEADING_MIN_STEP`` apart in space; the heading halfway): a median
+    difference over ``HEADING_MAX_DIFF`` is another angle convention (SUMO's angle from north, clockwise,
+    or x and y swapped), which would leave every cycle without a demonstration."""
+    x, y, h, t = rows.x[order], rows.y[order], rows.heading[order], rows.t[order]
+    vehicle = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(x)]))
+    same = vehicle[1:] == vehicle[:-1]
+    if not same.any():
+        return
+    k = max(1, int(round(HEADING_BASE_S / float(np.median(np.diff(t)[same])))))
+    if len(x) <= k:
+        return
+    dx, dy = x[k:] - x[:-k], y[k:] - y[:-k]
+    moved = (vehicle[k:] == vehicle[:-k]) & (np.hypot(dx, dy) > HEADING_MIN_STEP)
     if not moved.any():
         return
-    diff = np.abs(wrap_angle(np.arctan2(dy, dx)[moved] - h[:-1][moved]))
+    halfway = np.arctan2(np.sin(h[k:]) + np.sin(h[:-k]), np.cos(h[k:]) + np.cos(h[:-k]))
+    diff = np.abs(wrap_angle(np.arctan2(dy, dx)[moved] - halfway[moved]))
     median = float(np.median(diff))
     if median > HEADING_MAX_DIFF:
         raise IrlsimError(

@@ -80,3 +80,31 @@ def test_headings_in_another_convention_are_refused_before_any_work(fcd, tmp_pat
     msg = str(e.value)
     assert "headings differ from the direction its positions move in" in msg and "\n" not in msg, msg
     assert "radians(90 - angle)" in msg and "x and y are swapped" in msg
+
+
+@pytest.mark.parametrize("convention", ["ENU", "north, clockwise"])
+def test_standing_cars_position_noise_is_no_heading_convention(fcd, tmp_path, convention):
+    """SUMO's five cars (0.5 s rows), each standing 240 s where it starts before it drives, every position
+    with 0.5 m of noise: row to row a standing car seems to move 0.7 m in any direction, which over most
+    rows had been read as headings in SUMO's convention; the convention itself is still named."""
+    cols = _columns(fcd)
+    ids = list(dict.fromkeys(cols["id"]))
+    first = {vid: cols["id"].index(vid) for vid in ids}
+    stand: dict[str, list] = {k: [] for k in cols}
+    for vid in ids:
+        i = first[vid]
+        for j in range(480, 0, -1):
+            for k in cols:
+                stand[k].append(cols[k][i] - 0.5 * j if k == "t" else 0.0 if k == "v" else cols[k][i])
+    both = {k: stand[k] + cols[k] for k in cols}
+    rng = np.random.default_rng(3)
+    for k in ("x", "y"):
+        both[k] = list(np.asarray(both[k]) + rng.normal(0.0, 0.5, len(both[k])))
+    if convention != "ENU":
+        both["heading"] = [float(np.mod(np.pi / 2 - h, 2 * np.pi)) for h in both["heading"]]
+    path = _csv(tmp_path / "standing.csv", both)
+    if convention == "ENU":
+        assert load_recording(path, load_road().net, 0.1).ids == tuple(sorted(ids))
+    else:
+        with pytest.raises(IrlsimError, match="headings differ from the direction its positions move in"):
+            load_recording(path, load_road().net, 0.1)
