@@ -23,8 +23,8 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.config import STORED_IF_SET, require
+from irlsim.data.recorded import RATE_WINDOW, open_recording
 from irlsim.data.recorded import egos as recorded_egos
-from irlsim.data.recorded import open_recording
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -47,7 +47,7 @@ KINDS = (EXPERT, SUMO, RECORDING)
 #: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
 #: keeps the bytes of before recordings existed)
 SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
-RECORDING_FIELDS = ("file", "ego", "min_duration")
+RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window")
 #: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
 #: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
 #: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
@@ -88,6 +88,10 @@ class DemonstratorConfig:
     then validation, then test); empty: every vehicle on a route of the network for ``min_duration``"""
     min_duration: float = 20.0
     """kind 'recording': [s] the least time a vehicle drives on its route to be an ego"""
+    rate_window: float = RATE_WINDOW
+    """kind 'recording': [s] the window of the local quadratic fit that gives the recorded ego's
+    acceleration and lateral rates, the state its policy sets start from (a tracker's position noise
+    taken by finite differences starts them metres off); 0: finite differences over one step"""
 
     def validate(self) -> None:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
@@ -96,6 +100,10 @@ class DemonstratorConfig:
         require(
             math.isfinite(self.min_duration) and self.min_duration > 0,
             f"demonstrator.min_duration must be a number > 0 s, got {self.min_duration}",
+        )
+        require(
+            math.isfinite(self.rate_window) and self.rate_window >= 0,
+            f"demonstrator.rate_window must be a number >= 0 s, got {self.rate_window}",
         )
         require(
             math.isfinite(self.lane_change_duration) and self.lane_change_duration >= 0,
@@ -116,8 +124,8 @@ class DemonstratorConfig:
             )
         if self.kind != RECORDING:
             require(
-                not self.file and not self.ego,
-                "demonstrator.file / ego belong to kind = 'recording': set it, or drop them",
+                not self.file and not self.ego and self.rate_window == RATE_WINDOW,
+                "demonstrator.file / ego / rate_window belong to kind = 'recording': set it, or drop them",
             )
             return
         require(

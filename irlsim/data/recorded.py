@@ -33,6 +33,9 @@ from irlsim.sim.types import EgoState, Observation, Trajectory
 
 #: the episode of a recorded ego ends with its recording, never on laps
 LAPS = 1_000_000
+#: [s] the default window of the recorded ego's rates (:func:`local_rates`; ``demonstrator.rate_window``):
+#: chosen on development recordings with tracker-like noise (docs/guide/demonstrators.md, "Recordings")
+RATE_WINDOW = 2.0
 
 
 #: per process: the recordings read, by (file, its mtime, the network, step); the last two kept
@@ -202,23 +205,49 @@ def others(rec: Recording, vid: str) -> Tracks:
     )
 
 
+def local_rates(z: np.ndarray, dt: float, window: float) -> tuple[np.ndarray, np.ndarray]:
+    """The first and second time derivative of ``z`` (samples ``dt`` [s] apart) at every sample: the slope
+    and curvature of a quadratic fitted by least squares to the samples within ``window`` [s] centred on it
+    (a Savitzky-Golay filter; the first and last half windows take the fit of the first and last whole
+    window), so that a recording's position noise of sigma [m] enters the first derivative as about
+    sigma / (dt * sqrt(sum k^2)) instead of finite differences' sigma / (dt * sqrt 2). ``window`` under
+    three samples (0: none): finite differences (``np.gradient``, twice for the second)."""
+    z = np.asarray(z, dtype=np.float64)
+    n = len(z)
+    h = min(int(round(window / (2.0 * dt))), (n - 1) // 2)
+    if h < 1:
+        first = np.gradient(z, dt) if n > 1 else np.zeros_like(z)
+        return first, np.gradient(first, dt) if n > 1 else np.zeros_like(z)
+    tk = np.arange(-h, h + 1) * dt
+    fit = np.linalg.pinv(np.stack([np.ones_like(tk), tk, tk * tk], axis=1))  # [3, 2h + 1]
+    c = np.lib.stride_tricks.sliding_window_view(z, 2 * h + 1) @ fit[1:].T  # [n - 2h, 2]: slope, curvature
+    first = np.concatenate(
+        [c[0, 0] + 2.0 * c[0, 1] * tk[:h], c[:, 0], c[-1, 0] + 2.0 * c[-1, 1] * tk[h + 1 :]]
+    )
+    second = np.concatenate([np.full(h, 2.0 * c[0, 1]), 2.0 * c[:, 1], np.full(h, 2.0 * c[-1, 1])])
+    return first, second
+
+
 class RecordingDemonstrator:
     """The recorded ego drives: its trajectory each cycle is its recorded states (placed by the
     simulation with moveToXY), and the expert's planner samples the policy set at its state. No policy
     of the set is executed: ``last_index`` is -1 and the writer records the policy closest to what was
-    driven as the executed one."""
+    driven as the executed one. The state's rates (acceleration, lateral velocity and acceleration) are
+    fitted over ``rate_window`` [s] (:func:`local_rates`): the policy set starts from them, and a
+    recording's position noise taken by finite differences would start it metres off."""
 
-    def __init__(self, ego: EgoTrack, planner: PlannerConfig, scenario: EpisodeConfig):
+    def __init__(
+        self, ego: EgoTrack, planner: PlannerConfig, scenario: EpisodeConfig, rate_window: float = RATE_WINDOW
+    ):
         self.planner = Planner(ego.road, planner)
         self.last_policy_set: PolicySet | None = None
         self.last_index = -1
         self.n, self.dt = scenario.horizon_steps + 1, scenario.step
-        dt = self.dt
-        grad = (lambda z: np.gradient(z, dt)) if len(ego.x) > 1 else np.zeros_like
-        d_dot = grad(ego.d)
+        a, _ = local_rates(ego.v, self.dt, rate_window)
+        d_dot, d_ddot = local_rates(ego.d, self.dt, rate_window)
         self.states = {
-            "x": ego.x, "y": ego.y, "yaw": ego.yaw, "v": ego.v, "a": grad(ego.v), "s": ego.s, "d": ego.d,
-            "d_dot": d_dot, "d_ddot": grad(d_dot),
+            "x": ego.x, "y": ego.y, "yaw": ego.yaw, "v": ego.v, "a": a, "s": ego.s, "d": ego.d,
+            "d_dot": d_dot, "d_ddot": d_ddot,
         }  # fmt: skip
         self.lane = ego.road.lane_of_d(ego.d)
         self._t_first: float | None = None
@@ -240,12 +269,18 @@ class RecordingDemonstrator:
 
 
 def recorded_episode(
-    file: str, road: Road, scenario: EpisodeConfig, planner: PlannerConfig, vid: str, reactive: bool = False
+    file: str,
+    road: Road,
+    scenario: EpisodeConfig,
+    planner: PlannerConfig,
+    vid: str,
+    reactive: bool = False,
+    rate_window: float = RATE_WINDOW,
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
     ego starts at its recorded state and the episode ends with its recording; ``reactive``: SUMO drives
-    the others from their first recorded pose on."""
+    the others from their first recorded pose on; ``rate_window``: :class:`RecordingDemonstrator`'s."""
     rec = open_recording(file, road, scenario.step)
     et = ego_track(rec, vid, road)
     if isinstance(et, str):
@@ -261,7 +296,7 @@ def recorded_episode(
         max_time=max(et.duration, scenario.step),
         laps=LAPS,
     )
-    driver = RecordingDemonstrator(et, planner, scn)
+    driver = RecordingDemonstrator(et, planner, scn, rate_window)
     start = driver.state(0)
     sim = ReplaySimulation(road, scn, others(rec, vid), et.t0, start=start, reactive=reactive)
     return driver, road, scn, sim

@@ -118,7 +118,8 @@ def recorded_ego_episode(
     recorded ego's driver, its road, settings and the replay (:func:`irlsim.data.recorded.recorded_episode`),
     whoever then drives it."""
     ego = cfg.demonstrator.ego.split(",")[episode]
-    return recorded_episode(cfg.demonstrator.file, road, scenario, cfg.planner, ego, reactive)
+    d = cfg.demonstrator
+    return recorded_episode(d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window)
 
 
 def is_demonstrator(model: LearnedReward | DemonstratorModel | str | Path) -> bool:

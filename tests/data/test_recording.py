@@ -289,9 +289,12 @@ def test_a_manifest_records_only_its_own_kinds_fields():
     sumo = data_config(CollectConfig(demonstrator=DemonstratorConfig(kind="sumo")))["demonstrator"]
     assert set(sumo) == {"kind", "car_follow_model", "lane_change_model", "params", "vtype_file"}  # as before
     rec = data_config(CollectConfig(demonstrator=DemonstratorConfig(kind="recording", file="r.xml")))
-    assert set(rec["demonstrator"]) == {"kind", "file", "ego", "min_duration"}
+    # rate_window always: a recording collected before it (finite differences) is another config
+    assert set(rec["demonstrator"]) == {"kind", "file", "ego", "min_duration", "rate_window"}
     with pytest.raises(IrlsimError, match="belong to kind = 'recording'"):
         DemonstratorConfig(kind="sumo", file="r.xml").validate()
+    with pytest.raises(IrlsimError, match="belong to kind = 'recording'"):
+        DemonstratorConfig(kind="sumo", rate_window=1.0).validate()
     with pytest.raises(IrlsimError, match="needs file"):
         DemonstratorConfig(kind="recording").validate()
 
