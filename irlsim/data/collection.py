@@ -354,8 +354,10 @@ def _episode_driver(
     if demonstrator.kind == RECORDING:  # the ego's own route and start; the others replay
         counts = {s: getattr(cfg, f"{s}_episodes") for s in SPLITS}
         ego = recorded_ego(demonstrator, counts, job.split, job.episode)
-        window = demonstrator.rate_window
-        return recorded_episode(demonstrator.file, road, scenario, cfg.planner, ego, rate_window=window)
+        window = demonstrator.rate_window  # the recorded ego drives on as recorded through an overlap
+        return recorded_episode(
+            demonstrator.file, road, scenario, cfg.planner, ego, rate_window=window, end_on_collision=False
+        )
     return SumoDemonstrator(road, cfg.planner, scenario), road, scenario, None
 
 

@@ -276,11 +276,15 @@ def recorded_episode(
     vid: str,
     reactive: bool = False,
     rate_window: float = RATE_WINDOW,
+    end_on_collision: bool = True,
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
     ego starts at its recorded state and the episode ends with its recording; ``reactive``: SUMO drives
-    the others from their first recorded pose on; ``rate_window``: :class:`RecordingDemonstrator`'s."""
+    the others from their first recorded pose on; ``rate_window``: :class:`RecordingDemonstrator`'s;
+    ``end_on_collision`` False where the recorded ego drives as recorded (a collection, ``drive --model
+    demonstrator``): the recording goes on where the recorded boxes of the ego and another overlap (as
+    noisy positions make them), counted as a collision."""
     rec = open_recording(file, road, scenario.step)
     et = ego_track(rec, vid, road)
     if isinstance(et, str):
@@ -295,6 +299,7 @@ def recorded_episode(
         ego_start_speed=float(et.v[0]),
         max_time=max(et.duration, scenario.step),
         laps=LAPS,
+        end_on_collision=scenario.end_on_collision and end_on_collision,
     )
     driver = RecordingDemonstrator(et, planner, scn, rate_window)
     start = driver.state(0)

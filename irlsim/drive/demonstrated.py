@@ -105,21 +105,29 @@ def demonstrator_episode(
     or SUMO's driver with the demonstrator's type on ``scenario``."""
     check_demonstrator(cfg)
     if cfg.demonstrator.kind == RECORDING:
-        driver, road, scenario, replay = recorded_ego_episode(cfg, road, scenario, episode, reactive)
+        driver, road, scenario, replay = recorded_ego_episode(cfg, road, scenario, episode, reactive, False)
         return DemonstratorDecider(driver), road, scenario, replay
     sim = demonstrator_simulation(road, scenario, cfg.demonstrator)
     return DemonstratorDecider(SumoDemonstrator(road, cfg.planner, scenario)), road, scenario, sim
 
 
 def recorded_ego_episode(
-    cfg: CollectConfig, road: Road, scenario: EpisodeConfig, episode: int, reactive: bool
+    cfg: CollectConfig,
+    road: Road,
+    scenario: EpisodeConfig,
+    episode: int,
+    reactive: bool,
+    end_on_collision: bool = True,
 ) -> tuple[Any, Road, EpisodeConfig, Simulation]:
     """Episode ``episode`` of ``cfg``'s recording (its egos resolved into ``cfg.demonstrator.ego``): the
     recorded ego's driver, its road, settings and the replay (:func:`irlsim.data.recorded.recorded_episode`),
-    whoever then drives it."""
+    whoever then drives it (``end_on_collision`` False: the recorded ego itself, which drives on through a
+    collision, as recorded)."""
     ego = cfg.demonstrator.ego.split(",")[episode]
     d = cfg.demonstrator
-    return recorded_episode(d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window)
+    return recorded_episode(
+        d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window, end_on_collision
+    )
 
 
 def is_demonstrator(model: LearnedReward | DemonstratorModel | str | Path) -> bool:

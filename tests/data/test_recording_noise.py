@@ -1,10 +1,12 @@
 """A recording's position noise (a tracker's, a GPS's) and the recorded ego's state: its rates are fitted
 over a window (``local_rates``, closed forms: a quadratic's derivatives exactly, white noise's variance as
 least squares gives it), and a recording with 0.2 m of noise keeps its demonstrations, which finite
-differences lose (real SUMO, real collection)."""
+differences lose (real SUMO, real collection); a recorded ego drives on through an overlap of its noisy
+positions with another's."""
 
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import xml.etree.ElementTree as ET
@@ -20,6 +22,7 @@ from irlsim.cli import main
 from irlsim.data.recorded import RATE_WINDOW, local_rates
 from irlsim.road import load_road
 from irlsim.road.network import sumo_binary
+from tests.data.test_recording import _collect, _columns, _csv
 
 
 @pytest.mark.parametrize("n", [3, 7, 21, 200])
@@ -107,3 +110,21 @@ def test_a_noisy_recording_keeps_its_demonstrations(tmp_path):
     assert clean >= 150
     assert fitted >= 0.9 * clean
     assert differenced < 0.6 * clean  # finite differences, as before the window
+
+
+def test_a_recorded_ego_drives_on_through_an_overlap_of_its_recorded_positions(fcd, tmp_path):
+    """A recording goes on where the ego's recorded box overlaps another's (noisy positions do, side by
+    side): the collection counts the collision and keeps the episode to its end, as recorded."""
+    cols = _columns(fcd)
+    at = {(vid, t): i for i, (vid, t) in enumerate(zip(cols["id"], cols["t"], strict=True))}
+    for (vid, t), i in at.items():
+        if vid == "veh1" and 5.0 <= t <= 6.0:  # veh1 recorded where veh0 is for a second
+            j = at[("veh0", t)]
+            cols["x"][i], cols["y"][i] = cols["x"][j], cols["y"][j]
+    rc, out = _collect(
+        tmp_path, "overlap", f'file = "{_csv(tmp_path / "o.csv", cols)}"\nego = "veh1"\n', train=1
+    )
+    assert rc == 0
+    stats = json.loads((out / "train" / "episode_00000.stats.json").read_text())
+    assert stats["sim/collisions"] >= 1 and stats["end_reason"] is None
+    assert pq.read_metadata(out / "train" / "episode_00000.cycles.parquet").num_rows == 40
