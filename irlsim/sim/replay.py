@@ -2,9 +2,9 @@
 (non-reactive, as nuPlan's non-reactive agents) instead of irlsim's background traffic.
 
 Every step, before SUMO steps, each recorded vehicle present at that time of the recording is inserted
-(once, the background type ``bg`` of the class that may use every lane, SUMO's speed and lane-change
-control off) and moved to its recorded pose with ``moveToXY(keepRoute=2)``, on the lane SUMO finds
-there (a bicycle's lane too); a vehicle whose recording has ended is removed. SUMO reports the speed of the
+(once, the background type ``bg`` of a class every lane a vehicle may use allows, SUMO's speed and
+lane-change control off) and moved to its recorded pose with ``moveToXY(keepRoute=2)``, on the lane SUMO
+finds there (a bicycle's lane too, never a sidewalk, crossing or walking area); a vehicle whose recording has ended is removed. SUMO reports the speed of the
 move, so the observation's vehicles carry their recorded position, heading and speed. The ego is driven
 as in any simulation (a recording demonstrator places it at its own recorded poses).
 
@@ -36,10 +36,15 @@ PREFIX = "rec/"
 ROUTE = "replay"
 #: the type of the vehicles SUMO drives in a reactive replay: SUMO's default (Krauss, LC2013), speedFactor 1
 REACTIVE_TYPE = "replay-reactive"
-#: the type of the replayed vehicles: the background traffic's, of SUMO's class that may use every lane, so
-#: that SUMO puts a replayed bicycle on its bicycle lane (a car's class would take the car lane beside it,
-#: and the cars SUMO drives in a reactive replay would queue behind it)
+#: the type of the replayed vehicles: the background traffic's, of a class that every lane a vehicle may use
+#: allows (:data:`REPLAY_CLASS`), so that SUMO puts a replayed bicycle on its bicycle lane (a car's class
+#: would take the car lane beside it, and the cars SUMO drives in a reactive replay would queue behind it)
 REPLAY_TYPE = "replay-recorded"
+#: the replayed vehicles' class, added to every lane some vehicle may use: not to the lanes of pedestrians
+#: alone (sidewalks, crossings, walking areas). SUMO's class 'ignoring', which may use every lane, had a
+#: replayed bicycle whose noisy recorded pose stood at a junction mapped onto a walking area, and SUMO
+#: (1.28) crashed with a segmentation fault in the next step
+REPLAY_CLASS = "custom1"
 #: [m] background vehicles are recycled this far behind the ego: never, in a replay
 NEVER = 1e12
 
@@ -117,10 +122,20 @@ class ReplaySimulation(Simulation):
                 types.setSpeedFactor(REACTIVE_TYPE, 1.0)
                 types.setSpeedDeviation(REACTIVE_TYPE, 0.0)
                 types.copy(BG_TYPE, REPLAY_TYPE)
-                types.setVehicleClass(REPLAY_TYPE, "ignoring")
+                types.setVehicleClass(REPLAY_TYPE, REPLAY_CLASS)
+                self._allow_replayed()
                 state = state if self.recorded_start is None else self.recorded_start
             self.place_others(self.t_begin + t_next - self._t_reset)
         super()._advance(state, bookkeeping, placed)
+
+    def _allow_replayed(self) -> None:
+        """:data:`REPLAY_CLASS` allowed on every lane some vehicle may use (a lane that allows none but
+        pedestrians, or none at all, stays as it is)."""
+        lanes = self._api.lane
+        for lane in lanes.getIDList():
+            allowed = lanes.getAllowed(lane)
+            if allowed and set(allowed) != {"pedestrian"} and REPLAY_CLASS not in allowed:
+                lanes.setAllowed(lane, [*allowed, REPLAY_CLASS])
 
     def place_others(self, t: float) -> None:
         """Insert, move and remove the replayed vehicles for recording time ``t`` (the next step's)."""

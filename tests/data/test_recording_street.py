@@ -3,8 +3,8 @@ lane and a sidewalk, and an edge half a metre long between two junctions, which 
 no car on (as OpenStreetMap networks have such edges). A car's route is connected all the same, the edge
 filled in, from its recorded lanes as from its positions alone; a bicycle on its lane is no car: no ego,
 and replayed on its own lane while SUMO drives the cars in a reactive replay; roads on one network share
-the network, read once; and a dense recording collects the same bytes in the command's process as in
-workers."""
+the network, read once; a replayed vehicle is never put on a pedestrians' lane; and a dense recording
+collects the same bytes in the command's process as in workers."""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pyarrow as pa
+import pyarrow.csv as pacsv
 import pytest
 
 from irlsim.data.recorded import egos, recorded_episode
@@ -28,8 +30,9 @@ ROUTE = ("ab", "bc", "cd")
 LANES = 'numLanes="2" speed="20" sidewalkWidth="2" bikeLaneWidth="1.5"'
 
 
-def _street(tmp: Path) -> Path:
-    """The street's network and its scenario file in ``tmp``; the network's path."""
+def _street(tmp: Path, *options: str) -> Path:
+    """The street's network and its scenario file in ``tmp`` (netconvert's ``options`` added); the
+    network's path."""
     nodes = {"a": 0.0, "b": 300.0, "c": 300.5, "d": 600.0}
     (tmp / "n.nod.xml").write_text(
         "<nodes>" + "".join(f'<node id="{k}" x="{x}" y="0"/>' for k, x in nodes.items()) + "</nodes>"
@@ -39,7 +42,7 @@ def _street(tmp: Path) -> Path:
     )
     net = tmp / "street.net.xml"
     cmd = [sumo_binary("netconvert"), "-n", str(tmp / "n.nod.xml"), "-e", str(tmp / "n.edg.xml")]
-    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds", *options], check=True, capture_output=True)
     route = ", ".join(f'"{e}"' for e in ROUTE)
     (tmp / "scenario.toml").write_text(
         f'name = "street"\n[network]\nfile = "{net.name}"\n[route]\nedges = [{route}]\n'
@@ -156,3 +159,41 @@ def test_dense_traffic_collects_the_same_bytes_in_this_process_and_in_workers(tm
     assert len(files) == 4
     for f in files:
         assert (tmp_path / "w1" / f).read_bytes() == (tmp_path / "w2" / f).read_bytes(), f
+
+
+def test_a_replayed_vehicle_is_never_put_on_a_pedestrians_lane(tmp_path):
+    """A bicycle recorded standing where the sidewalks of two junctions meet (0.5 m apart; the street with
+    walking areas) is replayed on a lane a vehicle may use: a replayed vehicle SUMO had put on a walking
+    area (its class 'ignoring' may use every lane) crashed SUMO when its noisy pose stood at a junction."""
+    net = _street(tmp_path, "--walkingareas")
+    edges = " ".join(ROUTE)
+    vehicles = (
+        '<vType id="bike" vClass="bicycle" sigma="0"/>'
+        f'<vehicle id="car0" type="car" depart="0" departSpeed="max"><route edges="{edges}"/></vehicle>'
+        f'<vehicle id="bike" type="bike" depart="1" departSpeed="max"><route edges="{edges}"/></vehicle>'
+    )
+    rows = pacsv.read_csv(_csv_without_lanes(_record(tmp_path, net, vehicles, "1", "40"), tmp_path / "r.csv"))
+    cols = rows.to_pydict()
+    for i, vid in enumerate(cols["id"]):
+        if vid == "bike":  # standing between the junctions' walking areas, on the sidewalk's line
+            cols["x"][i], cols["y"][i], cols["v"][i] = 300.25, -8.9, 0.0
+    rec = tmp_path / "standing.csv"
+    pacsv.write_csv(pa.table(cols), rec)
+    road = load_road(scenario=tmp_path)
+    pedestrians = {lane.getID() for edge in road.net.getEdges(withInternal=True) for lane in edge.getLanes()}
+    pedestrians = {
+        ln
+        for ln in pedestrians
+        if road.net.getLane(ln).allows("pedestrian") and not road.net.getLane(ln).allows("bicycle")
+    }
+    _, _, _, sim = recorded_episode(
+        str(rec), road, EpisodeConfig(name="street"), PlannerConfig(n_policies=50), "car0"
+    )
+    lanes: set[str] = set()
+    with sim:
+        sim.reset(0)
+        for _ in range(20):
+            if "rec/bike" in sim._api.vehicle.getIDList():
+                lanes.add(sim._api.vehicle.getLaneID("rec/bike"))
+            sim.step(None)
+    assert lanes and not lanes & pedestrians, lanes
