@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import subprocess
 import sys
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -29,9 +30,9 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 sys.path.insert(0, str(Path(__file__).parent))
+from styles import complete, irlsim  # noqa: E402
 from sumo_alone import sumo_alone  # noqa: E402
 
-from irlsim.cli import main  # noqa: E402
 from irlsim.road import load_road  # noqa: E402
 
 CARS, SECONDS, SEED = 30, 150, 101
@@ -115,10 +116,8 @@ def run() -> None:
             cfg = data.parent / f"{data.name}.toml"
             cfg.parent.mkdir(parents=True, exist_ok=True)
             cfg.write_text(CONFIG.format(workers=args.workers, file=file.resolve(), window=window))
-            if not (data / "manifest.json").is_file() and main(
-                ["collect", "--config", str(cfg), "--out", str(data)]
-            ):
-                raise SystemExit(f"collect {cfg} failed")
+            if not complete(data):
+                subprocess.run([irlsim(), "collect", "--config", str(cfg), "--out", str(data)], check=True)
             rows.append((label, window, *demonstrations(data)))
     print("\n| recording | rate window [s] | training cycles | with a demonstration | median distance [m] |")
     print("|---|---|---|---|---|")

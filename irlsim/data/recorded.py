@@ -17,6 +17,7 @@ import copy
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -245,7 +246,7 @@ class RecordingDemonstrator:
         self.n, self.dt = scenario.horizon_steps + 1, scenario.step
         a, _ = local_rates(ego.v, self.dt, rate_window)
         d_dot, d_ddot = local_rates(ego.d, self.dt, rate_window)
-        self.states = {
+        self.states: dict[str, np.ndarray] = {
             "x": ego.x, "y": ego.y, "yaw": ego.yaw, "v": ego.v, "a": a, "s": ego.s, "d": ego.d,
             "d_dot": d_dot, "d_ddot": d_ddot,
         }  # fmt: skip
@@ -264,7 +265,7 @@ class RecordingDemonstrator:
             self._t_first = t
         k = int(round((t - self._t_first) / self.dt))
         idx = np.minimum(k + np.arange(self.n), len(self.lane) - 1)  # held at the recording's end
-        arrays = {name: a[idx].astype(np.float64) for name, a in self.states.items()}
+        arrays: dict[str, Any] = {name: a[idx].astype(np.float64) for name, a in self.states.items()}
         return Trajectory(t0=t, dt=self.dt, lane=self.lane[idx].astype(np.int8), **arrays)
 
 

@@ -4,9 +4,10 @@
 Every step, before SUMO steps, each recorded vehicle present at that time of the recording is inserted
 (once, the background type ``bg`` of a class every lane a vehicle may use allows, SUMO's speed and
 lane-change control off) and moved to its recorded pose with ``moveToXY(keepRoute=2)``, on the lane SUMO
-finds there (a bicycle's lane too, never a sidewalk, crossing or walking area); a vehicle whose recording has ended is removed. SUMO reports the speed of the
-move, so the observation's vehicles carry their recorded position, heading and speed. The ego is driven
-as in any simulation (a recording demonstrator places it at its own recorded poses).
+finds there (a bicycle's lane too, never a sidewalk, crossing or walking area); a vehicle whose recording
+has ended is removed. SUMO reports the speed of the move, so the observation's vehicles carry their
+recorded position, heading and speed. The ego is driven as in any simulation (a recording demonstrator
+places it at its own recorded poses).
 
 Reactive (``reactive=True``, closed-loop evaluation): a recorded vehicle with recorded edges is inserted
 by SUMO at its first recorded position on one of its edges (``simulation.convertRoad``, on the nearest
