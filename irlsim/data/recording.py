@@ -8,7 +8,8 @@ Two formats (docs/guide/demonstrators.md, "Recordings"):
   clockwise, and becomes the ENU heading in radians.
 - A columnar file (``.csv`` or ``.parquet``): one row per vehicle and time, columns ``id`` (text), ``t``
   [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's], ``v`` [m/s],
-  ``heading`` [rad, ENU: counter-clockwise from east]; ``lane`` (a SUMO lane id) optional, and
+  ``heading`` [rad, ENU: counter-clockwise from east; optional: without it, the direction of motion,
+  :func:`headings_from_motion`]; ``lane`` (a SUMO lane id) optional, and
   ``length``, ``width`` [m] optional: the vehicle's size, one value per vehicle (the replay's vehicle
   type's where not given).
 
@@ -23,6 +24,7 @@ unwrapped).
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from dataclasses import dataclass, field
@@ -35,6 +37,7 @@ from irlsim.data.matching import lane_routes, lane_samples, match_routes
 from irlsim.data.recording_read import Rows, read_rows
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
+from irlsim.road.angles import atan2
 
 #: [m] the sizes a road vehicle has (bicycle to long truck); outside them a unit mistake (cm, feet)
 SIZE_RANGE = {"length": (1.0, 30.0), "width": (0.5, 4.0)}
@@ -103,12 +106,13 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
     p, n = rows.path, len(rows.t)
     if n == 0:
         raise IrlsimError(f"recording {p} holds no rows: record at least one vehicle")
-    bad = np.flatnonzero(~np.isfinite(np.stack([rows.t, rows.x, rows.y, rows.v, rows.heading])).all(axis=0))
+    given = [rows.t, rows.x, rows.y, rows.v] + ([] if rows.no_heading else [rows.heading])
+    bad = np.flatnonzero(~np.isfinite(np.stack(given)).all(axis=0))
     if len(bad):
         raise IrlsimError(
             f"{rows.where(bad[0])}: t, x, y, v and heading must be numbers: fix or drop the row"
         )
-    if not rows.fcd:
+    if not rows.fcd and not rows.no_heading:
         deg = np.flatnonzero(np.abs(rows.heading) > 2 * math.pi + 1e-6)
         if len(deg):
             raise IrlsimError(
@@ -147,7 +151,8 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
             f"more than the {max_gap:g} s allowed: give each stretch its own vehicle id, or fill the gap"
         )
     _check_speed_units(rows, order, starts)
-    _check_heading(rows, order, starts)
+    if not rows.no_heading:
+        _check_heading(rows, order, starts)
     _check_sizes(rows, order, starts)
     return order, starts
 
@@ -179,6 +184,39 @@ def _check_heading(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
             "ENU, counter-clockwise from east (SUMO's angle is degrees from north, clockwise: heading = "
             "radians(90 - angle)), or x and y are swapped"
         )
+
+
+def headings_from_motion(rows: Rows, order: np.ndarray, starts: np.ndarray, net: Any) -> np.ndarray:
+    """[N] [rad] ENU, in file order: each row's heading, the direction a vehicle's positions move in
+    between its rows about ``HEADING_BASE_S`` apart around it (a chord of length D, which a position noise
+    of sigma turns by about 1.4 sigma / D), where they lie ``HEADING_MIN_STEP`` apart or
+    more; held from the nearest such row of the vehicle where they do not (it stands or creeps); for a
+    vehicle that never moves so far, the direction of the lane nearest its first position."""
+    x, y, t = rows.x[order], rows.y[order], rows.t[order]
+    n = len(x)
+    vehicle = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, n]))
+    first, last = starts[vehicle], (np.r_[starts[1:], n] - 1)[vehicle]
+    same = vehicle[1:] == vehicle[:-1]
+    step = float(np.median(np.diff(t)[same])) if same.any() else HEADING_BASE_S
+    half = max(1, int(round(0.5 * HEADING_BASE_S / step)))
+    i = np.arange(n)
+    a, b = np.maximum(i - half, first), np.minimum(i + half, last)
+    dx, dy = x[b] - x[a], y[b] - y[a]
+    moved = np.hypot(dx, dy) >= HEADING_MIN_STEP
+    head = np.asarray(atan2(dy, dx), dtype=np.float64)
+    before = np.maximum.accumulate(np.where(moved, i, -1))  # the last moving row up to each row
+    after = np.minimum.accumulate(np.where(moved, i, n)[::-1])[::-1]  # the next from each row
+    src = np.where(before >= first, before, np.where(after <= last, after, -1))
+    out = np.where(src >= 0, head[np.maximum(src, 0)], np.nan)
+    still = np.flatnonzero(src[starts] < 0)  # vehicles that never move so far: a loop over them, few
+    if len(still):
+        samples = lane_samples(net)
+        for k in still:
+            d2 = (samples.xy[:, 0] - x[starts[k]]) ** 2 + (samples.xy[:, 1] - y[starts[k]]) ** 2
+            out[vehicle == k] = samples.angle[int(np.argmin(d2))]
+    heading = np.empty(n)
+    heading[order] = out
+    return heading
 
 
 def _check_sizes(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
@@ -349,6 +387,8 @@ def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX
     rows = read_rows(path)
     order, starts = check_rows(rows, max_gap)
     check_on_network(rows, net)
+    if rows.no_heading:
+        rows = dataclasses.replace(rows, heading=headings_from_motion(rows, order, starts, net))
     if rows.lane is not None:
         known = {ln.getID() for e in net.getEdges(withInternal=True) for ln in e.getLanes()}
         unknown = sorted(set(rows.lane.tolist()) - known)

@@ -42,6 +42,9 @@ class Rows:
     fcd: bool  # SUMO's FCD (the heading was converted from degrees by definition)
     #: [N] [m] the optional size columns (``SIZES``) present
     size: dict[str, np.ndarray] = field(default_factory=dict)
+    #: the file has no ``heading`` column: ``heading`` is NaN as read, then derived from the positions
+    #: (:func:`irlsim.data.recording.headings_from_motion`)
+    no_heading: bool = False
 
     def where(self, i: int) -> str:
         """The file and the place of row ``i`` in it."""
@@ -137,21 +140,22 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     except Exception as e:  # pyarrow's own errors name the problem
         msg = str(e).strip().splitlines()
         raise IrlsimError(f"recording {p} cannot be read ({msg[0] if msg else type(e).__name__})") from None
-    missing = [c for c in COLUMNS if c not in table.column_names]
+    missing = [c for c in COLUMNS[:-1] if c not in table.column_names]  # the heading may be derived
     if missing:
         raise IrlsimError(
-            f"recording {p} lacks the column(s) {', '.join(missing)}: give id, t [s], x, y [m], v [m/s], "
-            "heading [rad] (lane optional)"
+            f"recording {p} lacks the column(s) {', '.join(missing)}: give id, t [s], x, y [m], v [m/s] "
+            "(heading [rad], lane optional)"
         )
-    num = {c: _numbers(table, c, p, "give numbers") for c in COLUMNS[1:]}
     n = table.num_rows
+    given = [c for c in COLUMNS[1:] if c in table.column_names]
+    num = {"heading": np.full(n, np.nan)} | {c: _numbers(table, c, p, "give numbers") for c in given}
     lane = None
     if "lane" in table.column_names:
         lane = _text(table.column("lane"))
     ids = _text(table.column("id"))
     size = {c: _numbers(table, c, p, "give metres") for c in SIZES if c in table.column_names}
     rows = (num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False)
-    return Rows(p, ids, *rows, size=size)
+    return Rows(p, ids, *rows, size=size, no_heading="heading" not in given)
 
 
 def _numbers(table: Any, c: str, p: Path, fix: str) -> np.ndarray:

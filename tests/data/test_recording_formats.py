@@ -108,3 +108,35 @@ def test_standing_cars_position_noise_is_no_heading_convention(fcd, tmp_path, co
     else:
         with pytest.raises(IrlsimError, match="headings differ from the direction its positions move in"):
             load_recording(path, load_road().net, 0.1)
+
+
+def _angle(a, b) -> np.ndarray:
+    return np.abs(np.angle(np.exp(1j * (np.asarray(a) - np.asarray(b)))))
+
+
+def test_without_headings_a_recording_takes_the_direction_of_motion(fcd, tmp_path):
+    """The columnar format without ``heading`` (public datasets' tracks often have none): each row's is
+    the direction the positions move in over about 1 s, close to SUMO's own on the oval's straights and
+    curves; a car standing before it drives holds its first heading; a car that never moves takes its
+    lane's direction; the routes are those of the recorded headings; a missing column is still named."""
+    cols = _columns(fcd)
+    first = {vid: cols["id"].index(vid) for vid in dict.fromkeys(cols["id"])}
+    extra: dict[str, list] = {k: [] for k in cols}
+    for j in range(40, 0, -1):  # veh1 stands 20 s where it starts; 'parked' stands where veh0 starts
+        for vid, as_id in (("veh1", "veh1"), ("veh0", "parked")):
+            i = first[vid]
+            for k in cols:
+                value = cols[k][i] - 0.5 * j if k == "t" else 0.0 if k == "v" else cols[k][i]
+                extra[k].append(as_id if k == "id" else value)
+    both = {k: extra[k] + cols[k] for k in cols}
+    given = load_recording(_csv(tmp_path / "given.csv", both), load_road().net, 0.1)
+    without = {k: v for k, v in both.items() if k != "heading"}
+    derived = load_recording(_csv(tmp_path / "derived.csv", without), load_road().net, 0.1)
+    assert derived.ids == given.ids and derived.edges == given.edges
+    err = _angle(derived.heading, given.heading)
+    assert err.max() < 0.1 and err.mean() < 0.01, (err.max(), err.mean())
+    parked = given.ids.index("parked")
+    assert np.ptp(derived.heading[derived.start[parked] : derived.start[parked + 1]]) == 0.0
+    del without["x"]
+    with pytest.raises(IrlsimError, match=r"lacks the column\(s\) x: give id, t \[s\], x, y \[m\], v"):
+        load_recording(_csv(tmp_path / "nox.csv", without), load_road().net, 0.1)
