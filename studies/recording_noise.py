@@ -10,14 +10,17 @@ The 25 Hz FCD is written as the columnar format as recorded, with 0.2 m of Gauss
 and with 0.5 m on the positions, 0.3 m/s on the speeds and 0.05 rad on the headings (numpy seed 0); the 1 s
 FCD is read as SUMO wrote it. Each is collected at every window of ``--windows`` (6 training episodes of at
 most 400 cycles, 500 policies, the planner's top speed at 35 m/s as for the style study's recording) and
-the training split's cycles with a demonstration and their distance are printed. About 4 minutes:
+the training split's cycles with a demonstration and their distance are printed. About 4 minutes;
+``--learn 0 1`` also learns PACNN+S from each 25 Hz recording at 2 s and with finite differences (those
+training seeds) and evaluates it on the clean recording's validation and test episodes (2 more minutes):
 
-    .venv/bin/python studies/recording_noise.py --out runs/recording-noise
+    .venv/bin/python studies/recording_noise.py --out runs/recording-noise [--learn 0 1]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import subprocess
 import sys
@@ -97,6 +100,7 @@ def run() -> None:
     p.add_argument("--out", type=Path, required=True, help="the recordings, configs and datasets")
     p.add_argument("--windows", type=float, nargs="+", default=[0.0, 0.5, 1.0, 2.0], help="rate windows [s]")
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--learn", type=int, nargs="*", metavar="SEED", help="also learn (training seeds)")
     args = p.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     road = load_road()
@@ -123,7 +127,49 @@ def run() -> None:
     print("|---|---|---|---|---|")
     for label, window, n, has, med in rows:
         print(f"| {label} | {window:g} | {n} | {has} ({has / n:.2f}) | {med:.2f} |")
+    if args.learn:
+        learn(args.out, files, args.learn)
     print(f"\nwrote {args.out}")
+
+
+def learn(out: Path, files: dict[str, Path], seeds: list[int]) -> None:
+    """PACNN+S learned from each 25 Hz recording (at 2 s and with finite differences; training seeds
+    ``seeds``, ``configs/train/stage1.toml`` for 6 epochs) and evaluated (Table I's OPD and ED) on the clean
+    recording's validation and test episodes: do rewards learned from noisy positions predict the driving
+    itself?"""
+    clean = out / "data" / f"{files['25 Hz'].stem}-w2"
+    print("\n| learned from | window [s] | validation OPD / ED [m], seed by seed | test OPD / ED [m] |")
+    print("|---|---|---|---|")
+    for label in NOISE:
+        for window in (2.0, 0.0):
+            data = out / "data" / f"{files[label].stem}-w{window:g}"
+            cells: dict[str, list[str]] = {"validation": [], "test": []}
+            for seed in seeds:
+                runs = out / "runs" / f"{data.name}-s{seed}"
+                if not (runs / "stage1" / "PACNN+S" / "checkpoint.pt").is_file():
+                    cmd = [irlsim(), "train", "--stage", "1", "--config", "configs/train/stage1.toml"]
+                    cmd += ["--set", 'models=["PACNN+S"]', "--set", "epochs=6", "--set", f"seed={seed}"]
+                    subprocess.run([*cmd, "--data", str(data), "--out", str(runs)], check=True)
+                for split in cells:
+                    res = runs / f"eval-clean-{split}"
+                    if not (res / "results.json").is_file():
+                        cmd = [
+                            irlsim(),
+                            "evaluate",
+                            "--data",
+                            str(clean),
+                            "--runs",
+                            str(runs),
+                            "--split",
+                            split,
+                        ]
+                        cmd += ["--no-references", "--out", str(res)] + (
+                            ["--held-out"] if data != clean else []
+                        )
+                        subprocess.run(cmd, check=True)
+                    row = json.loads((res / "results.json").read_text())["rows"][0]
+                    cells[split].append(f"{row['opd']:.2f} / {row['ed']:.2f}")
+            print(f"| {label} | {window:g} | " + " | ".join(", ".join(c) for c in cells.values()) + " |")
 
 
 if __name__ == "__main__":
