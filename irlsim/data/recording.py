@@ -144,6 +144,12 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
             f"vehicle's rows are {np.median(dt[same]):g} apart: t looks like milliseconds, give seconds "
             "(divide by 1000)"
         )
+    if len(gap) and float(np.median(dt[same])) > max_gap:  # not a gap: the recording's rate
+        raise IrlsimError(
+            f"{p}: a vehicle's rows are {np.median(dt[same]):g} s apart (the median), more than the "
+            f"{max_gap:g} s between rows irlsim interpolates over: record at least every {max_gap:g} s "
+            "(sumo --device.fcd.period)"
+        )
     if len(gap):
         i = gap[0]
         raise IrlsimError(

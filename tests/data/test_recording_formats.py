@@ -63,8 +63,8 @@ def test_time_in_milliseconds_is_named_as_such(fcd, tmp_path):
         load_recording(path, load_road().net, 0.1)
     msg = str(e.value)
     assert "rows are 500 apart: t looks like milliseconds" in msg and "\n" not in msg, msg
-    cols["t"] = [t / 1000.0 * 3.0 for t in cols["t"]]  # rows 1.5 s apart: a gap, not milliseconds
-    with pytest.raises(IrlsimError, match="has a gap of 1.5 s"):
+    cols["t"] = [t / 1000.0 * 3.0 for t in cols["t"]]  # rows 1.5 s apart: a slow rate, not milliseconds
+    with pytest.raises(IrlsimError, match=r"rows are 1.5 s apart \(the median\)"):
         load_recording(_csv(tmp_path / "slow.csv", cols), load_road().net, 0.1)
 
 
@@ -140,3 +140,15 @@ def test_without_headings_a_recording_takes_the_direction_of_motion(fcd, tmp_pat
     del without["x"]
     with pytest.raises(IrlsimError, match=r"lacks the column\(s\) x: give id, t \[s\], x, y \[m\], v"):
         load_recording(_csv(tmp_path / "nox.csv", without), load_road().net, 0.1)
+
+
+def test_a_recording_at_a_slower_rate_than_a_second_is_named_as_such(fcd, tmp_path):
+    """Every row 2 s apart is the recording's rate, not a gap of each vehicle's to split or fill."""
+    cols = _columns(fcd)  # 0.5 s rows
+    keep = [i for i, t in enumerate(cols["t"]) if t % 2.0 == 0.0]
+    path = _csv(tmp_path / "slow.csv", {k: [v[i] for i in keep] for k, v in cols.items()})
+    with pytest.raises(IrlsimError) as e:
+        load_recording(path, load_road().net, 0.1)
+    msg = str(e.value)
+    assert "a vehicle's rows are 2 s apart (the median)" in msg and "record at least every 1 s" in msg, msg
+    assert "\n" not in msg and "gap" not in msg
