@@ -24,7 +24,6 @@ import json
 import math
 import subprocess
 import sys
-import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +35,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from styles import complete, irlsim  # noqa: E402
 from sumo_alone import sumo_alone  # noqa: E402
 
+from irlsim.data.recording_read import read_rows  # noqa: E402
 from irlsim.road import load_road  # noqa: E402
 
 CARS, SECONDS, SEED = 30, 150, 101
@@ -63,17 +63,9 @@ def columnar(fcd: Path, out: Path, noise: tuple[float, float, float]) -> Path:
     """The FCD as the columnar format with Gaussian ``noise`` on positions, speeds and headings (once)."""
     if out.is_file():
         return out
-    cols: dict[str, list] = {k: [] for k in ("id", "t", "x", "y", "v", "heading")}
-    for ts in ET.parse(fcd).getroot().iter("timestep"):
-        for v in ts.iter("vehicle"):
-            cols["id"].append(v.get("id"))
-            cols["t"].append(float(ts.get("time")))
-            cols["x"].append(float(v.get("x")))
-            cols["y"].append(float(v.get("y")))
-            cols["v"].append(float(v.get("speed")))
-            cols["heading"].append(math.radians(90.0 - float(v.get("angle"))))
-    rng, n = np.random.default_rng(0), len(cols["t"])
-    arrays = {k: np.asarray(c) for k, c in cols.items()}
+    rows = read_rows(fcd)  # SUMO's angle as the ENU heading, as irlsim reads it
+    arrays = {k: getattr(rows, k) for k in ("id", "t", "x", "y", "v", "heading")}
+    rng, n = np.random.default_rng(0), len(rows.t)
     for k, sigma in (("x", noise[0]), ("y", noise[0]), ("v", noise[1]), ("heading", noise[2])):
         arrays[k] = arrays[k] + rng.normal(0.0, sigma, n) if sigma else arrays[k]
     arrays["v"] = np.maximum(arrays["v"], 0.0)

@@ -63,6 +63,19 @@ def _record(tmp: Path, net: Path, vehicles: str, step: str, end: str) -> Path:
     return fcd
 
 
+def _lanes_of(sim, vid: str, steps: int) -> tuple[set[str], set[str]]:
+    """The lanes SUMO has ``vid`` on over ``steps`` steps of ``sim`` from its reset; the vehicles SUMO
+    drove (a reactive replay's)."""
+    lanes: set[str] = set()
+    with sim:
+        sim.reset(0)
+        for _ in range(steps):
+            if vid in sim._api.vehicle.getIDList():
+                lanes.add(sim._api.vehicle.getLaneID(vid))
+            sim.step(None)
+        return lanes, set(sim._driven)
+
+
 @pytest.fixture(scope="module")
 def street(tmp_path_factory) -> tuple[Path, Path]:
     """(the scenario's folder, SUMO's FCD of two cars and a bicycle along the street, every 1 s)."""
@@ -111,14 +124,7 @@ def test_a_bicycle_on_its_lane_is_no_ego_and_is_replayed_on_it(street):
     _, _, _, sim = recorded_episode(
         str(fcd), road, EpisodeConfig(name="street"), PlannerConfig(n_policies=50), "car1", reactive=True
     )
-    lanes: set[str] = set()
-    with sim:
-        sim.reset(0)
-        for _ in range(30):
-            if "rec/bike" in sim._api.vehicle.getIDList():
-                lanes.add(sim._api.vehicle.getLaneID("rec/bike"))
-            sim.step(None)
-        driven = set(sim._driven)
+    lanes, driven = _lanes_of(sim, "rec/bike", 30)
     assert driven == {"rec/car0"}
     assert lanes and {ln.split("_")[0] for ln in lanes} <= {"ab", "bc", "cd"}
     assert {ln.rsplit("_", 1)[1] for ln in lanes} == {"1"}  # lane 0 is the sidewalk, 1 the bicycles'
@@ -189,11 +195,5 @@ def test_a_replayed_vehicle_is_never_put_on_a_pedestrians_lane(tmp_path):
     _, _, _, sim = recorded_episode(
         str(rec), road, EpisodeConfig(name="street"), PlannerConfig(n_policies=50), "car0"
     )
-    lanes: set[str] = set()
-    with sim:
-        sim.reset(0)
-        for _ in range(20):
-            if "rec/bike" in sim._api.vehicle.getIDList():
-                lanes.add(sim._api.vehicle.getLaneID("rec/bike"))
-            sim.step(None)
+    lanes, _ = _lanes_of(sim, "rec/bike", 20)
     assert lanes and not lanes & pedestrians, lanes
