@@ -124,6 +124,14 @@ def run() -> None:
     print(f"\nwrote {args.out}")
 
 
+def quiet(cmd: list[str], log: Path) -> None:
+    """Run an irlsim command with its output in ``log`` (named where it fails)."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    with log.open("w") as f:
+        if subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT).returncode:
+            raise SystemExit(f"{' '.join(cmd)} failed: see {log}")
+
+
 def learn(out: Path, files: dict[str, Path], seeds: list[int]) -> None:
     """PACNN+S learned from each 25 Hz recording (at 2 s and with finite differences; training seeds
     ``seeds``, ``configs/train/stage1.toml`` for 6 epochs) and evaluated (Table I's OPD and ED) on the clean
@@ -141,7 +149,7 @@ def learn(out: Path, files: dict[str, Path], seeds: list[int]) -> None:
                 if not (runs / "stage1" / "PACNN+S" / "checkpoint.pt").is_file():
                     cmd = [irlsim(), "train", "--stage", "1", "--config", "configs/train/stage1.toml"]
                     cmd += ["--set", 'models=["PACNN+S"]', "--set", "epochs=6", "--set", f"seed={seed}"]
-                    subprocess.run([*cmd, "--data", str(data), "--out", str(runs)], check=True)
+                    quiet([*cmd, "--data", str(data), "--out", str(runs)], runs.with_suffix(".train.log"))
                 for split in cells:
                     res = runs / f"eval-clean-{split}"
                     if not (res / "results.json").is_file():
@@ -158,7 +166,7 @@ def learn(out: Path, files: dict[str, Path], seeds: list[int]) -> None:
                         cmd += ["--no-references", "--out", str(res)] + (
                             ["--held-out"] if data != clean else []
                         )
-                        subprocess.run(cmd, check=True)
+                        quiet(cmd, res.with_suffix(".log"))
                     row = json.loads((res / "results.json").read_text())["rows"][0]
                     cells[split].append(f"{row['opd']:.2f} / {row['ed']:.2f}")
             print(f"| {label} | {window:g} | " + " | ".join(", ".join(c) for c in cells.values()) + " |")

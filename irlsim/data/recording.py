@@ -217,9 +217,10 @@ def headings_from_motion(rows: Rows, order: np.ndarray, starts: np.ndarray, net:
     still = np.flatnonzero(src[starts] < 0)  # vehicles that never move so far: a loop over them, few
     if len(still):
         samples = lane_samples(net)
+        ends = np.r_[starts[1:], n]
         for k in still:
             d2 = (samples.xy[:, 0] - x[starts[k]]) ** 2 + (samples.xy[:, 1] - y[starts[k]]) ** 2
-            out[vehicle == k] = samples.angle[int(np.argmin(d2))]
+            out[starts[k] : ends[k]] = samples.angle[int(np.argmin(d2))]
     heading = np.empty(n)
     heading[order] = out
     return heading
