@@ -305,10 +305,15 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
     base = np.floor((pts - lo) / cell).astype(int)
     for dx, dy in zip(ox[disk], oy[disk], strict=True):  # over the disk's cells, not the points
         grid[np.clip(base[:, 0] + dx, 0, shape[0] - 1), np.clip(base[:, 1] + dy, 0, shape[1] - 1)] = True
-    q = np.floor((np.stack([rows.x, rows.y], axis=1) - lo) / cell).astype(int)
-    inside = (q >= 0).all(axis=1) & (q < shape).all(axis=1)
-    on = np.zeros(len(q), dtype=bool)
-    on[inside] = grid[q[inside, 0], q[inside, 1]]
+
+    def near(x: np.ndarray, y: np.ndarray) -> np.ndarray:  # [N] bool: within ``bound`` of a lane
+        q = np.floor((np.stack([x, y], axis=1) - lo) / cell).astype(int)
+        inside = (q >= 0).all(axis=1) & (q < shape).all(axis=1)
+        out = np.zeros(len(q), dtype=bool)
+        out[inside] = grid[q[inside, 0], q[inside, 1]]
+        return out
+
+    on = near(rows.x, rows.y)
     off = np.flatnonzero(~on)
     if not len(off):
         return
@@ -319,6 +324,15 @@ def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None
             "longitude and latitude (as sumo --fcd-output.geo writes them): record x and y in the network's "
             "coordinates (sumo's --fcd-output without .geo)"
         )
+    offset = tuple(float(v) for v in net.getLocationOffset())
+    if len(off) > FOREIGN_SHARE * len(on) and any(offset):
+        if near(rows.x + offset[0], rows.y + offset[1]).mean() > 1.0 - FOREIGN_SHARE:
+            raise IrlsimError(
+                f"recording {rows.path}: its points lie on this network once its netOffset ({offset[0]:.2f}, "
+                f"{offset[1]:.2f}) is added: the network's original projection (as sumo --fcd-output.utm "
+                "writes it): add the netOffset to x and y, or record x and y in the network's coordinates "
+                "(sumo's --fcd-output without .utm)"
+            )
     if len(off) > FOREIGN_SHARE * len(on):
         raise IrlsimError(
             f"recording {rows.path}: {len(off) / len(on):.0%} of its points lie off this network (x "

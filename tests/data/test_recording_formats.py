@@ -3,12 +3,16 @@ milliseconds, a recording given with another scenario whose lanes pass near its 
 
 from __future__ import annotations
 
+import subprocess
+
 import numpy as np
 import pytest
+import sumolib
 
 from irlsim.data.recording import load_recording
 from irlsim.errors import IrlsimError
 from irlsim.road import load_road
+from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import Scenarios
 from tests.data.conftest import record_fcd
 from tests.data.test_recording import _bad, _columns, _csv
@@ -152,3 +156,33 @@ def test_a_recording_at_a_slower_rate_than_a_second_is_named_as_such(fcd, tmp_pa
     msg = str(e.value)
     assert "a vehicle's rows are 2 s apart (the median)" in msg and "record at least every 1 s" in msg, msg
     assert "\n" not in msg and "gap" not in msg
+
+
+def test_the_networks_original_projection_is_named_as_such(tmp_path):
+    """SUMO's ``--fcd-output.utm`` writes a network's original coordinates, its netOffset taken off (a
+    netconvert network of nodes half a million metres east, as a UTM zone's are): named with the offset to
+    add, not as another network's coordinates; the same run without .utm is read."""
+    (tmp_path / "n.nod.xml").write_text(
+        '<nodes><node id="a" x="500000" y="5400000"/><node id="b" x="500600" y="5400000"/></nodes>'
+    )
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="ab" from="a" to="b" numLanes="2" speed="20"/></edges>'
+    )
+    net = tmp_path / "u.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net)], check=True, capture_output=True)
+    (tmp_path / "r.rou.xml").write_text(
+        '<routes><vehicle id="c" depart="0" departSpeed="max"><route edges="ab"/></vehicle></routes>'
+    )
+    fcd = {}
+    for name, extra in (("net", []), ("utm", ["--fcd-output.utm", "true"])):
+        fcd[name] = tmp_path / f"{name}.xml"
+        run = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp_path / "r.rou.xml"), "--end", "20"]
+        subprocess.run([*run, "--fcd-output", str(fcd[name]), *extra], check=True, capture_output=True)
+    network = sumolib.net.readNet(str(net), withInternal=True)
+    assert load_recording(fcd["net"], network, 0.1).ids == ("c",)
+    with pytest.raises(IrlsimError) as e:
+        load_recording(fcd["utm"], network, 0.1)
+    msg = str(e.value)
+    assert "once its netOffset (-500000.00, -5400000.00) is added" in msg and "--fcd-output.utm" in msg, msg
+    assert "\n" not in msg
