@@ -82,7 +82,8 @@ class EpisodeConfig:
     """[m] route-frame position of the ego's front bumper at reset when ego_start_random is false
     (0 = start of edge A_S1)"""
     ego_start_lane: int = 1
-    """loop lane of the ego at reset when ego_start_random is false (0 outer .. 2 inner)"""
+    """the ego's lane at reset when ego_start_random is false (0 the rightmost, the oval's outer lane;
+    a lane the road lacks there: the nearest it has)"""
     ego_start_speed: float = 10.0
     """[m/s] the ego's speed at reset when ego_start_random is false"""
     ego_length: float = 4.5
@@ -128,7 +129,8 @@ class EpisodeConfig:
         require(self.horizon >= self.cycle, "horizon must be >= cycle")
         require(0 < self.ego_target_speed <= 27.78, "ego_target_speed must be in (0, 27.78] m/s")
         require(
-            self.ego_start_lane in (0, 1, 2), f"ego_start_lane must be 0, 1 or 2, got {self.ego_start_lane}"
+            isinstance(self.ego_start_lane, int) and self.ego_start_lane >= 0,
+            f"ego_start_lane must be a lane index >= 0 (0 the rightmost), got {self.ego_start_lane}",
         )
         require(self.ego_start_speed >= 0, "ego_start_speed must be >= 0 m/s")
         require(

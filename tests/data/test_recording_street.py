@@ -15,8 +15,10 @@ from pathlib import Path
 
 import pyarrow as pa
 import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
 import pytest
 
+from irlsim.cli import main
 from irlsim.data.recorded import egos, recorded_episode
 from irlsim.data.recording import load_recording
 from irlsim.errors import IrlsimError
@@ -197,3 +199,32 @@ def test_a_replayed_vehicle_is_never_put_on_a_pedestrians_lane(tmp_path):
     )
     lanes, _ = _lanes_of(sim, "rec/bike", 20)
     assert lanes and not lanes & pedestrians, lanes
+
+
+def test_a_recorded_ego_may_start_in_any_lane_of_a_wide_road(tmp_path):
+    """A car recorded in the fifth lane of a five-lane road is an ego from there (the start lane had been
+    held to the oval's three, and such an ego's episode failed on every retry)."""
+    (tmp_path / "n.nod.xml").write_text(
+        '<nodes><node id="a" x="0" y="0"/><node id="b" x="800" y="0"/></nodes>'
+    )
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="ab" from="a" to="b" numLanes="5" speed="20"/></edges>'
+    )
+    net = tmp_path / "wide.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net)], check=True, capture_output=True)
+    (tmp_path / "scenario.toml").write_text(
+        f'name = "wide"\n[network]\nfile = "{net.name}"\n[route]\nedges = ["ab"]\n'
+    )
+    vehicles = '<vehicle id="left" type="car" depart="0" departLane="4" departSpeed="max">'
+    vehicles += '<route edges="ab"/></vehicle>'
+    fcd = _record(tmp_path, net, vehicles, "0.5", "30")
+    config = tmp_path / "collect.toml"
+    config.write_text(
+        "seed = 0\ntrain_episodes = 1\nvalidation_episodes = 0\ntest_episodes = 0\nmax_cycles = 20\n"
+        f'[planner]\nn_policies = 100\n[demonstrator]\nkind = "recording"\nfile = "{fcd}"\nego = "left"\n'
+    )
+    out = tmp_path / "data"
+    assert main(["collect", "--config", str(config), "--scenario", str(tmp_path), "--out", str(out)]) == 0
+    cycles = pq.read_table(out / "train" / "episode_00000.cycles.parquet", columns=["ego_lane"])
+    assert set(cycles.column("ego_lane").to_pylist()) == {4}
