@@ -112,6 +112,14 @@ class ReplaySimulation(Simulation):
         self._t_reset, self._driven = None, set()
         return super().reset(seed)
 
+    def command(self, seed: int) -> list[str]:
+        """SUMO's command line, begun so that its clock is the recording's from the ego's first state on:
+        a traffic light's program runs by SUMO's time, so the lights show what the recorded drivers saw
+        (they had been ``t_begin`` seconds off: a recorded ego stopped at a light green in the replay)."""
+        cmd = super().command(seed)
+        cmd[cmd.index("--begin") + 1] = f"{max(self.t_begin - self.cfg.step, 0.0):.6f}"
+        return cmd
+
     def _advance(self, state: EgoState, bookkeeping: bool = True, placed: bool = False) -> None:
         if not placed:
             t_next = float(self._api.simulation.getTime()) + self.cfg.step

@@ -228,3 +228,59 @@ def test_a_recorded_ego_may_start_in_any_lane_of_a_wide_road(tmp_path):
     assert main(["collect", "--config", str(config), "--scenario", str(tmp_path), "--out", str(out)]) == 0
     cycles = pq.read_table(out / "train" / "episode_00000.cycles.parquet", columns=["ego_lane"])
     assert set(cycles.column("ego_lane").to_pylist()) == {4}
+
+
+def _program_state(net: Path, tls: str, t: float) -> str:
+    """The state a static traffic light program of ``net`` shows at SUMO time ``t`` (offset 0), from its
+    phases' durations: the closed form SUMO runs by."""
+    import xml.etree.ElementTree as ET
+
+    logic = next(e for e in ET.parse(net).getroot().iter("tlLogic") if e.get("id") == tls)
+    phases = [(float(p.get("duration")), p.get("state")) for p in logic.iter("phase")]
+    at = (t - float(logic.get("offset", "0"))) % sum(d for d, _ in phases)
+    for duration, state in phases:
+        if at < duration - 1e-9:
+            return state
+        at -= duration
+    return phases[-1][1]
+
+
+def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path):
+    """A car recorded from t = 50 s through a signalised crossing (it waits at red until 90 s): in its
+    replay SUMO's clock is the recording's, so the light shows at every step what its program shows at
+    that recorded time (the replay had begun at 0 s, the lights 50 s off what the recorded drivers saw)."""
+    nodes = {"a": (0, 0), "b": (200, 0), "c": (400, 0), "d": (200, 200), "e": (200, -200)}
+    light = {k: ' type="traffic_light"' if k == "b" else "" for k in nodes}
+    (tmp_path / "n.nod.xml").write_text(
+        "<nodes>"
+        + "".join(f'<node id="{k}" x="{x}" y="{y}"{light[k]}/>' for k, (x, y) in nodes.items())
+        + "</nodes>"
+    )
+    edges = ("ab", "bc", "db", "be")
+    (tmp_path / "n.edg.xml").write_text(
+        "<edges>"
+        + "".join(f'<edge id="{e}" from="{e[0]}" to="{e[1]}" numLanes="1" speed="14"/>' for e in edges)
+        + "</edges>"
+    )
+    net = tmp_path / "x.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    (tmp_path / "scenario.toml").write_text(
+        f'name = "cross"\n[network]\nfile = "{net.name}"\n[route]\nedges = ["ab", "bc"]\n'
+    )
+    vehicles = '<vehicle id="car" type="car" depart="50" departSpeed="max"><route edges="ab bc"/></vehicle>'
+    fcd = _record(tmp_path, net, vehicles, "0.5", "120")
+    road = load_road(scenario=tmp_path)
+    _, _, _, sim = recorded_episode(
+        str(fcd), road, EpisodeConfig(name="cross"), PlannerConfig(n_policies=50), "car"
+    )
+    seen, expected = [], []
+    with sim:
+        sim.reset(0)
+        for _ in range(400):  # to 90 s: the light changes at 87 s and 90 s
+            t = float(sim._api.simulation.getTime())
+            seen.append(sim._api.trafficlight.getRedYellowGreenState("b"))
+            expected.append(_program_state(net, "b", t - 0.05))  # a switch at T shows after the step to T
+            sim.step(None)
+        assert abs(sim.ego.t - (50.0 + 400 * 0.1)) < 1e-6  # the ego's clock: the recording's
+    assert seen == expected and len(set(seen)) > 1
