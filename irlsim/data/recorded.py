@@ -101,7 +101,12 @@ def ego_track(
         own = (routes or {}).get(rec.edges[k])
         if own is None:
             try:
-                own = Road(scenario_road.net_file, rec.edges[k], name=scenario_road.name)
+                own = Road(
+                    scenario_road.net_file,
+                    rec.edges[k],
+                    name=scenario_road.name,
+                    additional=scenario_road.additional,
+                )
             except IrlsimError as e:
                 own = f"its recorded edges are no route of the network ({e})"
             if routes is not None:

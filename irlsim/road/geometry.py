@@ -196,12 +196,15 @@ class Road:
         scenario_file: str | Path | None = None,
         demand: tuple[Path, ...] = (),
         warmup: float = 0.0,
+        additional: tuple[Path, ...] = (),
     ):
         net_file = Path(net_file)
         self.net = _read_net(net_file, Path(scenario_file) if scenario_file is not None else None)
         #: the scenario's own SUMO route files (empty: irlsim's spawner) and its warm-up [s]
         self.demand: tuple[Path, ...] = tuple(demand)
         self.warmup = float(warmup)
+        #: SUMO additional files the network runs with (the scenario's signal programs)
+        self.additional: tuple[Path, ...] = tuple(additional)
         self.net_file = net_file
         self.name = name or net_file.name.split(".")[0]
         #: the scenario file that names the route and the checkpoints (None: given directly)
@@ -1121,6 +1124,7 @@ def _road_of(net_file: Path, scn: Scenario) -> Road:
             scenario_file=scn.path.resolve(),
             demand=scn.demand,
             warmup=scn.warmup,
+            additional=scn.additional,
         )
     _ROADS[key] = road
     while len(_ROADS) > _MAX_ROADS:

@@ -12,6 +12,7 @@ A scenario is a TOML file (``scenario.toml``) in a folder of its own. The shippe
     # osm = "map.osm"        #   an OpenStreetMap extract, built with netconvert into a cache
     # opendrive = "map.xodr" #   an OpenDRIVE map (CARLA's, esmini's), built with netconvert into a cache
     # sumo_tools = "game/highway/highway.net.xml"   # a network inside the installed eclipse-sumo wheel
+    additional = ["lights.tll.xml"]   # optional: SUMO additional files it runs with (its signal programs)
 
     [route]                  # the ego's route: a list of edges, or from/to (the shortest path on the net)
     edges = ["a", "b", "c"]
@@ -76,6 +77,10 @@ class NetworkSpec:
     opendrive: str = ""
     """an OpenDRIVE map (.xodr: CARLA's and esmini's format); built once with netconvert into the cache
     (its driving lanes, as netconvert imports them by default)"""
+    additional: tuple[str, ...] = ()
+    """SUMO additional files the network runs with, e.g. its traffic lights' programs (``tlLogic``, as a
+    SUMO configuration's ``additional-files`` names them), relative to the scenario file; a path starting
+    with ``sumo_tools/`` is inside the installed eclipse-sumo wheel's tools folder"""
 
     def validate(self) -> None:
         given = [k for k in NETWORK_SOURCES if getattr(self, k)]
@@ -156,6 +161,7 @@ class Scenario:
     description: str = ""
     demand: tuple[Path, ...] = ()  # the scenario's own route files (empty: irlsim's spawner)
     warmup: float = 0.0  # [s] before the ego enters
+    additional: tuple[Path, ...] = ()  # SUMO additional files the network runs with (signal programs)
     defaults: dict[str, Any] = field(default_factory=dict)  # EpisodeConfig values of this road
     network: NetworkSpec | None = None  # where the network comes from (None: a Scenario made by hand)
 
@@ -163,6 +169,8 @@ class Scenario:
         """sha256 of the scenario file and its network: what a dataset records of its road."""
         h = hashlib.sha256(self.path.read_bytes())
         h.update(self.net_file.read_bytes())
+        for p in self.additional:  # the signal programs it runs with (none: the digest of before)
+            h.update(p.read_bytes())
         return "sha256:" + h.hexdigest()
 
 
@@ -262,6 +270,7 @@ def load_scenario(
         checkpoints=tuple((c.x, c.y, c.lane) for c in sf.checkpoints),
         demand=tuple(_route_file(path, r) for r in sf.traffic.routes),
         warmup=sf.traffic.warmup,
+        additional=tuple(_route_file(path, a, "[network] additional") for a in sf.network.additional),
         defaults=dict(sf.defaults),
         description=sf.description,
         network=sf.network,
@@ -335,13 +344,15 @@ def network_advice(net_file: Path, scenario_file: Path | None) -> str:
     return f"fix or regenerate it ({where})"
 
 
-def _route_file(scenario: Path, name: str) -> Path:
+def _route_file(scenario: Path, name: str, key: str = "[traffic] routes") -> Path:
+    """A file a scenario names under ``key`` (a route file, an additional file)."""
     if name.startswith("sumo_tools/"):
         p = Path(sumo_home()) / "tools" / name.removeprefix("sumo_tools/")
     else:
         p = scenario.parent / name
     if not p.is_file():
-        raise IrlsimError(f"scenario {scenario}: route file {p} not found: fix [traffic] routes")
+        what = "route file" if key == "[traffic] routes" else "file"
+        raise IrlsimError(f"scenario {scenario}: {what} {p} not found: fix {key}")
     return p
 
 

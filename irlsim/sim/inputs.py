@@ -26,15 +26,21 @@ if TYPE_CHECKING:
 RESTORE = "restore it ('git checkout sumo_net/vtypes.add.xml' or reinstall irlsim)"
 
 
-def check_inputs(vtypes_file: Path | str, demand: tuple[Path, ...]) -> None:
-    """The vehicle types and a scenario's demand are well-formed XML, and the vehicle types define the
-    types irlsim inserts (``ego`` and the background's): else one IrlsimError line naming the file."""
-    for path in (vtypes_file, *demand):
+def check_inputs(
+    vtypes_file: Path | str, demand: tuple[Path, ...], additional: tuple[Path, ...] = ()
+) -> None:
+    """The vehicle types, a scenario's demand and its additional files are well-formed XML, and the
+    vehicle types define the types irlsim inserts (``ego`` and the background's): else one IrlsimError
+    line naming the file."""
+    for path in (vtypes_file, *demand, *additional):
         try:
             tree = ElementTree.parse(path)
         except (ElementTree.ParseError, OSError) as e:
-            what = "vehicle types" if path == vtypes_file else "route file"
-            fix = RESTORE if path == vtypes_file else "fix it or the scenario's [traffic] routes"
+            what, fix = ("route file", "fix it or the scenario's [traffic] routes")
+            if path == vtypes_file:
+                what, fix = "vehicle types", RESTORE
+            elif path in additional:
+                what, fix = "additional file", "fix it or the scenario's [network] additional"
             raise IrlsimError(f"{what} {path} is not valid XML ({e}): {fix}") from None
         if path == vtypes_file:
             ids = {el.get("id") for el in tree.iter("vType")}  # the types the ego and the traffic use
@@ -93,13 +99,20 @@ def sumo_errors(text: str) -> list[str]:
 
 def refusal(api: Any, road: Road, vtypes_file: Path, why: str) -> IrlsimError:
     """The file SUMO refused, after it failed to start with ``why``: SUMO started again on the network
-    alone, then with the vehicle types, then with each route file in turn (every route read at once,
+    alone, then with each of its additional files, then with the vehicle types, then with each route file
+    in turn (every route read at once,
     ``--route-steps 0``); the first that fails is named with SUMO's message and the fix that fits it."""
-    net, vtypes = str(road.net_file), ["--additional-files", str(vtypes_file)]
+    net, extra_files = str(road.net_file), [str(p) for p in road.additional]
+    vtypes = ["--additional-files", ",".join([*extra_files, str(vtypes_file)])]
     base = [sumo_binary("sumo"), "--net-file", net, *QUIET, "--route-steps", "0", "--begin", "0"]
     stages: list[tuple[str, list[str], str]] = [
         (f"network {net}", [], network_advice(road.net_file, road.scenario_file))
     ]
+    for i, path in enumerate(extra_files):  # the network's additional files (its signal programs)
+        fix = f"fix it or the [network] additional of {road.scenario_file}"
+        stages.append(
+            (f"additional file {path}", ["--additional-files", ",".join(extra_files[: i + 1])], fix)
+        )
     stages.append((f"vehicle types {vtypes_file}", vtypes, f"fix it or {RESTORE}"))
     for i, route_file in enumerate(road.demand):
         files = ",".join(str(p) for p in road.demand[: i + 1])
@@ -117,8 +130,9 @@ def probe(api: Any, road: Road, vtypes_file: Path) -> None:
     """SUMO loads the road's network, the vehicle types and the scenario's demand (every route at once):
     else one IrlsimError line naming the file it refused, before any episode (collect, drive check this
     once, so that such an error is not an episode's, retried and marked failed)."""
-    check_inputs(vtypes_file, road.demand)
-    cmd = [sumo_binary("sumo"), "--net-file", str(road.net_file), "--additional-files", str(vtypes_file)]
+    check_inputs(vtypes_file, road.demand, road.additional)
+    files = ",".join([*(str(p) for p in road.additional), str(vtypes_file)])
+    cmd = [sumo_binary("sumo"), "--net-file", str(road.net_file), "--additional-files", files]
     if road.demand:
         cmd += ["--route-files", ",".join(str(p) for p in road.demand)]
     why = start_quietly(api, [*cmd, *QUIET, "--route-steps", "0", "--begin", "0"])

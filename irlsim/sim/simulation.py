@@ -112,7 +112,8 @@ class Simulation:
         binary = sumo_binary("sumo-gui" if self.gui else "sumo")
         if not self.vtypes_file.is_file():
             raise IrlsimError(f"vehicle types {self.vtypes_file} not found: restore sumo_net/ from git")
-        additional = [str(self.vtypes_file), *([self.demo_type.path()] if self.demo_type else [])]
+        additional = [str(p) for p in self.road.additional]  # the network's signal programs first
+        additional += [str(self.vtypes_file), *([self.demo_type.path()] if self.demo_type else [])]
         options = {
             "--net-file": str(self.road.net_file),
             "--additional-files": ",".join(additional),
@@ -143,7 +144,7 @@ class Simulation:
         if self.gui and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
             raise IrlsimError("--gui needs a display, but DISPLAY is not set: run without --gui (headless)")
         cmd = self.command(check_seed(seed))
-        check_inputs(self.vtypes_file, self.road.demand)  # the files SUMO reads besides the network
+        check_inputs(self.vtypes_file, self.road.demand, self.road.additional)  # besides the network
         module = "traci" if self.gui else "libsumo"
         try:
             api: Any = importlib.import_module(module)

@@ -52,13 +52,14 @@ def _street(tmp: Path, *options: str) -> Path:
     return net
 
 
-def _record(tmp: Path, net: Path, vehicles: str, step: str, end: str) -> Path:
-    """SUMO's FCD of ``vehicles`` (route XML) on the street, every ``step`` seconds."""
+def _record(tmp: Path, net: Path, vehicles: str, step: str, end: str, *options: str) -> Path:
+    """SUMO's FCD of ``vehicles`` (route XML) on the street, every ``step`` seconds (SUMO's ``options``
+    added)."""
     (tmp / "r.rou.xml").write_text(f'<routes><vType id="car" sigma="0"/>{vehicles}</routes>')
     fcd = tmp / "fcd.xml"
     cmd = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp / "r.rou.xml"), "--step-length", step]
     subprocess.run(
-        [*cmd, "--end", end, "--fcd-output", str(fcd), "--no-step-log", "true"],
+        [*cmd, "--end", end, "--fcd-output", str(fcd), "--no-step-log", "true", *options],
         check=True,
         capture_output=True,
     )
@@ -245,10 +246,22 @@ def _program_state(net: Path, tls: str, t: float) -> str:
     return phases[-1][1]
 
 
-def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path):
-    """A car recorded from t = 50 s through a signalised crossing (it waits at red until 90 s): in its
-    replay SUMO's clock is the recording's, so the light shows at every step what its program shows at
-    that recorded time (the replay had begun at 0 s, the lights 50 s off what the recorded drivers saw)."""
+#: a signal program of the crossing's other than netconvert's, as a SUMO configuration's additional file
+#: gives one (the replay must run it, not the network's own)
+PROGRAM = (
+    '<additional><tlLogic id="b" type="static" programID="recorded" offset="0">'
+    '<phase duration="7" state="GGrr"/><phase duration="2" state="yyrr"/>'
+    '<phase duration="11" state="rrGG"/><phase duration="2" state="rryy"/></tlLogic></additional>'
+)
+
+
+@pytest.mark.parametrize("program", ["the network's", "the scenario's additional file"])
+def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path, program):
+    """A car recorded from t = 50 s through a signalised crossing: in its replay SUMO's clock is the
+    recording's, so the light shows at every step what its program shows at that recorded time (the
+    replay had begun at 0 s, the lights 50 s off what the recorded drivers saw); with the program the
+    recording ran from an additional file, named by the scenario's [network] additional, the replay runs
+    that program, also for a car whose route is its own (d to e, not the scenario's)."""
     nodes = {"a": (0, 0), "b": (200, 0), "c": (400, 0), "d": (200, 200), "e": (200, -200)}
     light = {k: ' type="traffic_light"' if k == "b" else "" for k in nodes}
     (tmp_path / "n.nod.xml").write_text(
@@ -265,22 +278,32 @@ def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path):
     net = tmp_path / "x.net.xml"
     cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
     subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
-    (tmp_path / "scenario.toml").write_text(
-        f'name = "cross"\n[network]\nfile = "{net.name}"\n[route]\nedges = ["ab", "bc"]\n'
+    own = program != "the network's"
+    scenario = f'name = "cross"\n[network]\nfile = "{net.name}"\n'
+    options: tuple[str, ...] = ()
+    if own:
+        (tmp_path / "lights.add.xml").write_text(PROGRAM)
+        scenario += 'additional = ["lights.add.xml"]\n'
+        options = ("--additional-files", str(tmp_path / "lights.add.xml"))
+    (tmp_path / "scenario.toml").write_text(scenario + '[route]\nedges = ["ab", "bc"]\n')
+    route = "db be" if own else "ab bc"
+    vehicles = (
+        f'<vehicle id="car" type="car" depart="50" departSpeed="max"><route edges="{route}"/></vehicle>'
     )
-    vehicles = '<vehicle id="car" type="car" depart="50" departSpeed="max"><route edges="ab bc"/></vehicle>'
-    fcd = _record(tmp_path, net, vehicles, "0.5", "120")
+    fcd = _record(tmp_path, net, vehicles, "0.5", "120", *options)
     road = load_road(scenario=tmp_path)
-    _, _, _, sim = recorded_episode(
+    _, ego_road, _, sim = recorded_episode(
         str(fcd), road, EpisodeConfig(name="cross"), PlannerConfig(n_policies=50), "car"
     )
+    assert ego_road.edges == tuple(route.split())
+    source = tmp_path / "lights.add.xml" if own else net
     seen, expected = [], []
     with sim:
         sim.reset(0)
-        for _ in range(400):  # to 90 s: the light changes at 87 s and 90 s
+        for _ in range(400):  # to 90 s: the network's program changes at 87 s and 90 s
             t = float(sim._api.simulation.getTime())
             seen.append(sim._api.trafficlight.getRedYellowGreenState("b"))
-            expected.append(_program_state(net, "b", t - 0.05))  # a switch at T shows after the step to T
+            expected.append(_program_state(source, "b", t - 0.05))  # a switch at T shows after the step to T
             sim.step(None)
         assert abs(sim.ego.t - (50.0 + 400 * 0.1)) < 1e-6  # the ego's clock: the recording's
     assert seen == expected and len(set(seen)) > 1

@@ -142,3 +142,29 @@ def test_a_broken_network_of_another_scenario_gets_advice_that_fits(road, tmp_pa
     grid = SUMO_NET_DIR / "grid" / "scenario.toml"  # netgenerate: irlsim made it, deleting it remakes it
     advice = network_advice(load_scenario("grid").net_file, grid)
     assert advice.startswith(f"delete it: it is made again from {grid.parent / 'grid.netgcfg'} ")
+
+
+def test_a_scenarios_additional_file_is_named_when_missing_broken_or_refused(tmp_path, capsys):
+    """A scenario's [network] additional file (signal programs): missing, not XML, or a program SUMO
+    refuses (a traffic light the network lacks) is one line naming it, before any work (exit 2, nothing
+    written)."""
+    (tmp_path / "road").mkdir()
+    lights = tmp_path / "road" / "lights.add.xml"
+    scn = _user_scenario(tmp_path / "road", f'file = "{OVAL_NET}"\nadditional = ["lights.add.xml"]', "")
+    tiny = ["collect", "--config", "configs/collect/tiny.toml", "--scenario", str(scn)]
+    refused = (
+        '<additional><tlLogic id="no_such_light" type="static" programID="x" offset="0">'
+        '<phase duration="10" state="G"/></tlLogic></additional>'
+    )
+    for text, words in (
+        (None, f"scenario {scn}: file {lights} not found: fix [network] additional"),
+        ("<additional>", f"additional file {lights} is not valid XML"),
+        (refused, f"additional file {lights}: SUMO refused it ("),
+    ):
+        if text is not None:
+            lights.write_text(text)
+        out = tmp_path / "out"
+        assert main([*tiny, "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert words in err and "\n" not in err, err
+        assert not out.exists()
