@@ -115,7 +115,16 @@ class Signal:
     x: float  # [m] world position of the line on the middle lane
     y: float
     tls: str  # SUMO traffic light id
-    link: int  # index of the route's connection in the traffic light's state string
+    link: int  # index of the route's connection in the traffic light's state string (its middle lane's)
+    edge: str = ""  # the incoming route edge
+    #: (SUMO lane index of ``edge``, its link into the route's next edge), for every lane that has one: the
+    #: ego on ``edge`` is held by its own lane's signal (``link`` elsewhere)
+    lane_links: tuple[tuple[int, int], ...] = ()
+
+    def link_of(self, lane: int) -> int:
+        """The link whose state binds a vehicle on lane ``lane`` of the incoming edge: that lane's into the
+        route where it has one, else the middle lane's (-1: a lane not known)."""
+        return next((link for index, link in self.lane_links if index == lane), self.link)
 
 
 @dataclass(frozen=True)
@@ -493,9 +502,9 @@ class Road:
             s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
             lines.append(StopLine(node, s, x, y))
         sig = []
-        for node, x, y, tls, link, i in signals:
+        for node, x, y, tls, link, i, lane_links in signals:
             s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
-            sig.append(Signal(node, s, x, y, tls, link))
+            sig.append(Signal(node, s, x, y, tls, link, self.edges[i], lane_links))
         return tuple(sorted(lines, key=lambda sl: sl.s)), tuple(sorted(sig, key=lambda g: g.s))
 
     def _yield_points(self) -> tuple[YieldPoint, ...]:

@@ -15,15 +15,24 @@ STOP_STATES = ("s", "w")
 
 def junction_controls(
     net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
-) -> tuple[list[tuple[str, float, float, int]], list[tuple[str, float, float, str, int, int]]]:
+) -> tuple[list[tuple[str, float, float, int]], list[tuple[Any, ...]]]:
     """The junctions the route crosses that make it stop: (stops, signals). A stop is a stop sign or an
     all-way stop on the route's way through (SUMO link state 's' or 'w'): (node id, x, y, i) at the end
     of the middle lane of route edge i, the incoming one. A signal is a traffic light on it: (node id, x,
-    y, traffic light id, link index of the route's connection, i)."""
+    y, traffic light id, link index of the route's connection, i, ((lane index, link index) of every lane
+    of edge i that leads into the route's next edge through that light, ...)): lanes of one approach may
+    show different signals (a green arrow for one, red for the next)."""
     stops, signals = [], []
     for node, x, y, cons, i in _ways_through(net, edges, closed, lanes):
         if cons and cons[0].getTLSID():
-            signals.append((node, x, y, cons[0].getTLSID(), int(cons[0].getTLLinkIndex()), i))
+            tls, nxt = cons[0].getTLSID(), edges[(i + 1) % len(edges)]
+            by_lane = {}
+            for ln in net.getEdge(edges[i]).getLanes():  # type: ignore[attr-defined]
+                into = [c for c in ln.getOutgoing() if c.getTo().getID() == nxt and c.getTLSID() == tls]
+                if into:
+                    by_lane[int(ln.getIndex())] = int(into[0].getTLLinkIndex())
+            lane_links = tuple(sorted(by_lane.items()))
+            signals.append((node, x, y, tls, int(cons[0].getTLLinkIndex()), i, lane_links))
         elif cons and cons[0].getState() in STOP_STATES:
             stops.append((node, x, y, i))
     return stops, signals

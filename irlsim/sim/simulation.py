@@ -29,6 +29,7 @@ from irlsim.sim.collision import first_collision, obb_collide
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.inputs import SumoErrorLog, check_inputs, refusal, reports_sumo_errors, start_quietly
+from irlsim.sim.signals import SignalWatch
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
@@ -39,9 +40,6 @@ from irlsim.sim.yielding import YieldWatch
 EGO = "ego"
 MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
-#: SUMO signal states on a link: red (and red-yellow), and yellow; the stop line binds while either shows
-RED_STATES = ("r", "R", "u")
-YELLOW_STATES = ("y", "Y")
 
 
 def check_seed(seed: object) -> int:
@@ -95,9 +93,7 @@ class Simulation:
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
         self.errors = SumoErrorLog()  # SUMO's reason where libsumo says only 'Process Error'
-        n_sig = len(self.road.signals)
-        self.signal_red = np.zeros(n_sig, dtype=bool)  # per traffic light on the route (see _read_signals)
-        self.signal_binding = np.zeros(n_sig, dtype=bool)
+        self.signals = SignalWatch(self.road)  # the route's traffic lights, on the ego's own lane
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self._sumo_pairs: set[tuple[str, str]] = set()
@@ -253,6 +249,7 @@ class Simulation:
         )
         self.odometry = []
         self._ego_by_sumo = False
+        self.signals = SignalWatch(road)
         self._colliding, self._sumo_pairs = set(), set()
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
@@ -303,7 +300,7 @@ class Simulation:
         new_obb = self._ego_collisions(state)
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
-        self._read_signals()
+        self.signals.read(api, EGO)
         violations = self.yields.read(api, EGO, state.v, state.s)
         if bookkeeping:
             self.episode.update(
@@ -311,7 +308,7 @@ class Simulation:
                 collisions=new_obb,
                 sumo_collisions=new_sumo,
                 teleports=teleports,
-                red=tuple(self.signal_red.tolist()),
+                red=tuple(self.signals.red.tolist()),
                 yield_violations=violations,
             )
             self.odometry.append(state)
@@ -320,17 +317,6 @@ class Simulation:
         if bookkeeping:
             for f in self.step_listeners:
                 f(self)
-
-    def _read_signals(self) -> None:
-        """Each traffic light's state on the route's link: ``signal_red`` (red: crossing is a failure) and
-        ``signal_binding`` (red or yellow: its stop line binds the ego)."""
-        signals = self.road.signals
-        if not signals:
-            return
-        tl = self._api.trafficlight
-        states = [tl.getRedYellowGreenState(g.tls)[g.link] for g in signals]
-        self.signal_red = np.array([c in RED_STATES for c in states], dtype=bool)
-        self.signal_binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
 
     def _read_vehicles(self, ego_s: float = math.nan) -> VehicleStates:
         """Every vehicle but the ego; on a route that comes back near itself projected by progress (near
@@ -429,7 +415,7 @@ class Simulation:
         assert self.ego is not None and self.episode is not None
         idx, target_s = self.episode.target(self.ego.s)
         stop_s, red = self.episode.stop_s(self.ego.s), False
-        lines = [g.s for g, on in zip(self.road.signals, self.signal_binding, strict=True) if on]
+        lines = [g.s for g, on in zip(self.road.signals, self.signals.binding, strict=True) if on]
         lines += [p.s for p, on in zip(self.road.yield_points, self.yields.binding, strict=True) if on]
         for m in lines:
             line = self.ego.s + self.marks.ahead(self.ego.s, m)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pyarrow as pa
@@ -234,8 +235,6 @@ def test_a_recorded_ego_may_start_in_any_lane_of_a_wide_road(tmp_path):
 def _program_state(net: Path, tls: str, t: float) -> str:
     """The state a static traffic light program of ``net`` shows at SUMO time ``t`` (offset 0), from its
     phases' durations: the closed form SUMO runs by."""
-    import xml.etree.ElementTree as ET
-
     logic = next(e for e in ET.parse(net).getroot().iter("tlLogic") if e.get("id") == tls)
     phases = [(float(p.get("duration")), p.get("state")) for p in logic.iter("phase")]
     at = (t - float(logic.get("offset", "0"))) % sum(d for d, _ in phases)
@@ -307,3 +306,54 @@ def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path, program):
             sim.step(None)
         assert abs(sim.ego.t - (50.0 + 400 * 0.1)) < 1e-6  # the ego's clock: the recording's
     assert seen == expected and len(set(seen)) > 1
+
+
+def test_a_car_is_held_by_its_own_lanes_signal(tmp_path):
+    """Three lanes into a signalised junction, only the rightmost one's signal green (a program of the
+    scenario's additional file): a car recorded through it on that lane crossed on green, not on the red
+    of the route's middle lane, which had been read for every lane."""
+    nodes = {"a": (0, 0), "b": (300, 0), "c": (600, 0)}
+    light = {k: ' type="traffic_light"' if k == "b" else "" for k in nodes}
+    (tmp_path / "n.nod.xml").write_text(
+        "<nodes>"
+        + "".join(f'<node id="{k}" x="{x}" y="{y}"{light[k]}/>' for k, (x, y) in nodes.items())
+        + "</nodes>"
+    )
+    (tmp_path / "n.edg.xml").write_text(
+        '<edges><edge id="ab" from="a" to="b" numLanes="3" speed="14"/>'
+        '<edge id="bc" from="b" to="c" numLanes="3" speed="14"/></edges>'
+    )
+    net = tmp_path / "x.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    links = {
+        int(c.get("fromLane")): int(c.get("linkIndex"))
+        for c in ET.parse(net).getroot().iter("connection")
+        if c.get("from") == "ab" and c.get("tl") == "b"
+    }
+    state = "".join("G" if i == links[0] else "r" for i in range(len(links)))
+    (tmp_path / "lights.add.xml").write_text(
+        '<additional><tlLogic id="b" type="static" programID="one" offset="0">'
+        f'<phase duration="1000" state="{state}"/></tlLogic></additional>'
+    )
+    (tmp_path / "scenario.toml").write_text(
+        f'name = "three"\n[network]\nfile = "{net.name}"\nadditional = ["lights.add.xml"]\n'
+        '[route]\nedges = ["ab", "bc"]\n'
+    )
+    vehicles = '<vehicle id="car" type="car" depart="0" departLane="0" departSpeed="max">'
+    vehicles += '<route edges="ab bc"/></vehicle>'
+    fcd = _record(
+        tmp_path, net, vehicles, "0.5", "60", "--additional-files", str(tmp_path / "lights.add.xml")
+    )
+    road = load_road(scenario=tmp_path)
+    assert [g.link_of(0) for g in road.signals] == [links[0]] != [g.link for g in road.signals]
+    driver, _, _, sim = recorded_episode(
+        str(fcd), road, EpisodeConfig(name="three"), PlannerConfig(n_policies=50), "car"
+    )
+    with sim:
+        obs = sim.reset(0)
+        while not sim.done:
+            sim.execute(driver.plan(obs), 2)
+            obs = sim.observe()
+        counts = sim.episode.counts
+    assert counts["signals_passed"] == 1 and counts.get("red_crossings", 0) == 0, counts

@@ -51,7 +51,7 @@ def test_traffic_lights_are_read_every_step():
         states = []
         for _ in range(900):  # 90 s: every light goes through its cycle
             sim.step()
-            states.append(sim.signal_binding.copy())
+            states.append(sim.signals.binding.copy())
         seen = np.array(states)
         assert seen.any(axis=0).all() and (~seen).any(axis=0).all()  # each light both binds and frees
 
