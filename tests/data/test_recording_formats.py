@@ -16,6 +16,7 @@ from irlsim.road.network import sumo_binary
 from irlsim.road.scenario import Scenarios
 from tests.data.conftest import record_fcd
 from tests.data.test_recording import _bad, _columns, _csv
+from tests.data.test_recording_street import _plain_net
 
 
 def test_sumos_gzipped_fcd_is_the_same_recording(fcd, tmp_path):
@@ -162,15 +163,8 @@ def test_the_networks_original_projection_is_named_as_such(tmp_path):
     """SUMO's ``--fcd-output.utm`` writes a network's original coordinates, its netOffset taken off (a
     netconvert network of nodes half a million metres east, as a UTM zone's are): named with the offset to
     add, not as another network's coordinates; the same run without .utm is read."""
-    (tmp_path / "n.nod.xml").write_text(
-        '<nodes><node id="a" x="500000" y="5400000"/><node id="b" x="500600" y="5400000"/></nodes>'
-    )
-    (tmp_path / "n.edg.xml").write_text(
-        '<edges><edge id="ab" from="a" to="b" numLanes="2" speed="20"/></edges>'
-    )
-    net = tmp_path / "u.net.xml"
-    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
-    subprocess.run([*cmd, "-o", str(net)], check=True, capture_output=True)
+    nodes = {"a": (500000, 5400000), "b": (500600, 5400000)}
+    net = _plain_net(tmp_path, "u", nodes, {"ab": 'numLanes="2" speed="20"'})
     (tmp_path / "r.rou.xml").write_text(
         '<routes><vehicle id="c" depart="0" departSpeed="max"><route edges="ab"/></vehicle></routes>'
     )

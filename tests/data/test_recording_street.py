@@ -67,6 +67,30 @@ def _record(tmp: Path, net: Path, vehicles: str, step: str, end: str, *options: 
     return fcd
 
 
+def _plain_net(
+    tmp: Path, name: str, nodes: dict[str, tuple[float, float]], edges: dict[str, str], *options: str
+) -> Path:
+    """A netconvert network ``tmp/<name>.net.xml`` of ``nodes`` (id: x, y; a node named in ``options`` as
+    ``lights=a,b`` is a traffic light) and ``edges`` (id "uv" from u to v: its attributes)."""
+    lights = next((o.removeprefix("lights=").split(",") for o in options if o.startswith("lights=")), [])
+    rest = [o for o in options if not o.startswith("lights=")]
+    tl = {k: ' type="traffic_light"' if k in lights else "" for k in nodes}
+    (tmp / "n.nod.xml").write_text(
+        "<nodes>"
+        + "".join(f'<node id="{k}" x="{x}" y="{y}"{tl[k]}/>' for k, (x, y) in nodes.items())
+        + "</nodes>"
+    )
+    (tmp / "n.edg.xml").write_text(
+        "<edges>"
+        + "".join(f'<edge id="{e}" from="{e[0]}" to="{e[1]}" {a}/>' for e, a in edges.items())
+        + "</edges>"
+    )
+    net = tmp / f"{name}.net.xml"
+    cmd = [sumo_binary("netconvert"), "-n", str(tmp / "n.nod.xml"), "-e", str(tmp / "n.edg.xml")]
+    subprocess.run([*cmd, "-o", str(net), *rest], check=True, capture_output=True)
+    return net
+
+
 def _lanes_of(sim, vid: str, steps: int) -> tuple[set[str], set[str]]:
     """The lanes SUMO has ``vid`` on over ``steps`` steps of ``sim`` from its reset; the vehicles SUMO
     drove (a reactive replay's)."""
@@ -206,15 +230,7 @@ def test_a_replayed_vehicle_is_never_put_on_a_pedestrians_lane(tmp_path):
 def test_a_recorded_ego_may_start_in_any_lane_of_a_wide_road(tmp_path):
     """A car recorded in the fifth lane of a five-lane road is an ego from there (the start lane had been
     held to the oval's three, and such an ego's episode failed on every retry)."""
-    (tmp_path / "n.nod.xml").write_text(
-        '<nodes><node id="a" x="0" y="0"/><node id="b" x="800" y="0"/></nodes>'
-    )
-    (tmp_path / "n.edg.xml").write_text(
-        '<edges><edge id="ab" from="a" to="b" numLanes="5" speed="20"/></edges>'
-    )
-    net = tmp_path / "wide.net.xml"
-    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
-    subprocess.run([*cmd, "-o", str(net)], check=True, capture_output=True)
+    net = _plain_net(tmp_path, "wide", {"a": (0, 0), "b": (800, 0)}, {"ab": 'numLanes="5" speed="20"'})
     (tmp_path / "scenario.toml").write_text(
         f'name = "wide"\n[network]\nfile = "{net.name}"\n[route]\nedges = ["ab"]\n'
     )
@@ -262,21 +278,8 @@ def test_a_replay_runs_the_lights_by_the_recordings_clock(tmp_path, program):
     recording ran from an additional file, named by the scenario's [network] additional, the replay runs
     that program, also for a car whose route is its own (d to e, not the scenario's)."""
     nodes = {"a": (0, 0), "b": (200, 0), "c": (400, 0), "d": (200, 200), "e": (200, -200)}
-    light = {k: ' type="traffic_light"' if k == "b" else "" for k in nodes}
-    (tmp_path / "n.nod.xml").write_text(
-        "<nodes>"
-        + "".join(f'<node id="{k}" x="{x}" y="{y}"{light[k]}/>' for k, (x, y) in nodes.items())
-        + "</nodes>"
-    )
-    edges = ("ab", "bc", "db", "be")
-    (tmp_path / "n.edg.xml").write_text(
-        "<edges>"
-        + "".join(f'<edge id="{e}" from="{e[0]}" to="{e[1]}" numLanes="1" speed="14"/>' for e in edges)
-        + "</edges>"
-    )
-    net = tmp_path / "x.net.xml"
-    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
-    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    edges = {e: 'numLanes="1" speed="14"' for e in ("ab", "bc", "db", "be")}
+    net = _plain_net(tmp_path, "x", nodes, edges, "lights=b", "--no-turnarounds")
     own = program != "the network's"
     scenario = f'name = "cross"\n[network]\nfile = "{net.name}"\n'
     options: tuple[str, ...] = ()
@@ -313,19 +316,8 @@ def test_a_car_is_held_by_its_own_lanes_signal(tmp_path):
     scenario's additional file): a car recorded through it on that lane crossed on green, not on the red
     of the route's middle lane, which had been read for every lane."""
     nodes = {"a": (0, 0), "b": (300, 0), "c": (600, 0)}
-    light = {k: ' type="traffic_light"' if k == "b" else "" for k in nodes}
-    (tmp_path / "n.nod.xml").write_text(
-        "<nodes>"
-        + "".join(f'<node id="{k}" x="{x}" y="{y}"{light[k]}/>' for k, (x, y) in nodes.items())
-        + "</nodes>"
-    )
-    (tmp_path / "n.edg.xml").write_text(
-        '<edges><edge id="ab" from="a" to="b" numLanes="3" speed="14"/>'
-        '<edge id="bc" from="b" to="c" numLanes="3" speed="14"/></edges>'
-    )
-    net = tmp_path / "x.net.xml"
-    cmd = [sumo_binary("netconvert"), "-n", str(tmp_path / "n.nod.xml"), "-e", str(tmp_path / "n.edg.xml")]
-    subprocess.run([*cmd, "-o", str(net), "--no-turnarounds"], check=True, capture_output=True)
+    edges = {e: 'numLanes="3" speed="14"' for e in ("ab", "bc")}
+    net = _plain_net(tmp_path, "x", nodes, edges, "lights=b", "--no-turnarounds")
     links = {
         int(c.get("fromLane")): int(c.get("linkIndex"))
         for c in ET.parse(net).getroot().iter("connection")
