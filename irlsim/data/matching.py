@@ -166,12 +166,17 @@ def connect(net: Any, edges: list[str], dist: np.ndarray) -> tuple[str, ...] | s
 
 
 def match_routes(
-    net: Any, cols: dict[str, np.ndarray], bounds: np.ndarray, bound: float
+    net: Any,
+    cols: dict[str, np.ndarray],
+    bounds: np.ndarray,
+    bound: float,
+    samples: LaneSamples | None = None,
 ) -> list[tuple[str, ...] | str]:
     """Per vehicle (its points ``bounds[k]:bounds[k + 1]`` of ``cols``: ``t``, ``x``, ``y``, ``v``,
     ``heading``, in time order), its connected route of edges, or why its positions match none (a phrase).
-    The distance driven is the recorded speed integrated over time (a jump in position drives nothing)."""
-    samples = lane_samples(net)
+    The distance driven is the recorded speed integrated over time (a jump in position drives nothing).
+    ``samples``: ``net``'s lane samples where the caller has them (None: sampled here)."""
+    samples = lane_samples(net) if samples is None else samples
     lane = nearest_lanes(samples, cols["x"], cols["y"], cols["heading"], bound)
     edge_of = np.array([*samples.edge, ""], dtype=object)  # -1: no lane
     car = np.array([*samples.car, True])

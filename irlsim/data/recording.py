@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.matching import lane_routes, lane_samples, match_routes
+from irlsim.data.matching import LaneSamples, lane_routes, lane_samples, match_routes
 from irlsim.data.recording_read import Rows, read_rows
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
@@ -163,17 +163,24 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
     return order, starts
 
 
+def _vehicles(t: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, float | None]:
+    """Per row of the rows grouped by vehicle (times ``t``, groups starting at ``starts``) its vehicle's
+    index, and the median time between a vehicle's consecutive rows (None: no vehicle has two)."""
+    vehicle = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(t)]))
+    same = vehicle[1:] == vehicle[:-1]
+    return vehicle, float(np.median(np.diff(t)[same])) if same.any() else None
+
+
 def _check_heading(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
     """The headings against the direction the positions move (between a vehicle's rows about
     ``HEADING_BASE_S`` apart, at least ``HEADING_MIN_STEP`` apart in space; the heading halfway): a median
     difference over ``HEADING_MAX_DIFF`` is another angle convention (SUMO's angle from north, clockwise,
     or x and y swapped), which would leave every cycle without a demonstration."""
-    x, y, h, t = rows.x[order], rows.y[order], rows.heading[order], rows.t[order]
-    vehicle = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(x)]))
-    same = vehicle[1:] == vehicle[:-1]
-    if not same.any():
+    x, y, h = rows.x[order], rows.y[order], rows.heading[order]
+    vehicle, step = _vehicles(rows.t[order], starts)
+    if step is None:
         return
-    k = max(1, int(round(HEADING_BASE_S / float(np.median(np.diff(t)[same])))))
+    k = max(1, int(round(HEADING_BASE_S / step)))
     if len(x) <= k:
         return
     dx, dy = x[k:] - x[:-k], y[k:] - y[:-k]
@@ -192,19 +199,20 @@ def _check_heading(rows: Rows, order: np.ndarray, starts: np.ndarray) -> None:
         )
 
 
-def headings_from_motion(rows: Rows, order: np.ndarray, starts: np.ndarray, net: Any) -> np.ndarray:
+def headings_from_motion(
+    rows: Rows, order: np.ndarray, starts: np.ndarray, samples: LaneSamples
+) -> np.ndarray:
     """[N] [rad] ENU, in file order: each row's heading, the direction a vehicle's positions move in
     between its rows about ``HEADING_BASE_S`` apart around it (a chord of length D, which a position noise
     of sigma turns by about 1.4 sigma / D), where they lie ``HEADING_MIN_STEP`` apart or
     more; held from the nearest such row of the vehicle where they do not (it stands or creeps); for a
-    vehicle that never moves so far, the direction of the lane nearest its first position."""
-    x, y, t = rows.x[order], rows.y[order], rows.t[order]
+    vehicle that never moves so far, the direction of the lane nearest its first position (``samples``:
+    the network's lanes)."""
+    x, y = rows.x[order], rows.y[order]
     n = len(x)
-    vehicle = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, n]))
+    vehicle, step = _vehicles(rows.t[order], starts)
     first, last = starts[vehicle], (np.r_[starts[1:], n] - 1)[vehicle]
-    same = vehicle[1:] == vehicle[:-1]
-    step = float(np.median(np.diff(t)[same])) if same.any() else HEADING_BASE_S
-    half = max(1, int(round(0.5 * HEADING_BASE_S / step)))
+    half = max(1, int(round(0.5 * HEADING_BASE_S / (step or HEADING_BASE_S))))
     i = np.arange(n)
     a, b = np.maximum(i - half, first), np.minimum(i + half, last)
     dx, dy = x[b] - x[a], y[b] - y[a]
@@ -216,7 +224,6 @@ def headings_from_motion(rows: Rows, order: np.ndarray, starts: np.ndarray, net:
     out = np.where(src >= 0, head[np.maximum(src, 0)], np.nan)
     still = np.flatnonzero(src[starts] < 0)  # vehicles that never move so far: a loop over them, few
     if len(still):
-        samples = lane_samples(net)
         ends = np.r_[starts[1:], n]
         for k in still:
             d2 = (samples.xy[:, 0] - x[starts[k]]) ** 2 + (samples.xy[:, 1] - y[starts[k]]) ** 2
@@ -288,12 +295,15 @@ def _time_in_milliseconds(rows: Rows, order: np.ndarray, starts: np.ndarray) -> 
     return bool(far.any()) and MS_BAND[0] < float(np.median(ratio[far])) < MS_BAND[1]
 
 
-def check_on_network(rows: Rows, net: Any, bound: float = OFF_NETWORK_M) -> None:
+def check_on_network(
+    rows: Rows, net: Any, bound: float = OFF_NETWORK_M, samples: LaneSamples | None = None
+) -> None:
     """Refuse a recording whose points lie off ``net`` (a sumolib network): more than ``FOREIGN_SHARE``
     of them, another network's coordinates; else the first point farther than ``bound`` from every
-    lane. Lanes are sampled every metre into a grid of cells marked within ``bound`` of a lane."""
+    lane. Lanes are sampled every metre into a grid of cells marked within ``bound`` of a lane
+    (``samples``: ``net``'s where the caller has them)."""
     cell = 1.0
-    pts = lane_samples(net).xy  # every metre or closer along every lane, internal lanes included
+    pts = (lane_samples(net) if samples is None else samples).xy  # every metre or closer, internal lanes too
     lo = pts.min(axis=0) - 2 * bound
     hi = pts.max(axis=0) + 2 * bound
     cell = max(cell, float(np.prod(hi - lo) / 2e7) ** 0.5)  # at most ~20 M cells
@@ -407,9 +417,10 @@ def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX
     """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network)."""
     rows = read_rows(path)
     order, starts = check_rows(rows, max_gap)
-    check_on_network(rows, net)
+    samples = lane_samples(net)  # every lane sampled once: the network check, headings, matching
+    check_on_network(rows, net, samples=samples)
     if rows.no_heading:
-        rows = dataclasses.replace(rows, heading=headings_from_motion(rows, order, starts, net))
+        rows = dataclasses.replace(rows, heading=headings_from_motion(rows, order, starts, samples))
     if rows.lane is not None:
         known = {ln.getID() for e in net.getEdges(withInternal=True) for ln in e.getLanes()}
         unknown = sorted(set(rows.lane.tolist()) - known)
@@ -421,7 +432,7 @@ def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX
     cols = {k: getattr(rows, k)[order] for k in ("t", "x", "y", "v", "heading")}
     bounds = np.r_[starts, len(order)]
     if rows.lane is None:  # each vehicle's route from its positions
-        routes = match_routes(net, cols, bounds, OFF_NETWORK_M)
+        routes = match_routes(net, cols, bounds, OFF_NETWORK_M, samples)
     else:  # from its recorded lanes, made connected
         routes = lane_routes(net, rows.lane[order], cols, bounds)
     sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()

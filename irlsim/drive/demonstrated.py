@@ -123,8 +123,8 @@ def recorded_ego_episode(
     recorded ego's driver, its road, settings and the replay (:func:`irlsim.data.recorded.recorded_episode`),
     whoever then drives it (``end_on_collision`` False: the recorded ego itself, which drives on through a
     collision, as recorded)."""
-    ego = cfg.demonstrator.ego.split(",")[episode]
     d = cfg.demonstrator
+    ego = d.ego.split(",")[episode]
     return recorded_episode(
         d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window, end_on_collision
     )

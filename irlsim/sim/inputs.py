@@ -97,13 +97,19 @@ def sumo_errors(text: str) -> list[str]:
     ]
 
 
+def additional_files(road: Road, *files: Path | str) -> str:
+    """SUMO's ``--additional-files`` for ``road``: the scenario's own (its signal programs) first, then
+    ``files`` (the vehicle types, a demonstrator's type)."""
+    return ",".join(str(p) for p in (*road.additional, *files))
+
+
 def refusal(api: Any, road: Road, vtypes_file: Path, why: str) -> IrlsimError:
     """The file SUMO refused, after it failed to start with ``why``: SUMO started again on the network
     alone, then with each of its additional files, then with the vehicle types, then with each route file
     in turn (every route read at once,
     ``--route-steps 0``); the first that fails is named with SUMO's message and the fix that fits it."""
     net, extra_files = str(road.net_file), [str(p) for p in road.additional]
-    vtypes = ["--additional-files", ",".join([*extra_files, str(vtypes_file)])]
+    vtypes = ["--additional-files", additional_files(road, vtypes_file)]
     base = [sumo_binary("sumo"), "--net-file", net, *QUIET, "--route-steps", "0", "--begin", "0"]
     stages: list[tuple[str, list[str], str]] = [
         (f"network {net}", [], network_advice(road.net_file, road.scenario_file))
@@ -131,7 +137,7 @@ def probe(api: Any, road: Road, vtypes_file: Path) -> None:
     else one IrlsimError line naming the file it refused, before any episode (collect, drive check this
     once, so that such an error is not an episode's, retried and marked failed)."""
     check_inputs(vtypes_file, road.demand, road.additional)
-    files = ",".join([*(str(p) for p in road.additional), str(vtypes_file)])
+    files = additional_files(road, vtypes_file)
     cmd = [sumo_binary("sumo"), "--net-file", str(road.net_file), "--additional-files", files]
     if road.demand:
         cmd += ["--route-files", ",".join(str(p) for p in road.demand)]

@@ -28,7 +28,14 @@ from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
 from irlsim.sim.collision import first_collision, obb_collide
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.inputs import SumoErrorLog, check_inputs, refusal, reports_sumo_errors, start_quietly
+from irlsim.sim.inputs import (
+    SumoErrorLog,
+    additional_files,
+    check_inputs,
+    refusal,
+    reports_sumo_errors,
+    start_quietly,
+)
 from irlsim.sim.signals import SignalWatch
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
@@ -108,11 +115,12 @@ class Simulation:
         binary = sumo_binary("sumo-gui" if self.gui else "sumo")
         if not self.vtypes_file.is_file():
             raise IrlsimError(f"vehicle types {self.vtypes_file} not found: restore sumo_net/ from git")
-        additional = [str(p) for p in self.road.additional]  # the network's signal programs first
-        additional += [str(self.vtypes_file), *([self.demo_type.path()] if self.demo_type else [])]
+        additional = additional_files(
+            self.road, self.vtypes_file, *([self.demo_type.path()] if self.demo_type else [])
+        )
         options = {
             "--net-file": str(self.road.net_file),
-            "--additional-files": ",".join(additional),
+            "--additional-files": additional,
             **({"--route-files": ",".join(str(p) for p in self.road.demand)} if self.road.demand else {}),
             "--step-length": f"{self.cfg.step}",
             "--seed": str(seed),
