@@ -356,7 +356,14 @@ def _episode_driver(
         ego = recorded_ego(demonstrator, counts, job.split, job.episode)
         window = demonstrator.rate_window  # the recorded ego drives on as recorded through an overlap
         return recorded_episode(
-            demonstrator.file, road, scenario, cfg.planner, ego, rate_window=window, end_on_collision=False
+            demonstrator.file,
+            road,
+            scenario,
+            cfg.planner,
+            ego,
+            rate_window=window,
+            end_on_collision=False,
+            position=demonstrator.position,
         )
     return SumoDemonstrator(road, cfg.planner, scenario), road, scenario, None
 

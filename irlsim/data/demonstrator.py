@@ -25,6 +25,7 @@ from typing import Any
 from irlsim.config import STORED_IF_SET, require
 from irlsim.data.recorded import RATE_WINDOW, open_recording
 from irlsim.data.recorded import egos as recorded_egos
+from irlsim.data.recording import FRONT, POSITIONS
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -47,7 +48,7 @@ KINDS = (EXPERT, SUMO, RECORDING)
 #: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
 #: keeps the bytes of before recordings existed)
 SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
-RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window")
+RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window", "position")
 #: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
 #: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
 #: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
@@ -92,6 +93,11 @@ class DemonstratorConfig:
     """kind 'recording': [s] the window of the local quadratic fit that gives the recorded ego's
     acceleration and lateral rates, the state its policy sets start from (a tracker's position noise
     taken by finite differences starts them metres off); 0: finite differences over one step"""
+    position: str = field(default=FRONT, metadata={STORED_IF_SET: True})
+    """kind 'recording': the point of a vehicle the recording's x, y give: 'front' (its front bumper's
+    centre, SUMO's convention; an FCD file's by definition) or 'centre' (the centre of its box, as most
+    public datasets' tracks; needs the columnar format's length column: each row moves half the length
+    along the heading)"""
 
     def validate(self) -> None:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
@@ -122,10 +128,15 @@ class DemonstratorConfig:
                 self.kind == EXPERT or not (self.car_follow_model or self.lane_change_model),
                 "demonstrator car_follow_model / lane_change_model belong to kind = 'sumo': drop them",
             )
+        require(
+            self.position in POSITIONS,
+            f"demonstrator.position must be one of {', '.join(POSITIONS)}, got {self.position!r}",
+        )
         if self.kind != RECORDING:
             require(
-                not self.file and not self.ego and self.rate_window == RATE_WINDOW,
-                "demonstrator.file / ego / rate_window belong to kind = 'recording': set it, or drop them",
+                not self.file and not self.ego and self.rate_window == RATE_WINDOW and self.position == FRONT,
+                "demonstrator.file / ego / rate_window / position belong to kind = 'recording': set it, or "
+                "drop them",
             )
             return
         require(
@@ -193,7 +204,7 @@ def resolve_recording(
     """A recording read and checked on ``road`` (its scenario's, as the command loaded it; one line
     before any work), its egos (``ego``, else every vehicle long enough) written into ``ego``, and the
     manifest record: kind, the file's path and sha256, the egos."""
-    rec = open_recording(cfg.file, road, step)
+    rec = open_recording(cfg.file, road, step, cfg.position)
     wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
     refused: dict[str, int] = {}
     ids = recorded_egos(rec, road, wanted, cfg.min_duration, refused)

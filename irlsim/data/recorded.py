@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.recording import Recording, load_recording
+from irlsim.data.recording import FRONT, Recording, load_recording
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -39,19 +39,20 @@ LAPS = 1_000_000
 RATE_WINDOW = 2.0
 
 
-#: per process: the recordings read, by (file, its mtime, the network, step); the last two kept
-_RECORDINGS: dict[tuple[str, float, str, float], Recording] = {}
+#: per process: the recordings read, by (file, its mtime, the network, step, position); the last two kept
+_RECORDINGS: dict[tuple[str, float, str, float, str], Recording] = {}
 
 
-def open_recording(path: str | Path, road: Road, step: float) -> Recording:
+def open_recording(path: str | Path, road: Road, step: float, position: str = FRONT) -> Recording:
     """The recording ``path`` on the network of ``road`` (the scenario's, as the command loaded it),
-    checked and resampled to ``step`` (read once per process)."""
+    its x, y read as ``position`` (``demonstrator.position``), checked and resampled to ``step`` (read
+    once per process)."""
     p = Path(path)
     if not p.is_file():
         raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
-    key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step)
+    key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step, position)
     if key not in _RECORDINGS:
-        _RECORDINGS[key] = load_recording(key[0], road.net, step)
+        _RECORDINGS[key] = load_recording(key[0], road.net, step, position=position)
         while len(_RECORDINGS) > 2:
             del _RECORDINGS[next(iter(_RECORDINGS))]
     return _RECORDINGS[key]
@@ -283,6 +284,7 @@ def recorded_episode(
     reactive: bool = False,
     rate_window: float = RATE_WINDOW,
     end_on_collision: bool = True,
+    position: str = FRONT,
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
@@ -290,8 +292,9 @@ def recorded_episode(
     the others from their first recorded pose on; ``rate_window``: :class:`RecordingDemonstrator`'s;
     ``end_on_collision`` False where the recorded ego drives as recorded (a collection, ``drive --model
     demonstrator``): the recording goes on where the recorded boxes of the ego and another overlap (as
-    noisy positions make them), counted as a collision."""
-    rec = open_recording(file, road, scenario.step)
+    noisy positions make them), counted as a collision; ``position``: the point of a vehicle the
+    recording's x, y give (:func:`open_recording`)."""
+    rec = open_recording(file, road, scenario.step, position)
     et = ego_track(rec, vid, road)
     if isinstance(et, str):
         raise IrlsimError(f"recording {rec.path}: vehicle {vid} cannot be an ego: {et}")

@@ -7,7 +7,8 @@ Two formats (docs/guide/demonstrators.md, "Recordings"):
   ``<timestep time=..><vehicle id x y angle speed lane .../>``; SUMO's angle is degrees from north,
   clockwise, and becomes the ENU heading in radians.
 - A columnar file (``.csv`` or ``.parquet``): one row per vehicle and time, columns ``id`` (text), ``t``
-  [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's], ``v`` [m/s],
+  [s], ``x``, ``y`` [m, the network's coordinates, the front bumper's centre as SUMO's; the centre of
+  the vehicle's box with ``position`` 'centre' and a ``length`` column: :func:`to_front`], ``v`` [m/s],
   ``heading`` [rad, ENU: counter-clockwise from east; optional: without it, the direction of motion,
   :func:`headings_from_motion`]; ``lane`` (a SUMO lane id) optional, and
   ``length``, ``width`` [m] optional: the vehicle's size, one value per vehicle (the replay's vehicle
@@ -63,6 +64,10 @@ HEADING_MIN_STEP = 2.0
 #: [rad] the median difference between heading and direction of motion above which the headings are in
 #: another convention
 HEADING_MAX_DIFF = math.radians(45.0)
+#: the point of a vehicle a recording's x, y give (``demonstrator.position``): its front bumper's centre
+#: (SUMO's convention, the FCD's by definition) or the centre of its box (most public datasets' tracks)
+FRONT, CENTRE = "front", "centre"
+POSITIONS = (FRONT, CENTRE)
 
 
 @dataclass(frozen=True)
@@ -413,14 +418,50 @@ def resample(
     )
 
 
-def load_recording(path: str | Path, net: Any, step: float, max_gap: float = MAX_GAP) -> Recording:
-    """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network)."""
+def check_position(rows: Rows, position: str) -> None:
+    """Refuse, in one line, a reference point the rows cannot be read at: SUMO's FCD is the front bumper
+    by definition, and a box's centre moves to the front bumper by the vehicle's length."""
+    if position not in POSITIONS:
+        raise IrlsimError(
+            f"recording {rows.path}: position {position!r} is not one of {', '.join(POSITIONS)}: give the "
+            "point of the vehicle its x, y are"
+        )
+    if position == CENTRE and rows.fcd:
+        raise IrlsimError(
+            f"recording {rows.path} is SUMO's FCD output, whose x, y are the front bumper by definition: "
+            "drop demonstrator.position (or set it to 'front')"
+        )
+    if position == CENTRE and "length" not in rows.size:
+        raise IrlsimError(
+            f"recording {rows.path} has no length column, which position = 'centre' needs (the front "
+            "bumper is the centre plus half the length along the heading): add each vehicle's length [m]"
+        )
+
+
+def to_front(rows: Rows, position: str) -> Rows:
+    """The rows with x, y at the front bumper's centre (SUMO's point): ``position`` 'centre' moves each
+    row half its vehicle's length along its heading; 'front' leaves them as they are."""
+    if position == FRONT:
+        return rows
+    half = 0.5 * rows.size["length"]
+    return dataclasses.replace(
+        rows, x=rows.x + half * np.cos(rows.heading), y=rows.y + half * np.sin(rows.heading)
+    )
+
+
+def load_recording(
+    path: str | Path, net: Any, step: float, max_gap: float = MAX_GAP, position: str = FRONT
+) -> Recording:
+    """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network);
+    ``position``: the point of a vehicle its x, y give (:data:`POSITIONS`), read as the front bumper."""
     rows = read_rows(path)
+    check_position(rows, position)
     order, starts = check_rows(rows, max_gap)
     samples = lane_samples(net)  # every lane sampled once: the network check, headings, matching
     check_on_network(rows, net, samples=samples)
     if rows.no_heading:
         rows = dataclasses.replace(rows, heading=headings_from_motion(rows, order, starts, samples))
+    rows = to_front(rows, position)
     if rows.lane is not None:
         known = {ln.getID() for e in net.getEdges(withInternal=True) for ln in e.getLanes()}
         unknown = sorted(set(rows.lane.tolist()) - known)
