@@ -363,7 +363,7 @@ def _episode_driver(
             ego,
             rate_window=window,
             end_on_collision=False,
-            position=demonstrator.position,
+            read=demonstrator.read_as(),
         )
     return SumoDemonstrator(road, cfg.planner, scenario), road, scenario, None
 

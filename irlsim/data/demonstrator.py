@@ -25,7 +25,7 @@ from typing import Any
 from irlsim.config import STORED_IF_SET, require
 from irlsim.data.recorded import RATE_WINDOW, open_recording
 from irlsim.data.recorded import egos as recorded_egos
-from irlsim.data.recording import FRONT, POSITIONS
+from irlsim.data.recording_as import FRONT, POSITIONS, ReadAs
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -37,6 +37,7 @@ from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.drivers import SumoDriver
 from irlsim.sim.simulation import Simulation
 from irlsim.sim.types import Observation, Trajectory
+from irlsim.sim.vehicle_types import type_file
 from irlsim.sim.vtype import MODEL_KEYS, check_vtype, read_vtype_file, vtype_attributes
 
 #: SUMO's models of a vType that names none (sumo.dlr.de, "Vehicle Type Parameter Defaults")
@@ -98,6 +99,12 @@ class DemonstratorConfig:
     centre, SUMO's convention; an FCD file's by definition) or 'centre' (the centre of its box, as most
     public datasets' tracks; needs the columnar format's length column: each row moves half the length
     along the heading)"""
+    vehicle_types: tuple[str, ...] = field(default=(), metadata={STORED_IF_SET: True})
+    """kind 'recording': the files that define the vehicle types the recording names (FCD's ``type``,
+    a ``type`` column; the route or additional files its SUMO run loaded, ``sumo_tools/...`` inside the
+    eclipse-sumo wheel): each vehicle's length, width and class are then its type's as SUMO makes it
+    (a size column wins), and only vehicles of a car's class are egos; empty: not read (every vehicle
+    replays at the replay type's size)"""
 
     def validate(self) -> None:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
@@ -134,14 +141,22 @@ class DemonstratorConfig:
         )
         if self.kind != RECORDING:
             require(
-                not self.file and not self.ego and self.rate_window == RATE_WINDOW and self.position == FRONT,
-                "demonstrator.file / ego / rate_window / position belong to kind = 'recording': set it, or "
-                "drop them",
+                not self.file
+                and not self.ego
+                and self.rate_window == RATE_WINDOW
+                and self.position == FRONT
+                and not self.vehicle_types,
+                "demonstrator.file / ego / rate_window / position / vehicle_types belong to kind = "
+                "'recording': set it, or drop them",
             )
             return
         require(
             bool(self.file), "demonstrator kind = 'recording' needs file = 'an FCD .xml, .csv or .parquet'"
         )
+
+    def read_as(self) -> ReadAs:
+        """How a recording demonstrator's file is read."""
+        return ReadAs(self.position, tuple(self.vehicle_types))
 
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
@@ -204,7 +219,7 @@ def resolve_recording(
     """A recording read and checked on ``road`` (its scenario's, as the command loaded it; one line
     before any work), its egos (``ego``, else every vehicle long enough) written into ``ego``, and the
     manifest record: kind, the file's path and sha256, the egos."""
-    rec = open_recording(cfg.file, road, step, cfg.position)
+    rec = open_recording(cfg.file, road, step, cfg.read_as())
     wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
     refused: dict[str, int] = {}
     ids = recorded_egos(rec, road, wanted, cfg.min_duration, refused)
@@ -218,7 +233,13 @@ def resolve_recording(
             f"{len(ids)} episodes (one per ego), or lower demonstrator.min_duration"
         )
     out = replace(cfg, ego=",".join(ids))
-    return out, {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
+    record: dict[str, Any] = {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
+    if cfg.vehicle_types:  # each file by content, as the recording
+        record["vehicle_types"] = [
+            {"path": f, "sha256": hashlib.sha256(type_file(f).read_bytes()).hexdigest()}
+            for f in cfg.vehicle_types
+        ]
+    return out, record
 
 
 def recorded_ego(cfg: DemonstratorConfig, counts: dict[str, int], split: str, episode: int) -> str:

@@ -21,7 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.data.recording import FRONT, Recording, load_recording
+from irlsim.data.recording import Recording, load_recording
+from irlsim.data.recording_as import AS_RECORDED, ReadAs
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -31,7 +32,12 @@ from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.replay import ReplaySimulation, Tracks
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import EgoState, Observation, Trajectory
+from irlsim.sim.vehicle_types import vehicle_types
+from irlsim.sim.vtype import ego_type_attributes
 
+#: the class a recorded vehicle's type must have to be an ego, where the types are read (``ReadAs``):
+#: irlsim's ego type's (sumo_net/vtypes.add.xml)
+EGO_CLASS = ego_type_attributes()["vClass"]
 #: the episode of a recorded ego ends with its recording, never on laps
 LAPS = 1_000_000
 #: [s] the default window of the recorded ego's rates (:func:`local_rates`; ``demonstrator.rate_window``):
@@ -39,20 +45,21 @@ LAPS = 1_000_000
 RATE_WINDOW = 2.0
 
 
-#: per process: the recordings read, by (file, its mtime, the network, step, position); the last two kept
-_RECORDINGS: dict[tuple[str, float, str, float, str], Recording] = {}
+#: per process: the recordings read, by (file, its mtime, the network, step, how read); the last two kept
+_RECORDINGS: dict[tuple[str, float, str, float, ReadAs], Recording] = {}
 
 
-def open_recording(path: str | Path, road: Road, step: float, position: str = FRONT) -> Recording:
+def open_recording(path: str | Path, road: Road, step: float, read: ReadAs = AS_RECORDED) -> Recording:
     """The recording ``path`` on the network of ``road`` (the scenario's, as the command loaded it),
-    its x, y read as ``position`` (``demonstrator.position``), checked and resampled to ``step`` (read
-    once per process)."""
+    read as ``read`` says (its positions' point, its vehicle types asked of SUMO with the road's
+    network), checked and resampled to ``step`` (read once per process)."""
     p = Path(path)
     if not p.is_file():
         raise IrlsimError(f"recording {p} not found: give the path of an FCD .xml, a .csv or a .parquet file")
-    key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step, position)
+    key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step, read)
     if key not in _RECORDINGS:
-        _RECORDINGS[key] = load_recording(key[0], road.net, step, position=position)
+        types = vehicle_types(road.net_file, read.vehicle_types) if read.vehicle_types else None
+        _RECORDINGS[key] = load_recording(key[0], road.net, step, position=read.position, types=types)
         while len(_RECORDINGS) > 2:
             del _RECORDINGS[next(iter(_RECORDINGS))]
     return _RECORDINGS[key]
@@ -95,6 +102,8 @@ def ego_track(
     of the routes met so far (or why each is none), shared by the vehicles that drove the same edges."""
     k = rec.ids.index(vid)
     why = rec.unrouted[k] if rec.unrouted else ""
+    if rec.vclass and rec.vclass[k] != EGO_CLASS:
+        why = f"it is of class {rec.vclass[k]} (its type's), not the ego's ({EGO_CLASS})"
     if why:
         return why if why.startswith("it ") else f"it drove no connected route of the network ({why})"
     road = scenario_road
@@ -144,6 +153,7 @@ def ego_track(
 
 #: why a vehicle is no ego, by how the phrase begins (:func:`ego_track`, :func:`egos`) -> a few words
 NOT_EGO = (
+    ("it is of class", "of another class than a car"),
     ("it drove on lane", "on lanes a car may not use"),
     ("it is recorded", "recorded under min_duration on their route"),
     ("it leaves its route", "leaving their route"),
@@ -284,7 +294,7 @@ def recorded_episode(
     reactive: bool = False,
     rate_window: float = RATE_WINDOW,
     end_on_collision: bool = True,
-    position: str = FRONT,
+    read: ReadAs = AS_RECORDED,
 ) -> tuple[RecordingDemonstrator, Road, EpisodeConfig, ReplaySimulation]:
     """The demonstrator, road, episode settings and replay simulation of ego ``vid`` of recording
     ``file`` on ``road`` (the road of ``scenario``, as the command loaded it: nothing is read again): the
@@ -292,9 +302,9 @@ def recorded_episode(
     the others from their first recorded pose on; ``rate_window``: :class:`RecordingDemonstrator`'s;
     ``end_on_collision`` False where the recorded ego drives as recorded (a collection, ``drive --model
     demonstrator``): the recording goes on where the recorded boxes of the ego and another overlap (as
-    noisy positions make them), counted as a collision; ``position``: the point of a vehicle the
-    recording's x, y give (:func:`open_recording`)."""
-    rec = open_recording(file, road, scenario.step, position)
+    noisy positions make them), counted as a collision; ``read``: how the file is read
+    (:func:`open_recording`)."""
+    rec = open_recording(file, road, scenario.step, read)
     et = ego_track(rec, vid, road)
     if isinstance(et, str):
         raise IrlsimError(f"recording {rec.path}: vehicle {vid} cannot be an ego: {et}")

@@ -28,6 +28,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,10 +36,12 @@ from typing import Any
 import numpy as np
 
 from irlsim.data.matching import LaneSamples, lane_routes, lane_samples, match_routes
+from irlsim.data.recording_as import FRONT, check_position, to_front, typed
 from irlsim.data.recording_read import Rows, read_rows
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
 from irlsim.road.angles import atan2
+from irlsim.sim.vehicle_types import VehicleType
 
 #: [m] the sizes a road vehicle has (bicycle to long truck); outside them a unit mistake (cm, feet)
 SIZE_RANGE = {"length": (1.0, 30.0), "width": (0.5, 4.0)}
@@ -64,10 +67,6 @@ HEADING_MIN_STEP = 2.0
 #: [rad] the median difference between heading and direction of motion above which the headings are in
 #: another convention
 HEADING_MAX_DIFF = math.radians(45.0)
-#: the point of a vehicle a recording's x, y give (``demonstrator.position``): its front bumper's centre
-#: (SUMO's convention, the FCD's by definition) or the centre of its box (most public datasets' tracks)
-FRONT, CENTRE = "front", "centre"
-POSITIONS = (FRONT, CENTRE)
 
 
 @dataclass(frozen=True)
@@ -92,6 +91,8 @@ class Recording:
     unrouted: tuple[str, ...] = ()
     #: [V] [m] per vehicle, its recorded length and width, where the recording has them
     size: dict[str, np.ndarray] = field(default_factory=dict)
+    #: per vehicle, SUMO's class of its type where the recording's types were read (``ReadAs``); empty: not
+    vclass: tuple[str, ...] = ()
 
     def track(self, vid: str) -> dict[str, np.ndarray]:
         """One vehicle's arrays t, x, y, v, heading at the step."""
@@ -375,10 +376,12 @@ def resample(
     step: float,
     sha: str,
     routes: list[tuple[str, ...] | str] | None = None,
+    vclass: np.ndarray | None = None,
 ) -> Recording:
     """Each vehicle at the times ``k * step`` inside its recorded span, by linear interpolation (the
     heading unwrapped, then wrapped); a vehicle shorter than one step keeps no row and is left out.
-    ``routes``: per vehicle its route or why none (:mod:`irlsim.data.matching`)."""
+    ``routes``: per vehicle its route or why none (:mod:`irlsim.data.matching`); ``vclass``: per row its
+    type's class (:func:`typed`), None where the types were not read."""
     bounds = np.r_[starts, len(order)]
     ids, start, t0s, parts, edges, unrouted = [], [0], [], [], [], []
     kept: list[int] = []  # the vehicles (groups) kept
@@ -415,46 +418,25 @@ def resample(
         edges=tuple(edges),
         unrouted=tuple(unrouted),
         size={c: col[order[kept]] for c, col in rows.size.items()},
-    )
-
-
-def check_position(rows: Rows, position: str) -> None:
-    """Refuse, in one line, a reference point the rows cannot be read at: SUMO's FCD is the front bumper
-    by definition, and a box's centre moves to the front bumper by the vehicle's length."""
-    if position not in POSITIONS:
-        raise IrlsimError(
-            f"recording {rows.path}: position {position!r} is not one of {', '.join(POSITIONS)}: give the "
-            "point of the vehicle its x, y are"
-        )
-    if position == CENTRE and rows.fcd:
-        raise IrlsimError(
-            f"recording {rows.path} is SUMO's FCD output, whose x, y are the front bumper by definition: "
-            "drop demonstrator.position (or set it to 'front')"
-        )
-    if position == CENTRE and "length" not in rows.size:
-        raise IrlsimError(
-            f"recording {rows.path} has no length column, which position = 'centre' needs (the front "
-            "bumper is the centre plus half the length along the heading): add each vehicle's length [m]"
-        )
-
-
-def to_front(rows: Rows, position: str) -> Rows:
-    """The rows with x, y at the front bumper's centre (SUMO's point): ``position`` 'centre' moves each
-    row half its vehicle's length along its heading; 'front' leaves them as they are."""
-    if position == FRONT:
-        return rows
-    half = 0.5 * rows.size["length"]
-    return dataclasses.replace(
-        rows, x=rows.x + half * np.cos(rows.heading), y=rows.y + half * np.sin(rows.heading)
+        vclass=tuple(str(c) for c in vclass[order[kept]]) if vclass is not None else (),
     )
 
 
 def load_recording(
-    path: str | Path, net: Any, step: float, max_gap: float = MAX_GAP, position: str = FRONT
+    path: str | Path,
+    net: Any,
+    step: float,
+    max_gap: float = MAX_GAP,
+    position: str = FRONT,
+    types: Mapping[str, VehicleType] | None = None,
 ) -> Recording:
     """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network);
-    ``position``: the point of a vehicle its x, y give (:data:`POSITIONS`), read as the front bumper."""
+    ``position``: the point of a vehicle its x, y give (:data:`POSITIONS`), read as the front bumper;
+    ``types``: the vehicle types the recording names, as SUMO makes them (:func:`typed`), None: not read."""
     rows = read_rows(path)
+    vclass = None
+    if types is not None:
+        rows, vclass = typed(rows, types)
     check_position(rows, position)
     order, starts = check_rows(rows, max_gap)
     samples = lane_samples(net)  # every lane sampled once: the network check, headings, matching
@@ -477,4 +459,4 @@ def load_recording(
     else:  # from its recorded lanes, made connected
         routes = lane_routes(net, rows.lane[order], cols, bounds)
     sha = hashlib.sha256(Path(path).read_bytes()).hexdigest()
-    return resample(rows, order, starts, step, sha, routes)
+    return resample(rows, order, starts, step, sha, routes, vclass)

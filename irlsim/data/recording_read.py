@@ -45,6 +45,9 @@ class Rows:
     #: the file has no ``heading`` column: ``heading`` is NaN as read, then derived from the positions
     #: (:func:`irlsim.data.recording.headings_from_motion`)
     no_heading: bool = False
+    #: [N] str, each row's vehicle type (FCD's ``type``, a columnar file's ``type`` column); None: not
+    #: recorded
+    vtype: np.ndarray | None = None
 
     def where(self, i: int) -> str:
         """The file and the place of row ``i`` in it."""
@@ -78,7 +81,7 @@ def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
     """SUMO's FCD output (``gzipped``: as SUMO writes a ``.xml.gz``), streamed (xml.etree.iterparse); the
     angle (deg, north, clockwise) -> ENU rad. A <vehicle> without x, y, angle or speed (SUMO's
     ``--fcd-output.attributes`` naming others) is refused naming the attribute."""
-    cols: dict[str, list[Any]] = {k: [] for k in ("id", "x", "y", "angle", "speed", "lane")}
+    cols: dict[str, list[Any]] = {k: [] for k in ("id", "x", "y", "angle", "speed", "lane", "type")}
     times: list[str] = []
     t = "nan"
     try:
@@ -94,6 +97,7 @@ def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
                         cols[k].append(a[k])
                     cols["id"].append(a.get("id", ""))
                     cols["lane"].append(a.get("lane", ""))
+                    cols["type"].append(a.get("type", ""))
                     times.append(t)
                 elif ev == "end" and el.tag == "timestep":
                     el.clear()
@@ -109,6 +113,7 @@ def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
         raise IrlsimError(f"recording {p}: a time or <vehicle> attribute is not a number ({e})") from None
     n = len(x)
     lanes = np.array(cols["lane"], dtype=object)
+    types = np.array(cols["type"], dtype=object)
     return Rows(
         path=p,
         id=np.array(cols["id"], dtype=object),
@@ -120,16 +125,18 @@ def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
         lane=lanes if n and all(lanes) else None,
         row=np.arange(1, n + 1),
         fcd=True,
+        vtype=types if n and all(types) else None,
     )
 
 
 def _read_columns(p: Path, suffix: str) -> Rows:
-    """A CSV or Parquet file with the columns ``COLUMNS`` (and ``lane``), through pyarrow."""
+    """A CSV or Parquet file with the columns ``COLUMNS`` (and ``lane``, ``type``, the sizes), through
+    pyarrow."""
     try:
         if suffix == ".csv":
             import pyarrow.csv as pacsv
 
-            opts = pacsv.ConvertOptions(column_types={"id": "string", "lane": "string"})
+            opts = pacsv.ConvertOptions(column_types={"id": "string", "lane": "string", "type": "string"})
             table = pacsv.read_csv(p, convert_options=opts)
             first = 2  # the header is line 1
         else:
@@ -154,8 +161,9 @@ def _read_columns(p: Path, suffix: str) -> Rows:
         lane = _text(table.column("lane"))
     ids = _text(table.column("id"))
     size = {c: _numbers(table, c, p, "give metres") for c in SIZES if c in table.column_names}
+    vtype = _text(table.column("type")) if "type" in table.column_names else None
     rows = (num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False)
-    return Rows(p, ids, *rows, size=size, no_heading="heading" not in given)
+    return Rows(p, ids, *rows, size=size, no_heading="heading" not in given, vtype=vtype)
 
 
 def _numbers(table: Any, c: str, p: Path, fix: str) -> np.ndarray:

@@ -126,7 +126,7 @@ def recorded_ego_episode(
     d = cfg.demonstrator
     ego = d.ego.split(",")[episode]
     return recorded_episode(
-        d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window, end_on_collision, d.position
+        d.file, road, scenario, cfg.planner, ego, reactive, d.rate_window, end_on_collision, d.read_as()
     )
 
 

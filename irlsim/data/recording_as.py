@@ -1,0 +1,101 @@
+"""How a recording's file is read: the point of a vehicle its positions give, and its vehicles' types.
+
+- ``position`` (``demonstrator.position``): SUMO and irlsim place a vehicle by its front bumper's centre;
+  most public datasets' tracks give the centre of its box. 'centre' moves each row half its vehicle's
+  length along its heading (:func:`to_front`); SUMO's FCD is the front bumper by definition.
+- ``vehicle_types`` (``demonstrator.vehicle_types``): the files defining the types a recording names
+  (FCD's ``type``, a ``type`` column), loaded by SUMO (:mod:`irlsim.sim.vehicle_types`): each vehicle's
+  length, width and class are then its type's (:func:`typed`).
+
+Each refusal is one line naming the file (and the row), before any work.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from irlsim.data.recording_read import Rows
+from irlsim.errors import IrlsimError
+from irlsim.sim.vehicle_types import VehicleType
+
+#: the point of a vehicle a recording's x, y give (``demonstrator.position``): its front bumper's centre
+#: (SUMO's convention, the FCD's by definition) or the centre of its box (most public datasets' tracks)
+FRONT, CENTRE = "front", "centre"
+POSITIONS = (FRONT, CENTRE)
+
+
+@dataclass(frozen=True)
+class ReadAs:
+    """How a recording's file is read (``demonstrator.position``, ``demonstrator.vehicle_types``)."""
+
+    #: the point of a vehicle its x, y give (:data:`POSITIONS`)
+    position: str = FRONT
+    #: the files that define its vehicles' types (FCD's ``type``, a ``type`` column), as the config names
+    #: them: each vehicle's size and class are its type's, as SUMO makes it
+    #: (:mod:`irlsim.sim.vehicle_types`); empty: not read
+    vehicle_types: tuple[str, ...] = ()
+
+
+#: a file read as it is: front bumpers, no types
+AS_RECORDED = ReadAs()
+
+
+def check_position(rows: Rows, position: str) -> None:
+    """Refuse, in one line, a reference point the rows cannot be read at: SUMO's FCD is the front bumper
+    by definition, and a box's centre moves to the front bumper by the vehicle's length."""
+    if position not in POSITIONS:
+        raise IrlsimError(
+            f"recording {rows.path}: position {position!r} is not one of {', '.join(POSITIONS)}: give the "
+            "point of the vehicle its x, y are"
+        )
+    if position == CENTRE and rows.fcd:
+        raise IrlsimError(
+            f"recording {rows.path} is SUMO's FCD output, whose x, y are the front bumper by definition: "
+            "drop demonstrator.position (or set it to 'front')"
+        )
+    if position == CENTRE and "length" not in rows.size:
+        raise IrlsimError(
+            f"recording {rows.path} has no length column, which position = 'centre' needs (the front "
+            "bumper is the centre plus half the length along the heading): add each vehicle's length [m]"
+        )
+
+
+def to_front(rows: Rows, position: str) -> Rows:
+    """The rows with x, y at the front bumper's centre (SUMO's point): ``position`` 'centre' moves each
+    row half its vehicle's length along its heading; 'front' leaves them as they are."""
+    if position == FRONT:
+        return rows
+    half = 0.5 * rows.size["length"]
+    return dataclasses.replace(
+        rows, x=rows.x + half * np.cos(rows.heading), y=rows.y + half * np.sin(rows.heading)
+    )
+
+
+def typed(rows: Rows, types: Mapping[str, VehicleType]) -> tuple[Rows, np.ndarray]:
+    """The rows with each vehicle's length and width its type's (a size column of the file wins), and
+    per row its type's class; a recording that names no types, or a type ``types`` lacks, is one line."""
+    if rows.vtype is None:
+        raise IrlsimError(
+            f"recording {rows.path} names no vehicle types (FCD's type attribute, a type column), which "
+            "demonstrator.vehicle_types reads: record them, or drop vehicle_types"
+        )
+    known = np.array([t in types for t in rows.vtype])
+    if not known.all():
+        i = int(np.flatnonzero(~known)[0])
+        shown = ", ".join(sorted(t for t in types if not t.startswith("DEFAULT_"))[:6])
+        raise IrlsimError(
+            f"{rows.where(i)}: type {rows.vtype[i]!r} is not defined in demonstrator.vehicle_types (it "
+            f"defines {shown or 'only SUMO defaults'}): give the files the recording's SUMO run loaded"
+        )
+    names, which = np.unique(rows.vtype.astype(str), return_inverse=True)
+    table = [types[str(n)] for n in names]
+    size = {
+        "length": np.array([vt.length for vt in table])[which],
+        "width": np.array([vt.width for vt in table])[which],
+    }
+    vclass = np.array([vt.vclass for vt in table], dtype=object)[which]
+    return dataclasses.replace(rows, size=size | rows.size), vclass

@@ -1,0 +1,91 @@
+"""The vehicle types a recording was made with, asked of SUMO: each type's length, width and class.
+
+SUMO's FCD output names each vehicle's type (``type``, an id of the user's files) and carries no size
+or class. The files that define the types (a route file, an additional file: what the recording's SUMO
+run loaded) are loaded with the recording's network by SUMO itself (libsumo, in a process of its own so
+that the command's own simulation is untouched), and every type SUMO then knows is read back with what
+SUMO makes of it: an attribute the file leaves out takes SUMO's default for the type's class (a truck
+7.1 m, a bicycle 1.6 m in SUMO 1.28), which irlsim does not keep a list of. SUMO's own types
+(``DEFAULT_VEHTYPE``, ``DEFAULT_BIKETYPE``, ...) are among them.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from irlsim.errors import IrlsimError
+from irlsim.road.network import sumo_home
+
+#: [s] at most this long for SUMO to load the network and the files
+PROBE_TIMEOUT_S = 120.0
+#: a name of the form ``sumo_tools/<path>`` is inside the installed eclipse-sumo wheel's tools folder
+SUMO_TOOLS = "sumo_tools/"
+
+_PROBE = """
+import json, sys, libsumo
+net, files = sys.argv[1], sys.argv[2]
+try:
+    libsumo.start(["sumo", "-n", net, "-a", files, "--begin", "0", "--end", "0", "--no-step-log", "true",
+                   "--no-warnings", "true", "--xml-validation", "never"])
+except Exception as e:
+    print(json.dumps({"error": str(e)}))
+    sys.exit(0)
+vt = libsumo.vehicletype
+print(json.dumps({t: [vt.getLength(t), vt.getWidth(t), vt.getVehicleClass(t)] for t in vt.getIDList()}))
+libsumo.close()
+"""
+
+
+@dataclass(frozen=True)
+class VehicleType:
+    """One type as SUMO makes it."""
+
+    length: float  # [m]
+    width: float  # [m]
+    vclass: str  # SUMO's vehicle class
+
+
+def type_file(name: str) -> Path:
+    """The path of a vehicle-types file as a config names it (``sumo_tools/...``: inside the wheel);
+    one line when it is not there."""
+    p = (
+        Path(sumo_home()) / "tools" / name.removeprefix(SUMO_TOOLS)
+        if name.startswith(SUMO_TOOLS)
+        else Path(name)
+    )
+    if not p.is_file():
+        raise IrlsimError(
+            f"demonstrator.vehicle_types: {p} not found: give the route or additional files the recording's "
+            "SUMO run loaded its vehicle types from"
+        )
+    return p
+
+
+def vehicle_types(net_file: str | Path, files: tuple[str, ...]) -> dict[str, VehicleType]:
+    """Every vehicle type SUMO knows after loading ``files`` (paths as :func:`type_file` takes them) with
+    ``net_file``, by id; SUMO's first error as one line naming the files."""
+    paths = [type_file(f) for f in files]
+    listed = ",".join(str(p.resolve()) for p in paths)
+    env = {**os.environ, "SUMO_HOME": sumo_home()}
+    cmd = [sys.executable, "-c", _PROBE, str(net_file), listed]
+    try:
+        res = subprocess.run(cmd, capture_output=True, text=True, timeout=PROBE_TIMEOUT_S, env=env)
+    except subprocess.TimeoutExpired:
+        raise IrlsimError(
+            f"SUMO took over {PROBE_TIMEOUT_S:g} s to load demonstrator.vehicle_types"
+        ) from None
+    errors = [ln[len("Error:") :].strip() for ln in res.stderr.splitlines() if ln.startswith("Error:")]
+    out = res.stdout.strip().splitlines()
+    answer = json.loads(out[-1]) if out and out[-1].startswith("{") else {}
+    if errors or res.returncode != 0 or "error" in answer or not answer:
+        why = errors[0] if errors else answer.get("error") or f"exit status {res.returncode}"
+        raise IrlsimError(
+            f"SUMO refuses demonstrator.vehicle_types {', '.join(map(str, paths))} ({why}): give files of "
+            "<vType> definitions that load with the scenario's network"
+        )
+    return {t: VehicleType(float(a[0]), float(a[1]), str(a[2])) for t, a in answer.items()}
