@@ -117,6 +117,8 @@ def test_city_recording_commands_run_as_written(tmp_path, monkeypatch, capsys):
     out = capsys.readouterr().out
     record = json.loads((tmp_path / "data" / "city" / "manifest.json").read_text())["demonstrator"]
     assert record["kind"] == "recording" and len(record["egos"]) >= 5 and "1_horizontal.3" in record["egos"]
+    assert record["vehicle_types"][0]["path"] == "sumo_tools/game/fkk_in/fkk_in.rou.xml"
+    assert "of another class than a car" in out  # the game's bicycles, by their type
     drive = json.loads((tmp_path / "runs" / "city" / "drive" / "drive.json").read_text())
     assert drive["config"]["recording"]["egos"] == ["1_horizontal.3"]
     assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
