@@ -1,8 +1,9 @@
 """Reading a recording's rows as they are in the file, before any check: SUMO's FCD output (``.xml``, or
-``.xml.gz`` as SUMO gzips it; the angle, degrees from north, clockwise, becomes the ENU heading in radians)
-and the columnar format (``.csv`` with a header line, or ``.parquet``, through pyarrow). A file that cannot
-be read as one is refused in one line naming it; the checks and the resampling are
-:mod:`irlsim.data.recording`'s."""
+``.xml.gz`` as SUMO gzips it; the angle, degrees from north, clockwise, becomes the ENU heading in radians;
+or as SUMO writes it in its table formats, ``--fcd-output x.csv`` / ``x.parquet``, recognised by its
+column names) and the columnar format (``.csv`` with a header line, comma or semicolon separated, or
+``.parquet``, through pyarrow). A file that cannot be read as one is refused in one line naming it; the
+checks and the resampling are :mod:`irlsim.data.recording`'s."""
 
 from __future__ import annotations
 
@@ -18,11 +19,17 @@ from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
 
 COLUMNS = ("id", "t", "x", "y", "v", "heading")
+#: the columns read as text, whatever their values look like
+TEXT = ("id", "lane", "type")
 #: optional columns: a vehicle's length and width [m], one value per vehicle
 SIZES = ("length", "width")
 FORMATS = (".xml", ".xml.gz", ".csv", ".parquet")
 #: the numeric attributes every FCD <vehicle> needs
 FCD_NUMBERS = ("x", "y", "angle", "speed")
+#: SUMO's FCD as a table (``--fcd-output x.csv`` / ``x.parquet``): its column names less the prefixes of
+#: SUMO's ``--output.column-header`` (tag / auto: ``vehicle_x``; full: ``timestep_vehicle_x``; plain: ``x``)
+FCD_TABLE = ("time", "id", "x", "y", "angle", "speed")
+FCD_PREFIXES = ("timestep_vehicle_", "timestep_", "vehicle_")
 
 
 @dataclass(frozen=True)
@@ -51,7 +58,8 @@ class Rows:
 
     def where(self, i: int) -> str:
         """The file and the place of row ``i`` in it."""
-        return f"{self.path}: {'vehicle record' if self.fcd else 'row'} {int(self.row[i])}"
+        record = self.fcd and self.path.name.lower().endswith((".xml", ".xml.gz"))
+        return f"{self.path}: {'vehicle record' if record else 'row'} {int(self.row[i])}"
 
 
 def read_rows(path: str | Path) -> Rows:
@@ -130,14 +138,18 @@ def _read_fcd(p: Path, gzipped: bool = False) -> Rows:
 
 
 def _read_columns(p: Path, suffix: str) -> Rows:
-    """A CSV or Parquet file with the columns ``COLUMNS`` (and ``lane``, ``type``, the sizes), through
-    pyarrow."""
+    """A CSV or Parquet file with the columns ``COLUMNS`` (and ``lane``, ``type``, the sizes), or SUMO's
+    FCD as a table (:func:`_fcd_table`), through pyarrow."""
     try:
         if suffix == ".csv":
             import pyarrow.csv as pacsv
 
-            opts = pacsv.ConvertOptions(column_types={"id": "string", "lane": "string", "type": "string"})
-            table = pacsv.read_csv(p, convert_options=opts)
+            with open(p, encoding="utf-8", errors="replace") as f:
+                header = f.readline()
+            sep = ";" if header.count(";") > header.count(",") else ","  # SUMO's tables: ';'
+            text = [f"{x}{c}" for x in ("", *FCD_PREFIXES) for c in TEXT]
+            opts = pacsv.ConvertOptions(column_types=dict.fromkeys(text, "string"))
+            table = pacsv.read_csv(p, parse_options=pacsv.ParseOptions(delimiter=sep), convert_options=opts)
             first = 2  # the header is line 1
         else:
             import pyarrow.parquet as pq
@@ -147,6 +159,16 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     except Exception as e:  # pyarrow's own errors name the problem
         msg = str(e).strip().splitlines()
         raise IrlsimError(f"recording {p} cannot be read ({msg[0] if msg else type(e).__name__})") from None
+    fcd = _fcd_table(table.column_names)
+    if fcd:
+        return _read_fcd_table(p, table, fcd, first)
+    if any(c == "timestep_time" or c.startswith(FCD_PREFIXES) for c in table.column_names):
+        stripped = {c.removeprefix("timestep_").removeprefix("vehicle_") for c in table.column_names}
+        lacking = [k for k in FCD_TABLE if k not in stripped]
+        raise IrlsimError(
+            f"recording {p} is SUMO's FCD output without {', '.join(lacking)}: record it with x, y, angle "
+            "and speed (a --fcd-output.attributes list that names others leaves them out)"
+        )
     missing = [c for c in COLUMNS[:-1] if c not in table.column_names]  # the heading may be derived
     if missing:
         raise IrlsimError(
@@ -164,6 +186,53 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     vtype = _text(table.column("type")) if "type" in table.column_names else None
     rows = (num["t"], num["x"], num["y"], num["v"], num["heading"], lane, np.arange(n) + first, False)
     return Rows(p, ids, *rows, size=size, no_heading="heading" not in given, vtype=vtype)
+
+
+def _fcd_table(names: list[str]) -> dict[str, str]:
+    """{SUMO's attribute: its column} where ``names`` are SUMO's FCD as a table (every attribute of
+    ``FCD_TABLE`` there, under one of SUMO's header styles); {} otherwise."""
+    for prefix in ("", *FCD_PREFIXES):
+        found = {c.removeprefix(prefix): c for c in names if c.startswith(prefix)}
+        found["time"] = next((c for c in names if c in ("time", "timestep_time")), "")
+        if all(found.get(k) for k in FCD_TABLE):
+            return found
+    return {}
+
+
+def _read_fcd_table(p: Path, table: Any, cols: dict[str, str], first: int) -> Rows:
+    """SUMO's FCD as a table: the rows of vehicles (SUMO writes a row with the time alone for a step
+    without any, and persons in their own columns), the angle to the ENU heading as for the XML."""
+    ids = _text(table.column(cols["id"]))
+    keep = np.flatnonzero(ids != "")
+    table = table.take(keep)
+    if not _is_numeric(table.column(cols["time"])) and table.num_rows:
+        raise IrlsimError(
+            f"recording {p}: its time column is not seconds ({table.column(cols['time'])[0]}): write the FCD "
+            "output without --human-readable-time"
+        )
+    num = {k: _numbers(table, cols[k], p, "give SUMO's FCD output unchanged") for k in FCD_TABLE if k != "id"}
+    text = {k: _text(table.column(cols[k])) if k in cols else None for k in ("lane", "type")}
+    lane, vtype = (t if t is not None and len(t) and all(t) else None for t in (text["lane"], text["type"]))
+    return Rows(
+        path=p,
+        id=ids[keep],
+        t=num["time"],
+        x=num["x"],
+        y=num["y"],
+        v=num["speed"],
+        heading=np.asarray(wrap_angle(np.radians(90.0 - num["angle"]))),
+        lane=lane,
+        row=keep + first,
+        fcd=True,
+        vtype=vtype,
+    )
+
+
+def _is_numeric(column: Any) -> bool:
+    """Whether a pyarrow column holds numbers."""
+    import pyarrow.types as pat
+
+    return bool(pat.is_integer(column.type) or pat.is_floating(column.type) or pat.is_null(column.type))
 
 
 def _numbers(table: Any, c: str, p: Path, fix: str) -> np.ndarray:
