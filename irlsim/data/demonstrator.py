@@ -234,6 +234,8 @@ def resolve_recording(
         )
     out = replace(cfg, ego=",".join(ids))
     record: dict[str, Any] = {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
+    if cfg.position != FRONT:
+        record["position"] = cfg.position
     if cfg.vehicle_types:  # each file by content, as the recording
         record["vehicle_types"] = [
             {"path": f, "sha256": hashlib.sha256(type_file(f).read_bytes()).hexdigest()}
@@ -273,7 +275,10 @@ def describe(record: dict[str, Any] | None) -> str:
         return EXPERT
     if record.get("kind") == RECORDING:
         n = len(record.get("egos") or [])
-        return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos)"
+        read = [f"positions at the {record['position']}"] if record.get("position") else []
+        read += [f"types of {len(record['vehicle_types'])} file(s)"] if record.get("vehicle_types") else []
+        how = "".join(f", {r}" for r in read)
+        return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos{how})"
     params = shown_params(record)
     text = ",".join(f"{k}={v}" for k, v in sorted(params.items()) if k != "maxSpeed")
     return (

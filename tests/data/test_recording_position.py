@@ -95,6 +95,7 @@ def test_a_collection_from_centres_is_the_collection_from_front_bumpers(files, t
     assert np.array_equal(a["demo_index"], b["demo_index"])
     assert np.allclose(a["ego_x"], b["ego_x"], atol=1e-4) and np.allclose(a["ego_y"], b["ego_y"], atol=1e-4)
     # the manifest says how the file was read; a front-bumper recording's manifest is as before
-    cfg_c = json.loads((centre / "manifest.json").read_text())["config"]["demonstrator"]
-    cfg_f = json.loads((front / "manifest.json").read_text())["config"]["demonstrator"]
-    assert cfg_c["position"] == "centre" and "position" not in cfg_f
+    man_c, man_f = (json.loads((d / "manifest.json").read_text()) for d in (centre, front))
+    assert man_c["config"]["demonstrator"]["position"] == "centre"
+    assert "position" not in man_f["config"]["demonstrator"]
+    assert man_c["demonstrator"]["position"] == "centre" and "position" not in man_f["demonstrator"]

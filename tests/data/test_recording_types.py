@@ -111,7 +111,9 @@ def test_a_collection_records_the_types_files_by_content(typed, tmp_path, capsys
     )
     out = tmp_path / "typed"
     assert main(["collect", "--config", str(cfg), "--out", str(out)]) == 0
-    assert "3 of 5 vehicles are egos; not: 2 of another class than a car" in capsys.readouterr().out
+    said = capsys.readouterr().out
+    assert "3 of 5 vehicles are egos; not: 2 of another class than a car" in said
+    assert "3 egos, types of 1 file(s))" in said  # the collection names how it read the recording
     man = json.loads((out / "manifest.json").read_text())
     assert man["demonstrator"]["egos"] == ["veh0", "veh2", "veh4"]
     digest = man["demonstrator"]["vehicle_types"][0]
