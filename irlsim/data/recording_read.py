@@ -162,7 +162,7 @@ def _read_columns(p: Path, suffix: str) -> Rows:
     fcd = _fcd_table(table.column_names)
     if fcd:
         return _read_fcd_table(p, table, fcd, first)
-    if any(c == "timestep_time" or c.startswith(FCD_PREFIXES) for c in table.column_names):
+    if "timestep_time" in table.column_names:  # SUMO's table (tag, auto and full headers), lacking some
         stripped = {c.removeprefix("timestep_").removeprefix("vehicle_") for c in table.column_names}
         lacking = [k for k in FCD_TABLE if k not in stripped]
         raise IrlsimError(

@@ -65,3 +65,12 @@ def test_a_table_sumo_wrote_otherwise_is_one_line(late, tmp_path, options, needl
     with pytest.raises(IrlsimError) as e:
         load_recording(table, load_road().net, 0.1)
     assert needle in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_columnar_file_with_columns_named_like_sumos_is_still_the_columnar_format(fcd, tmp_path):
+    from tests.data.test_recording import _columns, _csv
+
+    cols = _columns(fcd)
+    cols["vehicle_class"] = ["passenger"] * len(cols["id"])  # an extra column of the user's
+    rows = read_rows(_csv(tmp_path / "mine.csv", cols))
+    assert not rows.fcd and np.allclose(rows.x, cols["x"])
