@@ -6,7 +6,9 @@ lane-changing policies is what the fit matched; in closed loop the reward drives
 (its speed, its headway), where that share may differ. For every reward and every dataset given, over
 the dataset's train split: the share of cycles whose argmax policy changes lanes, the distribution's
 expected share, and the share of the ``expected`` choice (:mod:`irlsim.planner.choice`) with the
-reward's lane-change bias calibrated on ``--calibrate-on`` (its training data).
+reward's lane-change bias calibrated on ``--calibrate-on`` (its training data); beside them the share of
+the cycles with a demonstration whose demonstration changes lanes (a policy ending over ``SIDEWAYS`` m to
+a side: what the driver did).
 
 States of a reward's own driving: ``irlsim collect --driver <model> --runs <run> --round 1`` with the
 scenario's config (the expert labels; only the states and policy sets are read here):
@@ -25,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim.data.aggregate import open_datasets
 from irlsim.errors import IrlsimError
 from irlsim.planner.choice import SIDEWAYS, expected_choice, maneuver_masses
 from irlsim.reward import load_reward
@@ -49,6 +52,15 @@ def shares(reward: Any, data: Path, bias: float) -> dict[str, float]:
     }
 
 
+def demonstrated(data: Path) -> float:
+    """The share of the train split's cycles with a demonstration whose demonstration changes lanes."""
+    t = open_datasets([data]).split_tensors("train")
+    idx = np.asarray(t.demo_index)
+    has = np.flatnonzero(idx >= 0)
+    ends = np.array([float(np.asarray(t.control_points[c])[idx[c], -1, 0]) for c in has])  # per cycle
+    return float((np.abs(ends) > SIDEWAYS).mean()) if len(ends) else float("nan")
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--runs", nargs="+", required=True, help="run folders of the rewards")
@@ -60,8 +72,8 @@ def main(argv: list[str] | None = None) -> int:
         if not Path(where).is_dir():
             sys.exit(f"style_states: {where} is not a folder: give run and dataset folders")
     lines = [
-        "| reward | states | cycles | argmax | expected | expected choice | bias |",
-        "|---|---|---|---|---|---|---|",
+        "| reward | states | cycles | demonstrated | argmax | expected | expected choice | bias |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for runs in a.runs:
         try:
@@ -73,6 +85,7 @@ def main(argv: list[str] | None = None) -> int:
                     runs,
                     data,
                     r["cycles"],
+                    f"{demonstrated(Path(data)):.3f}",
                     *(f"{r[k]:.3f}" for k in ("argmax", "expected", "expected choice")),
                 ]
                 lines.append("| " + " | ".join(map(str, [*cells, f"{bias:.3f}"])) + " |")
