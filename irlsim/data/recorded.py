@@ -194,9 +194,9 @@ def egos(
         if why is None:
             out.append(vid)
         elif wanted:
+            fix = " or lower demonstrator.min_duration" if why.startswith("it is recorded") else ""
             raise IrlsimError(
-                f"recording {rec.path}: vehicle {vid} cannot be an ego: {why}: choose another or lower "
-                "demonstrator.min_duration"
+                f"recording {rec.path}: vehicle {vid} cannot be an ego: {why}: choose another{fix}"
             )
         elif refused is not None:
             refused[not_ego(why)] = refused.get(not_ego(why), 0) + 1
