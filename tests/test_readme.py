@@ -121,6 +121,7 @@ def test_city_recording_commands_run_as_written(tmp_path, monkeypatch, capsys):
     assert "of another class than a car" in out  # the game's bicycles, by their type
     drive = json.loads((tmp_path / "runs" / "city" / "drive" / "drive.json").read_text())
     assert drive["config"]["recording"]["egos"] == ["1_horizontal.3"]
+    assert drive["config"]["recording"]["vehicle_types"] == ["sumo_tools/game/fkk_in/fkk_in.rou.xml"]
     assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
     assert "nearest the demonstrator's style: " in out
 

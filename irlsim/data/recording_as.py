@@ -83,6 +83,12 @@ def typed(rows: Rows, types: Mapping[str, VehicleType]) -> tuple[Rows, np.ndarra
             f"recording {rows.path} names no vehicle types (FCD's type attribute, a type column), which "
             "demonstrator.vehicle_types reads: record them, or drop vehicle_types"
         )
+    blank = np.flatnonzero(rows.vtype == "")
+    if len(blank):
+        raise IrlsimError(
+            f"{rows.where(int(blank[0]))}: vehicle {rows.id[blank[0]]} has no type, which "
+            "demonstrator.vehicle_types reads: give every row its vehicle's type"
+        )
     known = np.array([t in types for t in rows.vtype])
     if not known.all():
         i = int(np.flatnonzero(~known)[0])

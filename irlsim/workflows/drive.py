@@ -22,6 +22,7 @@ from irlsim import devices
 from irlsim.config import MAX_SEED, load_config, parse_overrides
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING, resolve_recording
+from irlsim.data.recording_as import FRONT
 from irlsim.drive.closed_loop import PictureSpec, drive_episode
 from irlsim.drive.demonstrated import DEMONSTRATOR, check_demonstrator, resolve_model
 from irlsim.drive.metrics import markdown_table, summarize
@@ -411,11 +412,17 @@ def _recording(cfg: CollectConfig, run: DriveRun, scenarios: Scenarios) -> Colle
 
 
 def _recording_record(cfg: CollectConfig, run: DriveRun) -> dict[str, Any]:
-    """drive.json's record of a recording: the file, the egos driven and the mode."""
-    if cfg.demonstrator.kind != RECORDING:
+    """drive.json's record of a recording: the file, the egos driven and the mode (and how the file was
+    read, where not as SUMO's FCD is: its positions' point, its type files)."""
+    d = cfg.demonstrator
+    if d.kind != RECORDING:
         return {}
-    egos = cfg.demonstrator.ego.split(",")[: run.episodes]
-    return {"recording": {"file": cfg.demonstrator.file, "egos": egos, "reactive": run.reactive}}
+    record = {"file": d.file, "egos": d.ego.split(",")[: run.episodes], "reactive": run.reactive}
+    if d.position != FRONT:
+        record["position"] = d.position
+    if d.vehicle_types:
+        record["vehicle_types"] = list(d.vehicle_types)
+    return {"recording": record}
 
 
 def _drive_jobs(

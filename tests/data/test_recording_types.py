@@ -119,3 +119,22 @@ def test_a_collection_records_the_types_files_by_content(typed, tmp_path, capsys
     digest = man["demonstrator"]["vehicle_types"][0]
     assert digest["path"] == str(types_file) and len(digest["sha256"]) == 64
     assert man["config"]["demonstrator"]["vehicle_types"] == [str(types_file)]
+
+
+def test_a_columnar_files_type_column_is_read_as_fcds_type_attribute(typed, tmp_path):
+    from tests.data.test_recording import _columns, _csv
+
+    types_file, fcd = typed
+    road, read = load_road(), ReadAs(vehicle_types=(str(types_file),))
+    cols = _columns(fcd)
+    cols["type"] = [KINDS[v] for v in cols["id"]]
+    rec = open_recording(_csv(tmp_path / "typed.csv", cols), road, 0.1, read)
+    assert (
+        rec.vclass
+        == open_recording(fcd, road, 0.1, read).vclass
+        == ("passenger", "truck", "passenger", "bicycle", "passenger")
+    )
+    cols["type"][7] = None  # a row without its type
+    with pytest.raises(IrlsimError) as e:
+        open_recording(_csv(tmp_path / "gap.csv", cols), road, 0.1, read)
+    assert "row 9: vehicle veh" in str(e.value) and "has no type" in str(e.value)
