@@ -20,7 +20,6 @@ and ``.json``.
 from __future__ import annotations
 
 import argparse
-import json
 import subprocess
 import sys
 from pathlib import Path
@@ -191,9 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     )
     tables = {title: {"rows": styles.table_rows(learned, refs), "demonstrators": own}}
     name = "table" + "-choice" * (a.choice == "expected")
-    (out / f"{name}.json").write_text(json.dumps(styles._finite(tables), indent=1, allow_nan=False) + "\n")
-    (out / f"{name}.md").write_text(styles.markdown(tables))
-    print(styles.markdown(tables) + f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+    styles.write_tables(out, name, tables)
     return 0
 
 

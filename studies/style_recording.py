@@ -173,9 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     vars(a).update(styles.SIZES)  # styles.py's sizes
     a.episodes = 20 if a.cars is None else a.cars[1] - a.cars[0] + 1
     name, tables = table(out, a)
-    (out / f"{name}.json").write_text(json.dumps(styles._finite(tables), indent=1, allow_nan=False) + "\n")
-    (out / f"{name}.md").write_text(styles.markdown(tables))
-    print(styles.markdown(tables) + f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+    styles.write_tables(out, name, tables)
     return 0
 
 

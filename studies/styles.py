@@ -421,6 +421,13 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
     return {"rows": table_rows(learned, refs), "demonstrators": own}
 
 
+def write_tables(out: Path, name: str, tables: dict[str, Any], show: bool = True) -> None:
+    """``tables`` as ``<out>/<name>.json`` (NaN as null) and ``.md``; printed (``show``) and named."""
+    (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
+    (out / f"{name}.md").write_text(markdown(tables))
+    print((markdown(tables) if show else "") + f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+
+
 def _finite(x: Any) -> Any:
     """JSON without NaN: a NaN figure (no following) is null."""
     if isinstance(x, float) and not math.isfinite(x):
@@ -480,9 +487,7 @@ def main(argv: list[str] | None = None) -> int:
     name = "styles" + ("" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}")
     name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag
     name += "" if a.rows == a.demonstrators else "-" + "-".join(a.rows)  # a part of the table: its own file
-    (out / f"{name}.json").write_text(json.dumps(_finite(tables), indent=1, allow_nan=False) + "\n")
-    (out / f"{name}.md").write_text(markdown(tables))
-    print(f"wrote {out / f'{name}.md'} and {out / f'{name}.json'}")
+    write_tables(out, name, tables, show=False)
     return 0
 
 
