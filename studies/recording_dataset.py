@@ -12,7 +12,9 @@ recorded driving and the expert's (``studies/styles.py``'s distance and bounds).
 
     .venv/bin/python studies/recording_dataset.py --out runs/recording-dataset --sumo-seed 21 --workers 2
 
-``--choice expected`` drives the rewards with the decision their distribution expects (the lane-change
+``--trips`` and ``--learned`` give a longer recording and more egos to learn from (the drives' first
+seed then past the training episodes' seeds: ``--drive-seed``); ``--lc-duration`` has SUMO's lane changes
+take that long; ``--choice expected`` drives the rewards with the decision their distribution expects (the lane-change
 bias calibrated on the training data, as ``studies/style_choice.py``). Writes ``<out>/table[-choice].md``
 and ``.json``.
 """
@@ -54,7 +56,7 @@ V_MAX = 40.0  # [m/s] the planner's top speed: the drivers' 99th percentile was 
 RULES = ["--full-stop", "--keep-distance", "0.3", "--in-lane"]  # the style study's recording rows' rules
 
 
-def record(folder: Path, seed: int, noise: float, lc_duration: float = 0.0) -> Path:
+def record(folder: Path, seed: int, noise: float, lc_duration: float = 0.0, n_trips: int = TRIPS) -> Path:
     """SUMO alone on the motorway at ``HZ`` (``lc_duration``: SUMO's ``--lanechange.duration``, 0 its
     default, a lane change within one step); its trajectories as a dataset's tracks (``tracks.csv``)."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -67,13 +69,13 @@ def record(folder: Path, seed: int, noise: float, lc_duration: float = 0.0) -> P
         f'<trip id="{i}" type="{"truck" if i % TRUCK_EVERY == TRUCK_EVERY - 1 else "car"}" '
         f'depart="{EVERY_S * i}" from="{road.edges[0]}" to="{road.edges[-1]}" departLane="random" '
         'departSpeed="max"/>'
-        for i in range(TRIPS)
+        for i in range(n_trips)
     )
     (folder / "trips.rou.xml").write_text(f"<routes>{trips}</routes>\n")
     fcd = folder / "sumo.fcd.parquet"  # SUMO's own table format
     cmd = [sumo_binary("sumo"), "-n", str(road.net_file), "-a", str(folder / "types.add.xml")]
     cmd += ["-r", str(folder / "trips.rou.xml"), "--step-length", str(1.0 / HZ), "--seed", str(seed)]
-    cmd += ["--end", str(TRIPS * EVERY_S + 300), "--fcd-output", str(fcd), "--no-step-log", "true"]
+    cmd += ["--end", str(n_trips * EVERY_S + 300), "--fcd-output", str(fcd), "--no-step-log", "true"]
     cmd += ["--lanechange.duration", str(lc_duration)] if lc_duration else []
     subprocess.run(cmd, check=True, capture_output=True)
     r = read_rows(fcd)
@@ -88,12 +90,16 @@ def record(folder: Path, seed: int, noise: float, lc_duration: float = 0.0) -> P
     return tracks
 
 
-def configs(folder: Path, tracks: Path) -> tuple[str, str, str]:
-    """(collect, drive, reference) configs: the first ``LEARNED`` egos learned, the next ``DRIVEN``."""
+def configs(folder: Path, tracks: Path, n_learned: int = LEARNED) -> tuple[str, str, str]:
+    """(collect, drive, reference) configs: the first ``n_learned`` egos learned, the next ``DRIVEN``."""
     read = ReadAs("centre", (str(folder / "types.add.xml"),))
     road = load_road(scenario=ROAD)
     eligible = egos(open_recording(tracks, road, 0.1, read), road, (), 20.0)
-    learned, driven = eligible[:LEARNED], eligible[LEARNED : LEARNED + DRIVEN]
+    learned, driven = eligible[:n_learned], eligible[n_learned : n_learned + DRIVEN]
+    if len(driven) < DRIVEN:
+        sys.exit(
+            f"recording_dataset: {len(eligible)} egos, {n_learned} learned: too few left to drive {DRIVEN}"
+        )
     common = f'seed = 0\n\n[scenario]\nname = "{ROAD}"\n\n[planner]\nn_policies = 500\nv_max = {V_MAX}\n'
     rec = (
         f'\n[demonstrator]\nkind = "recording"\nfile = "{tracks}"\nposition = "centre"\n'
@@ -101,7 +107,11 @@ def configs(folder: Path, tracks: Path) -> tuple[str, str, str]:
     )
     out = []
     for name, ids, splits in (
-        ("collect", learned, f"train_episodes = {LEARNED - 2}\nvalidation_episodes = 1\ntest_episodes = 1\n"),
+        (
+            "collect",
+            learned,
+            f"train_episodes = {n_learned - 2}\nvalidation_episodes = 1\ntest_episodes = 1\n",
+        ),
         ("drive", driven, ""),
         ("reference", driven, f"train_episodes = {DRIVEN}\nvalidation_episodes = 0\ntest_episodes = 0\n"),
     ):
@@ -124,6 +134,7 @@ def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) 
         styles.run(
             [styles.irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
             + ["--reactive", *(RULES + choice if runs else []), "--episodes", str(DRIVEN), "--config", config]
+            + ["--seed", str(a.drive_seed)]
             + ["--max-cycles", "800", "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
         )
     return out / "drive.json"
@@ -135,6 +146,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--sumo-seed", type=int, default=21, help="SUMO's seed of the recording")
     p.add_argument("--noise", type=float, default=0.1, help="[m] the tracks' position noise (sigma)")
     p.add_argument("--lc-duration", type=float, default=0.0, help="[s] SUMO's lane changes take this long")
+    p.add_argument("--trips", type=int, default=TRIPS, help="vehicles SUMO drives (one every 2.5 s)")
+    p.add_argument(
+        "--drive-seed", type=int, default=100, help="the drives' first episode seed (irlsim's 100)"
+    )
+    p.add_argument(
+        "--learned", type=int, default=LEARNED, help="egos learned from (2 of them validation, test)"
+    )
     p.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="training seeds")
     p.add_argument("--epochs", type=int, default=6)
     p.add_argument("--threads", type=int, default=2, help="torch threads of each training")
@@ -143,8 +161,8 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     out = Path(a.out)
     folder = out / f"recording-s{a.sumo_seed}"
-    tracks = record(folder, a.sumo_seed, a.noise, a.lc_duration)
-    collect_toml, drive_toml, ref_toml = configs(folder, tracks)
+    tracks = record(folder, a.sumo_seed, a.noise, a.lc_duration, a.trips)
+    collect_toml, drive_toml, ref_toml = configs(folder, tracks, a.learned)
     a.collect_sets, data = [], out / "data"
     a.data = data
     styles.collect(collect_toml, ROAD, data, [], a)
