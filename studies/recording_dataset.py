@@ -14,8 +14,9 @@ recorded driving and the expert's (``studies/styles.py``'s distance and bounds).
 
 ``--trips`` and ``--learned`` give a longer recording and more egos to learn from (the drives' first
 seed then past the training episodes' seeds: ``--drive-seed``); ``--lc-duration`` has SUMO's lane changes
-take that long; ``--choice expected`` drives the rewards with the decision their distribution expects (the lane-change
-bias calibrated on the training data, as ``studies/style_choice.py``). Writes ``<out>/table[-choice].md``
+take that long; ``--choice expected`` drives the rewards with the decision their distribution expects
+(the lane-change bias calibrated on the training data, as ``studies/style_choice.py``). Writes
+``<out>/table[-choice].md``
 and ``.json``.
 """
 
