@@ -16,8 +16,7 @@ recorded driving and the expert's (``studies/styles.py``'s distance and bounds).
 seed then past the training episodes' seeds: ``--drive-seed``); ``--lc-duration`` has SUMO's lane changes
 take that long; ``--choice expected`` drives the rewards with the decision their distribution expects
 (the lane-change bias calibrated on the training data, as ``studies/style_choice.py``). Writes
-``<out>/table[-choice].md``
-and ``.json``.
+``<out>/table[-choice].md`` and ``.json``.
 """
 
 from __future__ import annotations
