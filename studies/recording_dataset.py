@@ -12,8 +12,8 @@ recorded driving and the expert's (``studies/styles.py``'s distance and bounds).
 
     .venv/bin/python studies/recording_dataset.py --out runs/recording-dataset --sumo-seed 21 --workers 2
 
-``--trips`` and ``--learned`` give a longer recording and more egos to learn from (the drives' first
-seed then past the training episodes' seeds: ``--drive-seed``); ``--lc-duration`` has SUMO's lane changes
+``--trips`` and ``--learned`` give a longer recording and more egos to learn from (``--drive-seed``: the
+drives' first episode seed); ``--lc-duration`` has SUMO's lane changes
 take that long; ``--choice expected`` drives the rewards with the decision their distribution expects
 (the lane-change bias calibrated on the training data, as ``studies/style_choice.py``). Writes
 ``<out>/table[-choice].md`` and ``.json``.

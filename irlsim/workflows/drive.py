@@ -355,7 +355,13 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     if DEMONSTRATOR in specs:
         check_demonstrator(cfg)
     models = [resolve_model(s, run.runs, cfg.planner.n_policies, run.threads) for s in specs]
-    check_seeds_unseen(models, run.seed, run.episodes)
+    if cfg.demonstrator.kind == RECORDING:  # an episode is its ego; the seed picks no car
+        print(
+            "note: a recording's drives are told apart from its training by their egos, not their seeds: "
+            "drive cars no episode of the rewards' data learned from (demonstrator.ego)"
+        )
+    else:
+        check_seeds_unseen(models, run.seed, run.episodes)
     runs = str(run.runs.resolve()) if run.runs else None
     for model, spec in zip(models, specs, strict=True):  # the episodes in this process reuse them
         _MODELS[_model_key(spec, runs, cfg.planner.n_policies, run.threads)] = model

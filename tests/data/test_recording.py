@@ -459,3 +459,24 @@ def test_reactive_needs_a_recording(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert rc == 2 and len(err) == 1 and "--reactive drives a recording's vehicles" in err[0], err
     assert not out.exists()
+
+
+def test_a_recordings_drive_is_not_refused_for_the_seeds_of_its_training_episodes(fcd, tmp_path, capsys):
+    """A recording's episode is its ego: the seeds its training episodes had (0 and 1 here) say nothing of
+    which cars a reward learned from, so a drive of other cars with those seeds runs, and says so."""
+    section = f'file = "{fcd}"\nego = "veh0,veh1,veh2"\n'
+    cfg = tmp_path / "learn.toml"
+    cfg.write_text(COLLECT.replace("validation_episodes = 0", "validation_episodes = 1") + section)
+    data, runs = tmp_path / "data", tmp_path / "runs"
+    assert main(["collect", "--config", str(cfg), "--out", str(data)]) == 0
+    assert json.loads((data / "manifest.json").read_text())["seeds"]["train"] == [0, 1]  # the drive's seeds
+    train = ["train", "--stage", "1", "--config", "configs/train/tiny_stage1.toml", "--data", str(data)]
+    assert main([*train, "--set", 'models=["PACNN+S"]', "--out", str(runs)]) == 0
+    drive_cfg = tmp_path / "drive.toml"
+    drive_cfg.write_text(COLLECT + f'file = "{fcd}"\nego = "veh3,veh4"\n')
+    args = ["drive", "--runs", str(runs), "--model", "PACNN+S", "--config", str(drive_cfg), "--seed", "0"]
+    capsys.readouterr()
+    rc = main([*args, "--episodes", "2", "--max-cycles", "10", "--frames", "0", "--out", str(tmp_path / "d")])
+    said = capsys.readouterr()
+    assert rc == 0, said.err
+    assert "told apart from its training by their egos" in said.out
