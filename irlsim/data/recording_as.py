@@ -89,15 +89,15 @@ def typed(rows: Rows, types: Mapping[str, VehicleType]) -> tuple[Rows, np.ndarra
             f"{rows.where(int(blank[0]))}: vehicle {rows.id[blank[0]]} has no type, which "
             "demonstrator.vehicle_types reads: give every row its vehicle's type"
         )
-    known = np.array([t in types for t in rows.vtype])
-    if not known.all():
-        i = int(np.flatnonzero(~known)[0])
+    names, which = np.unique(rows.vtype.astype(str), return_inverse=True)  # the loop: over the names
+    unknown = np.flatnonzero([str(n) not in types for n in names])
+    if len(unknown):
+        i = int(np.flatnonzero(np.isin(which, unknown))[0])  # the first row of a type not defined
         shown = ", ".join(sorted(t for t in types if not t.startswith("DEFAULT_"))[:6])
         raise IrlsimError(
             f"{rows.where(i)}: type {rows.vtype[i]!r} is not defined in demonstrator.vehicle_types (it "
             f"defines {shown or 'only SUMO defaults'}): give the files the recording's SUMO run loaded"
         )
-    names, which = np.unique(rows.vtype.astype(str), return_inverse=True)
     table = [types[str(n)] for n in names]
     size = {
         "length": np.array([vt.length for vt in table])[which],

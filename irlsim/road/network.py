@@ -31,6 +31,19 @@ VTYPES_PATH = SUMO_NET_DIR / VTYPES_FILE
 _HEADER = re.compile(rb"<!-- generated on .*?-->\s*", re.DOTALL)
 
 
+#: a file named ``sumo_tools/<path>`` (a scenario's route or additional file, a recording's vehicle types)
+#: lies inside the installed eclipse-sumo wheel's tools folder
+SUMO_TOOLS = "sumo_tools/"
+
+
+def sumo_tools_path(name: str, base: Path | None = None) -> Path:
+    """The path of a file a config names: ``sumo_tools/<path>`` inside the eclipse-sumo wheel's tools
+    folder, anything else as it is (joined to ``base`` where given)."""
+    if name.startswith(SUMO_TOOLS):
+        return Path(sumo_home()) / "tools" / name.removeprefix(SUMO_TOOLS)
+    return base / name if base is not None else Path(name)
+
+
 def sumo_home() -> str:
     """SUMO_HOME of the eclipse-sumo wheel; raises a one-line error when it is not installed."""
     try:

@@ -51,7 +51,7 @@ from typing import Any
 
 from irlsim.config import from_dict
 from irlsim.errors import IrlsimError
-from irlsim.road.network import SUMO_NET_DIR, build_net, config_sources, is_stale, sumo_home
+from irlsim.road.network import SUMO_NET_DIR, build_net, config_sources, is_stale, sumo_home, sumo_tools_path
 from irlsim.utils import atomic_path
 
 SCENARIO_FILE = "scenario.toml"
@@ -346,10 +346,7 @@ def network_advice(net_file: Path, scenario_file: Path | None) -> str:
 
 def _route_file(scenario: Path, name: str, key: str = "[traffic] routes") -> Path:
     """A file a scenario names under ``key`` (a route file, an additional file)."""
-    if name.startswith("sumo_tools/"):
-        p = Path(sumo_home()) / "tools" / name.removeprefix("sumo_tools/")
-    else:
-        p = scenario.parent / name
+    p = sumo_tools_path(name, scenario.parent)
     if not p.is_file():
         what = "route file" if key == "[traffic] routes" else "file"
         raise IrlsimError(f"scenario {scenario}: {what} {p} not found: fix {key}")

@@ -19,12 +19,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim.errors import IrlsimError
-from irlsim.road.network import sumo_home
+from irlsim.road.network import sumo_home, sumo_tools_path
 
 #: [s] at most this long for SUMO to load the network and the files
 PROBE_TIMEOUT_S = 120.0
-#: a name of the form ``sumo_tools/<path>`` is inside the installed eclipse-sumo wheel's tools folder
-SUMO_TOOLS = "sumo_tools/"
 
 _PROBE = """
 import json, sys, libsumo
@@ -53,11 +51,7 @@ class VehicleType:
 def type_file(name: str) -> Path:
     """The path of a vehicle-types file as a config names it (``sumo_tools/...``: inside the wheel);
     one line when it is not there."""
-    p = (
-        Path(sumo_home()) / "tools" / name.removeprefix(SUMO_TOOLS)
-        if name.startswith(SUMO_TOOLS)
-        else Path(name)
-    )
+    p = sumo_tools_path(name)
     if not p.is_file():
         raise IrlsimError(
             f"demonstrator.vehicle_types: {p} not found: give the route or additional files the recording's "
