@@ -251,6 +251,19 @@ def recorded_ego(cfg: DemonstratorConfig, counts: dict[str, int], split: str, ep
     return cfg.ego.split(",")[sum(counts[s] for s in names[: names.index(split)]) + episode]
 
 
+def collected_egos(manifest: dict[str, Any]) -> tuple[str, list[str]] | None:
+    """The recorded vehicles a dataset's episodes drove as egos, every split (``manifest``: the dataset's),
+    with the recording's sha256; None where its demonstrator is no recording. The manifest lists the
+    egos the recording gave in the order episodes take them (:func:`recorded_ego`); only the first of
+    them, as many as the config's episodes, were collected."""
+    record = manifest.get("demonstrator") or {}
+    if record.get("kind") != RECORDING:
+        return None
+    config = manifest.get("config") or {}
+    n = sum(int(config.get(f"{split}_episodes") or 0) for split in ("train", "validation", "test"))
+    return str(record["sha256"]), [str(v) for v in record["egos"][:n]]
+
+
 def as_recorded(d: dict[str, Any]) -> dict[str, Any]:
     """A demonstrator's config as a manifest records it: only its own kind's fields."""
     drop = SUMO_FIELDS if d.get("kind") == RECORDING else RECORDING_FIELDS

@@ -15,6 +15,7 @@ import torch
 
 from irlsim import FEATURE_NAMES
 from irlsim.config import from_dict
+from irlsim.data.demonstrator import collected_egos
 from irlsim.data.schema import SCHEMA_VERSION
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import MODEL_NAMES, ModelConfig
@@ -57,6 +58,20 @@ def dataset_seeds(dataset: TrainingData) -> list[int] | None:
     if not isinstance(seeds, dict):
         return None
     return sorted({int(x) for split in seeds.values() if isinstance(split, list) for x in split})
+
+
+def dataset_egos(dataset: TrainingData) -> dict[str, list[str]] | None:
+    """The recorded vehicles a dataset's episodes drove as egos (every split), by the sha256 of their
+    recording, sorted; None where no folder of it is a recording's. Stored in checkpoints so that
+    ``irlsim drive`` on a recording can refuse the cars the model learned from (a recording's seeds
+    pick no car)."""
+    egos: dict[str, set[str]] = {}
+    for part in getattr(dataset, "datasets", None) or [dataset]:
+        manifest = getattr(part, "manifest", None)
+        found = collected_egos(manifest) if isinstance(manifest, dict) else None
+        if found is not None:
+            egos.setdefault(found[0], set()).update(found[1])
+    return {sha: sorted(ids) for sha, ids in sorted(egos.items())} or None
 
 
 def save_checkpoint(path: Path, payload: dict[str, Any]) -> None:

@@ -25,6 +25,7 @@ from irlsim.errors import IrlsimError
 from irlsim.models.registry import count_parameters
 from irlsim.train.batching import dataset_meta
 from irlsim.train.checkpoint import (
+    dataset_egos,
     dataset_identity,
     dataset_seeds,
     legacy_identities,
@@ -146,12 +147,15 @@ class DatasetRecord:
     seeds: list[int] | None
     legacy: tuple[str, ...]
     meta: dict[str, Any]
+    #: a recording's data: the cars its episodes drove, by recording (drive refuses them); else None
+    egos: dict[str, list[str]] | None = None
 
     @classmethod
     def of(cls, dataset: TrainingData) -> DatasetRecord:
         """The record of ``dataset``; another feature set or schema -> IrlsimError (one line)."""
         meta = dataset_meta(dataset)
-        return cls(dataset_identity(dataset), dataset_seeds(dataset), legacy_identities(dataset), meta)
+        seeds, egos = dataset_seeds(dataset), dataset_egos(dataset)
+        return cls(dataset_identity(dataset), seeds, legacy_identities(dataset), meta, egos)
 
 
 @dataclass(frozen=True)
@@ -212,6 +216,7 @@ ENTRY_ORDER = (
     "warm_start",
     "dataset",
     "dataset_seeds",
+    "dataset_egos",
     "resumes",
 )
 
@@ -287,6 +292,8 @@ class TrainingRun:
             **data.meta,
             "dataset": data.identity,
             "dataset_seeds": data.seeds,
+            # only on a recording's data: every other checkpoint keeps its bytes
+            **({"dataset_egos": data.egos} if data.egos else {}),
             "resumes": self.resumes,
         }
         own = self.stage.entries()

@@ -37,7 +37,7 @@ from irlsim.rollout.style import pool_styles, style_report
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import atomic_write_text, owned_output, write_json
 from irlsim.workflows.collect import episode_timeout, timeout_advice
-from irlsim.workflows.drive_seeds import check_seeds_unseen
+from irlsim.workflows.drive_seeds import check_egos_unseen, check_seeds_unseen
 
 
 @dataclass(frozen=True)
@@ -347,7 +347,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     )
     scenarios = Scenarios()  # the road's file read once: for the config's [defaults] and every episode
     cfg = load_config(CollectConfig, run.config_file, over or None, scenarios=scenarios)
-    cfg = _recording(cfg, run, scenarios)
+    cfg, sha256 = _recording(cfg, run, scenarios)
     check_starts(cfg.scenario, (cfg.scenario.name,), scenarios)  # a route too short for the ego's start
     out = run.out or ((run.runs / "drive") if run.runs else Path("runs/drive"))
     check_output_dir(out, "--out")  # before driving: the tables are written after every episode
@@ -356,10 +356,8 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
         check_demonstrator(cfg)
     models = [resolve_model(s, run.runs, cfg.planner.n_policies, run.threads) for s in specs]
     if cfg.demonstrator.kind == RECORDING:  # an episode is its ego; the seed picks no car
-        print(
-            "note: a recording's drives are told apart from its training by their egos, not their seeds: "
-            "drive cars no episode of the rewards' data learned from (demonstrator.ego)"
-        )
+        egos = cfg.demonstrator.ego.split(",")[: run.episodes]
+        check_egos_unseen(models, cfg.demonstrator.file, sha256, egos)
     else:
         check_seeds_unseen(models, run.seed, run.episodes)
     runs = str(run.runs.resolve()) if run.runs else None
@@ -404,17 +402,17 @@ def _drive_into(
     return DriveResult(out, episodes, summaries)
 
 
-def _recording(cfg: CollectConfig, run: DriveRun, scenarios: Scenarios) -> CollectConfig:
+def _recording(cfg: CollectConfig, run: DriveRun, scenarios: Scenarios) -> tuple[CollectConfig, str]:
     """On a recording: its egos, one per episode (read and checked in one line before any work, on the
-    road ``scenarios`` has read)."""
+    road ``scenarios`` has read), and the recording's sha256 ('' on no recording)."""
     if cfg.demonstrator.kind != RECORDING:
         if run.reactive:
             raise IrlsimError("--reactive drives a recording's vehicles: give a --config with a recording")
-        return cfg
+        return cfg, ""
     scenario = cfg.scenario
     road = load_road(scenario=scenarios(scenario.name))
-    resolved, _ = resolve_recording(cfg.demonstrator, road, scenario.step, run.episodes)
-    return replace(cfg, demonstrator=resolved)
+    resolved, record = resolve_recording(cfg.demonstrator, road, scenario.step, run.episodes)
+    return replace(cfg, demonstrator=resolved), str(record["sha256"])
 
 
 def _recording_record(cfg: CollectConfig, run: DriveRun) -> dict[str, Any]:

@@ -461,9 +461,10 @@ def test_reactive_needs_a_recording(tmp_path, capsys):
     assert not out.exists()
 
 
-def test_a_recordings_drive_is_not_refused_for_the_seeds_of_its_training_episodes(fcd, tmp_path, capsys):
+def test_a_recordings_drive_refuses_the_cars_a_reward_learned_from_not_their_seeds(fcd, tmp_path, capsys):
     """A recording's episode is its ego: the seeds its training episodes had (0 and 1 here) say nothing of
-    which cars a reward learned from, so a drive of other cars with those seeds runs, and says so."""
+    which cars a reward learned from, so a drive of other cars with those seeds runs; a drive of a car an
+    episode of its data drove (the validation episode's veh2) is refused in one line, before any work."""
     section = f'file = "{fcd}"\nego = "veh0,veh1,veh2"\n'
     cfg = tmp_path / "learn.toml"
     cfg.write_text(COLLECT.replace("validation_episodes = 0", "validation_episodes = 1") + section)
@@ -479,4 +480,12 @@ def test_a_recordings_drive_is_not_refused_for_the_seeds_of_its_training_episode
     rc = main([*args, "--episodes", "2", "--max-cycles", "10", "--frames", "0", "--out", str(tmp_path / "d")])
     said = capsys.readouterr()
     assert rc == 0, said.err
-    assert "told apart from its training by their egos" in said.out
+    drive_cfg.write_text(COLLECT + f'file = "{fcd}"\nego = "veh3,veh2"\n')
+    rc = main([*args, "--episodes", "2", "--max-cycles", "10", "--frames", "0", "--out", str(tmp_path / "e")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1, err
+    assert err[0].endswith(
+        "car(s) veh2 are egos of the data PACNN+S was trained on (3 cars of this recording): "
+        "drive cars it did not learn from (demonstrator.ego)"
+    ), err
+    assert not (tmp_path / "e").exists()

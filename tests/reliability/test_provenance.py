@@ -63,6 +63,8 @@ def test_a_model_trained_on_several_folders_records_their_seeds_and_drive_refuse
     ckpt = tmp_path / "runs" / "stage1" / "LIRL" / "checkpoint.pt"
     recorded = torch.load(ckpt, weights_only=True)["dataset_seeds"]
     assert recorded is not None and sorted(recorded) == sorted(_seeds(a) + _seeds(b))
+    # the cars of a recording's data are recorded only where there is a recording: these bytes as before
+    assert "dataset_egos" not in torch.load(ckpt, weights_only=True)
     cfg = tmp_path / "tiny.toml"
     cfg.write_text("[planner]\nn_policies = 120\n")
     for seed in (_seeds(a)[0], _seeds(b)[-1]):  # the expert data's seed 0, the round's own seeds
@@ -192,3 +194,25 @@ def test_files_of_an_older_irlsim_are_kept_with_their_manifest_and_recollected_w
     assert _collect(out, 0) == 0 and _parquet_sha(out) == older  # the manifest vouches: kept
     (out / "manifest.json").unlink()
     assert _collect(out, 0) == 0 and _parquet_sha(out) == recorded  # nothing vouches: collected again
+
+
+def test_the_cars_a_model_learned_from_are_those_its_episodes_drove_by_recording():
+    """A recording's manifest lists every car it gives as an ego, in the order episodes take them; the
+    checkpoint's record is the ones the config's episodes took, by recording, over every folder."""
+    from types import SimpleNamespace
+
+    from irlsim.train.checkpoint import dataset_egos
+
+    def folder(sha: str, egos: list[str], train: int, validation: int, test: int) -> SimpleNamespace:
+        config = {"train_episodes": train, "validation_episodes": validation, "test_episodes": test}
+        record = {"kind": "recording", "file": "r.csv", "sha256": sha, "egos": egos}
+        return SimpleNamespace(manifest={"demonstrator": record, "config": config})
+
+    expert = SimpleNamespace(manifest={"demonstrator": {"kind": "expert"}, "config": {"train_episodes": 4}})
+    one = folder("aa", ["c9", "c1", "c5", "c7", "c2"], 2, 1, 0)
+    assert dataset_egos(one) == {"aa": ["c1", "c5", "c9"]}  # c7 and c2 were no episode's
+    more = folder("aa", ["c3", "c9"], 1, 0, 1)
+    other = folder("bb", ["x"], 1, 0, 0)
+    both = SimpleNamespace(datasets=[one, expert, more, other], manifest={})
+    assert dataset_egos(both) == {"aa": ["c1", "c3", "c5", "c9"], "bb": ["x"]}
+    assert dataset_egos(expert) is None and dataset_egos(SimpleNamespace(manifest={})) is None
