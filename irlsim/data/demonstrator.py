@@ -25,7 +25,7 @@ from typing import Any
 from irlsim.config import STORED_IF_SET, require
 from irlsim.data.recorded import RATE_WINDOW, open_recording
 from irlsim.data.recorded import egos as recorded_egos
-from irlsim.data.recording_as import FRONT, POSITIONS, ReadAs
+from irlsim.data.recording_as import COORDINATES, FRONT, NETWORK, POSITIONS, ReadAs
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -49,7 +49,7 @@ KINDS = (EXPERT, SUMO, RECORDING)
 #: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
 #: keeps the bytes of before recordings existed)
 SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
-RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window", "position")
+RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window", "position", "coordinates")
 #: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
 #: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
 #: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
@@ -99,6 +99,11 @@ class DemonstratorConfig:
     centre, SUMO's convention; an FCD file's by definition) or 'centre' (the centre of its box, as most
     public datasets' tracks; needs the columnar format's length column: each row moves half the length
     along the heading)"""
+    coordinates: str = field(default=NETWORK, metadata={STORED_IF_SET: True})
+    """kind 'recording': what the recording's x, y are: 'network' (the network's coordinates, as SUMO's
+    FCD), 'geo' (longitude and latitude in degrees, as ``sumo --fcd-output.geo`` or a GPS track: SUMO
+    places them through the network's projection, which a network imported from OpenStreetMap has) or
+    'utm' (the network's projection before its netOffset, as ``sumo --fcd-output.utm``)"""
     vehicle_types: tuple[str, ...] = field(default=(), metadata={STORED_IF_SET: True})
     """kind 'recording': the files that define the vehicle types the recording names (FCD's ``type``,
     a ``type`` column; the route or additional files its SUMO run loaded, ``sumo_tools/...`` inside the
@@ -139,15 +144,20 @@ class DemonstratorConfig:
             self.position in POSITIONS,
             f"demonstrator.position must be one of {', '.join(POSITIONS)}, got {self.position!r}",
         )
+        require(
+            self.coordinates in COORDINATES,
+            f"demonstrator.coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}",
+        )
         if self.kind != RECORDING:
             require(
                 not self.file
                 and not self.ego
                 and self.rate_window == RATE_WINDOW
                 and self.position == FRONT
+                and self.coordinates == NETWORK
                 and not self.vehicle_types,
-                "demonstrator.file / ego / rate_window / position / vehicle_types belong to kind = "
-                "'recording': set it, or drop them",
+                "demonstrator.file / ego / rate_window / position / coordinates / vehicle_types belong to "
+                "kind = 'recording': set it, or drop them",
             )
             return
         require(
@@ -156,7 +166,7 @@ class DemonstratorConfig:
 
     def read_as(self) -> ReadAs:
         """How a recording demonstrator's file is read."""
-        return ReadAs(self.position, tuple(self.vehicle_types))
+        return ReadAs(self.position, tuple(self.vehicle_types), self.coordinates)
 
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
@@ -236,6 +246,8 @@ def resolve_recording(
     record: dict[str, Any] = {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
     if cfg.position != FRONT:
         record["position"] = cfg.position
+    if cfg.coordinates != NETWORK:
+        record["coordinates"] = cfg.coordinates
     if cfg.vehicle_types:  # each file by content, as the recording
         record["vehicle_types"] = [
             {"path": f, "sha256": hashlib.sha256(type_file(f).read_bytes()).hexdigest()}
@@ -289,6 +301,7 @@ def describe(record: dict[str, Any] | None) -> str:
     if record.get("kind") == RECORDING:
         n = len(record.get("egos") or [])
         read = [f"positions at the {record['position']}"] if record.get("position") else []
+        read += [f"{record['coordinates']} coordinates"] if record.get("coordinates") else []
         read += [f"types of {len(record['vehicle_types'])} file(s)"] if record.get("vehicle_types") else []
         how = "".join(f", {r}" for r in read)
         return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos{how})"

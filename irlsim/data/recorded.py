@@ -59,7 +59,15 @@ def open_recording(path: str | Path, road: Road, step: float, read: ReadAs = AS_
     key = (str(p.resolve()), p.stat().st_mtime, str(Path(road.net_file).resolve()), step, read)
     if key not in _RECORDINGS:
         types = vehicle_types(road.net_file, read.vehicle_types) if read.vehicle_types else None
-        _RECORDINGS[key] = load_recording(key[0], road.net, step, position=read.position, types=types)
+        _RECORDINGS[key] = load_recording(
+            key[0],
+            road.net,
+            step,
+            position=read.position,
+            types=types,
+            coordinates=read.coordinates,
+            net_file=road.net_file,
+        )
         while len(_RECORDINGS) > 2:
             del _RECORDINGS[next(iter(_RECORDINGS))]
     return _RECORDINGS[key]

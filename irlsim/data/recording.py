@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.data.matching import LaneSamples, lane_routes, lane_samples, match_routes
-from irlsim.data.recording_as import FRONT, check_position, to_front, typed
+from irlsim.data.recording_as import FRONT, NETWORK, check_position, to_front, to_network, typed
 from irlsim.data.recording_read import Rows, read_rows
 from irlsim.errors import IrlsimError
 from irlsim.road import wrap_angle
@@ -337,7 +337,8 @@ def check_on_network(
     if len(off) > FOREIGN_SHARE * len(on) and geo:
         raise IrlsimError(
             f"recording {rows.path}: its points lie off this network and within x -180..180, y -90..90: "
-            "longitude and latitude (as sumo --fcd-output.geo writes them): record x and y in the network's "
+            "longitude and latitude (as sumo --fcd-output.geo writes them): set demonstrator.coordinates = "
+            "'geo' (SUMO places them through the network's projection), or record x and y in the network's "
             "coordinates (sumo's --fcd-output without .geo)"
         )
     offset = tuple(float(v) for v in net.getLocationOffset())
@@ -346,8 +347,8 @@ def check_on_network(
             raise IrlsimError(
                 f"recording {rows.path}: its points lie on this network once its netOffset ({offset[0]:.2f}, "
                 f"{offset[1]:.2f}) is added: the network's original projection (as sumo --fcd-output.utm "
-                "writes it): add the netOffset to x and y, or record x and y in the network's coordinates "
-                "(sumo's --fcd-output without .utm)"
+                "writes it): set demonstrator.coordinates = 'utm' (the netOffset added), or record x and y "
+                "in the network's coordinates (sumo's --fcd-output without .utm)"
             )
     if len(off) > FOREIGN_SHARE * len(on):
         raise IrlsimError(
@@ -429,11 +430,14 @@ def load_recording(
     max_gap: float = MAX_GAP,
     position: str = FRONT,
     types: Mapping[str, VehicleType] | None = None,
+    coordinates: str = NETWORK,
+    net_file: str | Path | None = None,
 ) -> Recording:
-    """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network);
-    ``position``: the point of a vehicle its x, y give (:data:`POSITIONS`), read as the front bumper;
-    ``types``: the vehicle types the recording names, as SUMO makes them (:func:`typed`), None: not read."""
-    rows = read_rows(path)
+    """Read, check (one line before any work) and resample a recording on ``net`` (a sumolib network,
+    read from ``net_file``); ``position``: the point of a vehicle its x, y give (:data:`POSITIONS`), read
+    as the front bumper; ``types``: the vehicle types the recording names, as SUMO makes them
+    (:func:`typed`), None: not read; ``coordinates``: what its x, y are (:func:`to_network`)."""
+    rows = to_network(read_rows(path), coordinates, net, net_file)
     vclass = None
     if types is not None:
         rows, vclass = typed(rows, types)

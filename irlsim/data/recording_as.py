@@ -3,6 +3,11 @@
 - ``position`` (``demonstrator.position``): SUMO and irlsim place a vehicle by its front bumper's centre;
   most public datasets' tracks give the centre of its box. 'centre' moves each row half its vehicle's
   length along its heading (:func:`to_front`); SUMO's FCD is the front bumper by definition.
+- ``coordinates`` (``demonstrator.coordinates``): what x, y are: the network's coordinates (SUMO's FCD,
+  irlsim's), longitude and latitude ('geo': ``sumo --fcd-output.geo``, a GPS track), placed on the
+  network by SUMO through the network's projection (:func:`irlsim.sim.geo.geo_to_network`), or the
+  network's projected coordinates before its ``netOffset`` ('utm': ``sumo --fcd-output.utm``)
+  (:func:`to_network`).
 - ``vehicle_types`` (``demonstrator.vehicle_types``): the files defining the types a recording names
   (FCD's ``type``, a ``type`` column), loaded by SUMO (:mod:`irlsim.sim.vehicle_types`): each vehicle's
   length, width and class are then its type's (:func:`typed`).
@@ -15,17 +20,24 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from irlsim.data.recording_read import Rows
 from irlsim.errors import IrlsimError
+from irlsim.sim.geo import geo_to_network
 from irlsim.sim.vehicle_types import VehicleType
 
 #: the point of a vehicle a recording's x, y give (``demonstrator.position``): its front bumper's centre
 #: (SUMO's convention, the FCD's by definition) or the centre of its box (most public datasets' tracks)
 FRONT, CENTRE = "front", "centre"
 POSITIONS = (FRONT, CENTRE)
+#: what a recording's x, y are (``demonstrator.coordinates``): the network's coordinates (SUMO's FCD), its
+#: longitude and latitude (SUMO's --fcd-output.geo) or its projection's before the netOffset (.utm)
+NETWORK, GEO, UTM = "network", "geo", "utm"
+COORDINATES = (NETWORK, GEO, UTM)
 
 
 @dataclass(frozen=True)
@@ -38,6 +50,8 @@ class ReadAs:
     #: them: each vehicle's size and class are its type's, as SUMO makes it
     #: (:mod:`irlsim.sim.vehicle_types`); empty: not read
     vehicle_types: tuple[str, ...] = ()
+    #: what its x, y are (:data:`COORDINATES`), turned into the network's before anything else
+    coordinates: str = NETWORK
 
 
 #: a file read as it is: front bumpers, no types
@@ -62,6 +76,40 @@ def check_position(rows: Rows, position: str) -> None:
             f"recording {rows.path} has no length column, which position = 'centre' needs (the front "
             "bumper is the centre plus half the length along the heading): add each vehicle's length [m]"
         )
+
+
+def to_network(rows: Rows, coordinates: str, net: Any, net_file: str | Path | None) -> Rows:
+    """The rows with x, y in the network's coordinates (``net``: a sumolib network, read from
+    ``net_file``): 'geo' places longitude x and latitude y through the network's projection, by SUMO;
+    'utm' adds the network's netOffset; 'network' leaves them. Headings stay as recorded (the network's
+    frame, as SUMO's FCD writes its angle with either option). One line before any work where the rows
+    cannot be such coordinates or the network has no projection."""
+    if coordinates not in COORDINATES:
+        raise IrlsimError(
+            f"recording {rows.path}: coordinates {coordinates!r} is not one of "
+            f"{', '.join(COORDINATES)}: give what its x, y are"
+        )
+    if coordinates == NETWORK:
+        return rows
+    if coordinates == UTM:
+        dx, dy = (float(v) for v in net.getLocationOffset())
+        return dataclasses.replace(rows, x=rows.x + dx, y=rows.y + dy)
+    i = int(np.argmax((np.abs(rows.x) > 180.0) | (np.abs(rows.y) > 90.0)))
+    if abs(rows.x[i]) > 180.0 or abs(rows.y[i]) > 90.0:
+        raise IrlsimError(
+            f"{rows.where(i)}: x {rows.x[i]:g}, y {rows.y[i]:g} are no longitude (-180..180) and latitude "
+            "(-90..90), which coordinates = 'geo' reads: drop demonstrator.coordinates for the network's "
+            "metres"
+        )
+    if net_file is None or not net.hasGeoProj():
+        raise IrlsimError(
+            f"recording {rows.path}: coordinates = 'geo', but the network {net_file or ''} has no "
+            "geographic projection (its location's projParameter is '!'): give the scenario the "
+            "recording was made on (imported from OpenStreetMap or built with a projection), or x, y in "
+            "the network's coordinates"
+        )
+    x, y = geo_to_network(net_file, rows.x, rows.y)
+    return dataclasses.replace(rows, x=x, y=y)
 
 
 def to_front(rows: Rows, position: str) -> Rows:
