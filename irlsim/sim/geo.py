@@ -9,16 +9,13 @@ rather than re-implementing map projections: the positions land where SUMO itsel
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from irlsim.errors import IrlsimError
-from irlsim.road.network import sumo_home
+from irlsim.sim.libsumo_process import run_libsumo
 
 #: [s] at most this long for SUMO to load the network and map the points
 CONVERT_TIMEOUT_S = 300.0
@@ -42,20 +39,12 @@ def geo_to_network(net_file: str | Path, lon: np.ndarray, lat: np.ndarray) -> tu
     (a recording's standing cars repeat theirs); about a microsecond a point."""
     pts = np.stack([np.asarray(lon, dtype=np.float64), np.asarray(lat, dtype=np.float64)], axis=1)
     distinct, back = np.unique(pts, axis=0, return_inverse=True)
-    env = {**os.environ, "SUMO_HOME": sumo_home()}
     with tempfile.TemporaryDirectory(prefix="irlsim-geo-") as tmp:
         np.save(Path(tmp) / "lonlat.npy", distinct)
-        cmd = [sys.executable, "-c", _CONVERT, str(net_file), tmp]
-        try:
-            res = subprocess.run(cmd, capture_output=True, text=True, timeout=CONVERT_TIMEOUT_S, env=env)
-        except subprocess.TimeoutExpired:
-            raise IrlsimError(
-                f"SUMO took over {CONVERT_TIMEOUT_S:g} s to place {len(distinct)} geographic points on "
-                f"{net_file}"
-            ) from None
+        task = f"place {len(distinct)} geographic points on {net_file}"
+        res, errors = run_libsumo(_CONVERT, [str(net_file), tmp], CONVERT_TIMEOUT_S, task)
         done = Path(tmp) / "xy.npy"
         if res.returncode != 0 or not done.is_file():
-            errors = [ln for ln in res.stderr.splitlines() if ln.startswith("Error:")]
             why = errors[0] if errors else (res.stderr.strip().splitlines() or [f"exit {res.returncode}"])[-1]
             raise IrlsimError(f"SUMO could not place geographic points on {net_file}: {why}")
         xy = np.load(done)

@@ -12,14 +12,12 @@ SUMO makes of it: an attribute the file leaves out takes SUMO's default for the 
 from __future__ import annotations
 
 import json
-import os
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim.errors import IrlsimError
-from irlsim.road.network import sumo_home, sumo_tools_path
+from irlsim.road.network import sumo_tools_path
+from irlsim.sim.libsumo_process import run_libsumo
 
 #: [s] at most this long for SUMO to load the network and the files
 PROBE_TIMEOUT_S = 120.0
@@ -65,15 +63,8 @@ def vehicle_types(net_file: str | Path, files: tuple[str, ...]) -> dict[str, Veh
     ``net_file``, by id; SUMO's first error as one line naming the files."""
     paths = [type_file(f) for f in files]
     listed = ",".join(str(p.resolve()) for p in paths)
-    env = {**os.environ, "SUMO_HOME": sumo_home()}
-    cmd = [sys.executable, "-c", _PROBE, str(net_file), listed]
-    try:
-        res = subprocess.run(cmd, capture_output=True, text=True, timeout=PROBE_TIMEOUT_S, env=env)
-    except subprocess.TimeoutExpired:
-        raise IrlsimError(
-            f"SUMO took over {PROBE_TIMEOUT_S:g} s to load demonstrator.vehicle_types"
-        ) from None
-    errors = [ln[len("Error:") :].strip() for ln in res.stderr.splitlines() if ln.startswith("Error:")]
+    task = "load demonstrator.vehicle_types"
+    res, errors = run_libsumo(_PROBE, [str(net_file), listed], PROBE_TIMEOUT_S, task)
     out = res.stdout.strip().splitlines()
     answer = json.loads(out[-1]) if out and out[-1].startswith("{") else {}
     if errors or res.returncode != 0 or "error" in answer or not answer:
