@@ -168,6 +168,12 @@ class DemonstratorConfig:
         """How a recording demonstrator's file is read."""
         return ReadAs(self.position, tuple(self.vehicle_types), self.coordinates)
 
+    def read_unlike_fcd(self) -> dict[str, str]:
+        """What a record (the manifest's, drive.json's) says of how the recording was read where not as
+        SUMO's FCD is: its positions' point, its coordinates (the type files each record names its way)."""
+        fields = {"position": (self.position, FRONT), "coordinates": (self.coordinates, NETWORK)}
+        return {k: value for k, (value, default) in fields.items() if value != default}
+
     def attributes(self) -> dict[str, Any]:
         """The vType attributes this demonstrator sets: the file's, then the models, then ``params``."""
         base = {**SUMO_DEFAULT_MODELS, **(read_vtype_file(self.vtype_file) if self.vtype_file else {})}
@@ -244,10 +250,7 @@ def resolve_recording(
         )
     out = replace(cfg, ego=",".join(ids))
     record: dict[str, Any] = {"kind": RECORDING, "file": cfg.file, "sha256": rec.sha256, "egos": list(ids)}
-    if cfg.position != FRONT:
-        record["position"] = cfg.position
-    if cfg.coordinates != NETWORK:
-        record["coordinates"] = cfg.coordinates
+    record |= cfg.read_unlike_fcd()
     if cfg.vehicle_types:  # each file by content, as the recording
         record["vehicle_types"] = [
             {"path": f, "sha256": hashlib.sha256(type_file(f).read_bytes()).hexdigest()}

@@ -22,7 +22,6 @@ from irlsim import devices
 from irlsim.config import MAX_SEED, load_config, parse_overrides
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING, resolve_recording
-from irlsim.data.recording_as import FRONT, NETWORK
 from irlsim.drive.closed_loop import PictureSpec, drive_episode
 from irlsim.drive.demonstrated import DEMONSTRATOR, check_demonstrator, resolve_model
 from irlsim.drive.metrics import markdown_table, summarize
@@ -421,11 +420,12 @@ def _recording_record(cfg: CollectConfig, run: DriveRun) -> dict[str, Any]:
     d = cfg.demonstrator
     if d.kind != RECORDING:
         return {}
-    record = {"file": d.file, "egos": d.ego.split(",")[: run.episodes], "reactive": run.reactive}
-    if d.position != FRONT:
-        record["position"] = d.position
-    if d.coordinates != NETWORK:
-        record["coordinates"] = d.coordinates
+    record: dict[str, Any] = {
+        "file": d.file,
+        "egos": d.ego.split(",")[: run.episodes],
+        "reactive": run.reactive,
+    }
+    record |= d.read_unlike_fcd()
     if d.vehicle_types:
         record["vehicle_types"] = list(d.vehicle_types)
     return {"recording": record}
