@@ -1,7 +1,8 @@
-"""``irlsim scenario list | show | check | sweep | generate``: the shipped scenarios; what irlsim derives
-from one (route, lanes, stops, exits, mission, traffic) with a picture; the acceptance of one (the expert
-and SUMO's driver on the same seeds: :mod:`irlsim.workflows.scenarios`); a sweep of random routes over
-many networks (:mod:`irlsim.workflows.sweep`); generated networks to sweep."""
+"""``irlsim scenario list | show | check | sweep | generate | from-highd``: the shipped scenarios; what
+irlsim derives from one (route, lanes, stops, exits, mission, traffic) with a picture; the acceptance of
+one (the expert and SUMO's driver on the same seeds: :mod:`irlsim.workflows.scenarios`); a sweep of
+random routes over many networks (:mod:`irlsim.workflows.sweep`); generated networks to sweep; a highD
+recording's road, tracks and configs (:mod:`irlsim.workflows.highd`)."""
 
 from __future__ import annotations
 
@@ -15,12 +16,13 @@ from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_file
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import load_scenario, shipped_scenarios
+from irlsim.workflows.highd import MIN_DURATION, HighDRun, import_highd
 from irlsim.workflows.scenarios import CheckRun, GenerateRun, check_scenario_run, generate_networks
 from irlsim.workflows.sweep import SweepRun, sweep_networks
 
 HELP = (
     "list the shipped scenarios, show what irlsim derives from one, check the expert on one, sweep "
-    "random routes over many networks, generate networks to sweep"
+    "random routes over many networks, generate networks to sweep, import a highD recording"
 )
 
 
@@ -43,6 +45,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--seed", type=int_in(0, MAX_SEED), default=0, help="network i is drawn from (S, i) (default: 0)"
     )
     p.add_argument("--out", type=Path, required=True, help="output folder (kept networks are not rebuilt)")
+    _add_highd(sub)
+
+
+def _add_highd(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = _action(
+        sub,
+        "from-highd",
+        "a highD recording made ready to learn from: its road as a SUMO network, each carriageway a "
+        "scenario with its tracks, a collect config (its cars as egos in turn) and a drive config (the "
+        "cars no collected episode used) (docs/guide/demonstrators.md)",
+    )
+    p.add_argument("recording", type=Path, help="DIR/NN of highD's NN_tracks.csv, NN_tracksMeta.csv, "
+                   "NN_recordingMeta.csv (or one of them)")  # fmt: skip
+    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument(
+        "--min-duration", type=float_in(0.0, above=True), default=MIN_DURATION,
+        help=f"[s] the least time a car drives on its carriageway to be an ego (default: {MIN_DURATION:g})",
+    )  # fmt: skip
 
 
 def _action(sub: argparse._SubParsersAction, name: str, text: str) -> argparse.ArgumentParser:  # type: ignore[type-arg]
@@ -112,6 +132,9 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.action == "generate":
         generate_networks(GenerateRun(args.count, args.out, args.seed))
+        return 0
+    if args.action == "from-highd":
+        import_highd(HighDRun(args.recording, args.out, args.min_duration))
         return 0
     return show(args)
 

@@ -1,0 +1,165 @@
+"""``irlsim scenario from-highd``: a highD recording made ready to learn from. Its road becomes a SUMO
+network (netconvert, from the lane markings: :mod:`irlsim.data.highd`), each carriageway a scenario, its
+tracks irlsim's columnar format, and each carriageway gets a collect config (its cars as egos in turn,
+split into train, validation and test episodes) and a drive config (the cars no collected episode used).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from irlsim.data.highd import (
+    HighD,
+    plain_network,
+    read_highd,
+    road_speed,
+    top_speed,
+    vehicle_types_xml,
+    write_rows,
+)
+from irlsim.data.recorded import egos, open_recording
+from irlsim.data.recording_as import CENTRE, ReadAs
+from irlsim.errors import IrlsimError
+from irlsim.outputs import check_output_dir
+from irlsim.road import load_road
+from irlsim.road.network import build_net
+from irlsim.utils import atomic_write_text, owned_output, write_json
+
+#: [s] the least time a car drives on its carriageway to be an ego: a highD road is about 420 m, which a
+#: car at 120 km/h crosses in 13 s (irlsim's default, 20 s, would leave only slow cars)
+MIN_DURATION = 10.0
+#: [s] the step the recording is resampled to (SUMO's, as every collection's)
+STEP = 0.1
+NETCONVERT_CFG = """<configuration>
+    <input>
+        <node-files value="highd.nod.xml"/>
+        <edge-files value="highd.edg.xml"/>
+    </input>
+    <processing>
+        <offset.disable-normalization value="true"/>
+        <no-turnarounds value="true"/>
+    </processing>
+    <report>
+        <no-warnings value="true"/>
+    </report>
+</configuration>
+"""
+
+
+@dataclass(frozen=True)
+class HighDRun:
+    """What ``irlsim scenario from-highd`` parses its arguments into."""
+
+    recording: Path
+    """DIR/NN of a highD recording, or one of its three files"""
+    out: Path
+    """output folder: the network, a scenario, a recording and configs per carriageway"""
+    min_duration: float = MIN_DURATION
+    """[s] the least time a car drives on its carriageway to be an ego"""
+
+
+def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
+    """Convert ``run.recording`` into ``run.out``; returns per carriageway what was written and its egos.
+    Everything read is checked before anything is written; prints where it wrote."""
+    if not run.min_duration > 0:
+        raise IrlsimError(f"--min-duration must be > 0 s, got {run.min_duration:g}")
+    h = read_highd(run.recording)
+    check_output_dir(run.out, "--out")
+    run.out.mkdir(parents=True, exist_ok=True)
+    with owned_output(run.out, "scenario from-highd"):
+        # written in a folder of its own first, moved into --out only when every carriageway is done
+        stage = Path(tempfile.mkdtemp(dir=run.out, prefix=".from-highd-"))
+        try:
+            written = _write(h, stage, run.out, run.min_duration)
+            for f in sorted(stage.iterdir()):
+                os.replace(f, run.out / f.name)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+    for name, what in written.items():
+        print(
+            f"{name} carriageway: {what['egos']} egos of {what['vehicles']} vehicles; collect with "
+            f"'irlsim collect --config {what['collect']} --out data/{run.out.name}-{name}'"
+        )
+    print(f"from-highd: {run.out} (road.net.xml, and per carriageway a scenario, a recording and configs; "
+          "highd.json)")  # fmt: skip
+    return written
+
+
+def _write(h: HighD, stage: Path, out: Path, min_duration: float) -> dict[str, dict[str, object]]:
+    """Every file of the import into ``stage``, the configs naming their final place in ``out``."""
+    roads = [h.carriageway(name) for name in h.rows if h.rows[name].num_rows]
+    nodes, edges = plain_network(roads, road_speed(h))
+    atomic_write_text(stage / "highd.nod.xml", nodes)
+    atomic_write_text(stage / "highd.edg.xml", edges)
+    atomic_write_text(stage / "netconvert.cfg", NETCONVERT_CFG)
+    build_net(
+        "netconvert", ["-c", "netconvert.cfg"], stage / "road.net.xml", subject=str(out / "netconvert.cfg"),
+        fix="report it: the importer wrote these files", cwd=stage, force=True,
+    )  # fmt: skip
+    atomic_write_text(stage / "vtypes.add.xml", vehicle_types_xml())
+    written = {r.name: _carriageway(h, r.name, stage, out, min_duration) for r in roads}
+    write_json(stage / "highd.json", {"recording": str(h.prefix), "network": "road.net.xml", **written})
+    return written
+
+
+def _carriageway(h: HighD, name: str, stage: Path, out: Path, min_duration: float) -> dict[str, object]:
+    """One carriageway's scenario, recording and configs in ``stage`` (the configs name their place in
+    ``out``); what was written and how many egos."""
+    recording, scenario = out / f"{name}.parquet", out / f"{name}.toml"
+    write_rows(h.rows[name], stage / recording.name)
+    atomic_write_text(
+        stage / scenario.name,
+        f"# The {name} carriageway of highD recording {h.prefix.name} (irlsim scenario from-highd)\n"
+        f'name = "{out.name}-{name}"\ndescription = "highD {h.prefix.name}, the {name} carriageway"\n\n'
+        f'[network]\nfile = "road.net.xml"\n\n[route]\nedges = ["{name}"]\n',
+    )
+    road = load_road(scenario=stage / scenario.name)
+    read = ReadAs(CENTRE, (str(stage / "vtypes.add.xml"),))
+    rec = open_recording(stage / recording.name, road, STEP, read)
+    appears = dict(zip(rec.ids, rec.t0.tolist(), strict=True))
+    cars = sorted(egos(rec, road, (), min_duration), key=lambda v: (appears[v], int(v)))  # by time
+    held = max(1, len(cars) // 10)
+    learned, driven = cars[: len(cars) - held], cars[len(cars) - held :]
+    if len(learned) < 3:
+        raise IrlsimError(
+            f"highD recording {h.prefix}: the {name} carriageway has {len(cars)} cars on the road for "
+            f"{min_duration:g} s, too few to collect from and drive: lower --min-duration"
+        )
+    test = val = max(1, len(learned) // 10)
+    common = (
+        f'[scenario]\nname = "{scenario}"\n\n[planner]\nv_max = {top_speed(h, name):.1f}\n'
+        f"v_target = {road_speed(h):.4f}\n\n"
+        f'[demonstrator]\nkind = "recording"\nfile = "{recording}"\nposition = "centre"\n'
+        f'vehicle_types = ["{out / "vtypes.add.xml"}"]\nmin_duration = {min_duration:g}\n'
+    )
+    head = f"# highD {h.prefix.name}, the {name} carriageway (irlsim scenario from-highd)"
+    configs = {
+        "collect": (
+            f"{head}: its first {len(learned)} cars, each an ego in turn\nseed = 0\n"
+            f"train_episodes = {len(learned) - test - val}\nvalidation_episodes = {val}\n"
+            f"test_episodes = {test}\n"
+            f'\n{common}ego = "{",".join(learned)}"\n'
+        ),
+        "drive": (
+            f"{head}: the {len(driven)} cars no collected episode used\nseed = 0\n\n"
+            f'{common}ego = "{",".join(driven)}"\n'
+        ),
+    }
+    paths = {}
+    for kind, text in configs.items():
+        paths[kind] = out / f"{name}-{kind}.toml"
+        atomic_write_text(stage / paths[kind].name, text)
+    return {
+        "vehicles": len(set(h.rows[name].column("id").to_pylist())),
+        "egos": len(cars),
+        "scenario": str(scenario),
+        "recording": str(recording),
+        "collect": str(paths["collect"]),
+        "drive": str(paths["drive"]),
+        "collect_egos": learned,
+        "drive_egos": driven,
+    }
