@@ -29,9 +29,9 @@ SIZE = {"car": (4.6, 1.9), "truck": (12.0, 2.5)}  # length, width [m]
 HZ = 25
 
 
-def sumo_run(tmp: Path) -> tuple[Path, Path]:
+def sumo_run(tmp: Path, vehicles: int = 12, every: float = 2.0) -> tuple[Path, Path]:
     """A network of highD's layout, built here from the markings (not by the importer), and SUMO's FCD of
-    cars and trucks on both carriageways at 25 Hz."""
+    ``vehicles`` cars and trucks on each carriageway, one every ``every`` seconds, at 25 Hz."""
     mid = {"lower": -(LOWER[0] + LOWER[-1]) / 2, "upper": -(UPPER[0] + UPPER[-1]) / 2}
     (tmp / "n.nod.xml").write_text(
         f'<nodes><node id="l0" x="0" y="{mid["lower"]}"/><node id="l1" x="420" y="{mid["lower"]}"/>'
@@ -48,15 +48,24 @@ def sumo_run(tmp: Path) -> tuple[Path, Path]:
     types = "".join(f'<vType id="{k}" vClass="{"passenger" if k == "car" else "truck"}" length="{le}" '
                     f'width="{w}" sigma="0" lcSpeedGain="5"/>' for k, (le, w) in SIZE.items())  # fmt: skip
     trips = "".join(
-        f'<vehicle id="{side}{i}" type="{"truck" if i % 4 == 3 else "car"}" depart="{2.0 * i}" '
+        f'<vehicle id="{side}{i}" type="{"truck" if i % 4 == 3 else "car"}" depart="{every * i}" '
         f'departLane="{i % 3}" departSpeed="{18 + 2 * (i % 5)}"><route edges="{side}"/></vehicle>'
-        for i in range(12)
+        for i in range(vehicles)
         for side in ("lower", "upper")
     )
     (tmp / "r.rou.xml").write_text(f"<routes>{types}{trips}</routes>")
     fcd = tmp / "fcd.xml"
     cmd = [sumo_binary("sumo"), "-n", str(net), "-r", str(tmp / "r.rou.xml"), "--step-length", str(1 / HZ)]
-    cmd += ["--end", "60", "--fcd-output", str(fcd), "--no-step-log", "true", "--precision", "6"]
+    cmd += [
+        "--end",
+        str(every * vehicles + 40),
+        "--fcd-output",
+        str(fcd),
+        "--no-step-log",
+        "true",
+        "--precision",
+        "6",
+    ]
     subprocess.run(cmd, check=True, capture_output=True)
     return net, fcd
 
@@ -97,7 +106,11 @@ def kind_of(sumo_id: str) -> str:
 if __name__ == "__main__":
     p = argparse.ArgumentParser(description="SUMO's run on a road of highD's shape, as highD's recording 01")
     p.add_argument("--out", type=Path, default=Path("data/highd-sample"), help="the folder written")
+    p.add_argument("--vehicles", type=int, default=12, help="vehicles per carriageway (default: 12)")
+    p.add_argument("--every", type=float, default=2.0, help="[s] one departs every (default: 2)")
     args = p.parse_args()
     (args.out / "sumo").mkdir(parents=True, exist_ok=True)
-    as_highd(sumo_run(args.out / "sumo")[1], args.out)  # SUMO's network and FCD in <out>/sumo
+    as_highd(
+        sumo_run(args.out / "sumo", args.vehicles, args.every)[1], args.out
+    )  # SUMO's network and FCD in <out>/sumo
     print(f"wrote {args.out}/01_tracks.csv, 01_tracksMeta.csv, 01_recordingMeta.csv")
