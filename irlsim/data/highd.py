@@ -44,6 +44,8 @@ DIRECTIONS = {"upper": 1, "lower": 2}
 CLASSES = {"car": "passenger", "truck": "truck"}
 #: [m/s] a carriageway without a speed limit gets the advisory speed of German motorways, 130 km/h
 ADVISORY_SPEED = 130.0 / 3.6
+#: [m/s] the highest speed limit read as one (above: not m/s)
+MAX_LIMIT = 200.0 / 3.6
 #: [m] the road reaches this far beyond the first and the last recorded box
 MARGIN = 10.0
 #: [m] the range of a lane's width the markings may give (outside it: not highD's metres)
@@ -114,6 +116,11 @@ def read_highd(path: str | Path) -> HighD:
     if not frame_rate > 0:
         raise IrlsimError(f"{files['recordingMeta']}: frameRate {frame_rate:g} is not a rate: give it in Hz")
     speed_limit = float(_numbers(rec, "speedLimit", files["recordingMeta"])[0])
+    if speed_limit != -1 and not 0 < speed_limit <= MAX_LIMIT:
+        raise IrlsimError(
+            f"{files['recordingMeta']}: speedLimit {speed_limit:g} is not highD's (m/s, -1 where there is "
+            f"none; {speed_limit:g} m/s is {speed_limit * 3.6:.0f} km/h): give it in m/s"
+        )
     markings = {name: _markings(rec, name, files["recordingMeta"]) for name in DIRECTIONS}
 
     ids = _numbers(meta, "id", files["tracksMeta"]).astype(np.int64)

@@ -117,6 +117,10 @@ def _copy(src: Path, dst: Path, edit: dict[str, dict[str, object]] | None = None
         ),  # fmt: skip
         ({"tracksMeta": {"drivingDirection": 3}}, r"has drivingDirection 3: highD's are 1 \(upper\) and 2"),
         ({"recordingMeta": {"frameRate": 0}}, r"frameRate 0 is not a rate: give it in Hz"),
+        (
+            {"recordingMeta": {"speedLimit": 120.0}},
+            r"speedLimit 120 is not highD's \(m/s, -1 where .* 432 km/h",
+        ),
     ],
 )
 def test_a_bad_highd_recording_is_one_line_and_writes_nothing(highd, tmp_path, edit, message, capsys):
