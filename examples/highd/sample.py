@@ -4,7 +4,7 @@ written as highD's recording 01, to try ``irlsim scenario from-highd`` on.
     python examples/highd/sample.py --out data/highd-sample
 
 The road is built here from the lane markings (two carriageways of three 3.8 m lanes, 420 m, netconvert);
-SUMO (the eclipse-sumo wheel's binary) drives 12 vehicles on each, every fourth a 12 m truck, at 25 Hz,
+SUMO (the eclipse-sumo wheel's binary) drives 12 vehicles on each, every third a 12 m truck, at 25 Hz,
 and its FCD output is written in highD's conventions: the upper left corner of each vehicle's box in the
 image's frame (x to the right, y down), the box's extent along x as ``width`` and along y as ``height``,
 ``xVelocity`` and ``yVelocity``, frames from 1, ``class`` Car or Truck, ``drivingDirection`` 1 (upper,
@@ -48,7 +48,7 @@ def sumo_run(tmp: Path, vehicles: int = 12, every: float = 2.0) -> tuple[Path, P
     types = "".join(f'<vType id="{k}" vClass="{"passenger" if k == "car" else "truck"}" length="{le}" '
                     f'width="{w}" sigma="0" lcSpeedGain="5"/>' for k, (le, w) in SIZE.items())  # fmt: skip
     trips = "".join(
-        f'<vehicle id="{side}{i}" type="{"truck" if i % 4 == 3 else "car"}" depart="{every * i}" '
+        f'<vehicle id="{side}{i}" type="{"truck" if i % 3 == 2 else "car"}" depart="{every * i}" '
         f'departLane="{i % 3}" departSpeed="{18 + 2 * (i % 5)}"><route edges="{side}"/></vehicle>'
         for i in range(vehicles)
         for side in ("lower", "upper")
@@ -99,8 +99,8 @@ def as_highd(fcd: Path, folder: Path) -> dict[str, int]:
 
 
 def kind_of(sumo_id: str) -> str:
-    """A vehicle's highD class (lower case) by its SUMO id: every fourth of a carriageway is a truck."""
-    return "truck" if int(sumo_id.lstrip("lowerup")) % 4 == 3 else "car"
+    """A vehicle's highD class (lower case) by its SUMO id: every third of a carriageway is a truck."""
+    return "truck" if int(sumo_id.lstrip("lowerup")) % 3 == 2 else "car"
 
 
 if __name__ == "__main__":

@@ -23,9 +23,18 @@ from pathlib import Path
 from typing import Any
 
 from irlsim.config import STORED_IF_SET, require
-from irlsim.data.recorded import RATE_WINDOW, open_recording
+from irlsim.data.recorded import RATE_WINDOW, open_recording, recorded_size
 from irlsim.data.recorded import egos as recorded_egos
-from irlsim.data.recording_as import COORDINATES, FRONT, NETWORK, POSITIONS, ReadAs
+from irlsim.data.recording_as import (
+    COORDINATES,
+    EGO_CLASS,
+    EGO_SIZES,
+    FRONT,
+    NETWORK,
+    POSITIONS,
+    SCENARIO_SIZE,
+    ReadAs,
+)
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -49,7 +58,9 @@ KINDS = (EXPERT, SUMO, RECORDING)
 #: the fields of one kind alone: a manifest records only its own kind's (a SUMO demonstrator's config
 #: keeps the bytes of before recordings existed)
 SUMO_FIELDS = ("car_follow_model", "lane_change_model", "params", "vtype_file", "lane_change_duration")
-RECORDING_FIELDS = ("file", "ego", "min_duration", "rate_window", "position", "coordinates")
+RECORDING_FIELDS = (
+    "file", "ego", "min_duration", "rate_window", "position", "coordinates", "ego_classes", "ego_size",
+)  # fmt: skip
 #: a SUMO demonstrator's record key: its lane-change model and attributes drove the ego. A record without it
 #: was collected by an irlsim that inserted the ego with its own type, so that SUMO kept LC2013 with every
 #: lane-change attribute at its default whatever the record says (:data:`irlsim.sim.vtype.PLACED_TYPE`)
@@ -110,6 +121,13 @@ class DemonstratorConfig:
     eclipse-sumo wheel): each vehicle's length, width and class are then its type's as SUMO makes it
     (a size column wins), and only vehicles of a car's class are egos; empty: not read (every vehicle
     replays at the replay type's size)"""
+    ego_classes: tuple[str, ...] = field(default=(EGO_CLASS,), metadata={STORED_IF_SET: True})
+    """kind 'recording': the SUMO vehicle classes whose vehicles may be egos (their types' classes, read
+    with ``vehicle_types``), e.g. ["truck"]; default a car's ("passenger")"""
+    ego_size: str = field(default=SCENARIO_SIZE, metadata={STORED_IF_SET: True})
+    """kind 'recording': the size an ego is planned, driven and checked for collisions at: 'scenario'
+    (the scenario's ego size, 4.5 m by 1.8 m, whatever was recorded) or 'recorded' (each ego's own recorded
+    length and width: the file's columns or its type's); a class other than a car's needs 'recorded'"""
 
     def validate(self) -> None:
         require(self.kind in KINDS, f"demonstrator.kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
@@ -148,6 +166,10 @@ class DemonstratorConfig:
             self.coordinates in COORDINATES,
             f"demonstrator.coordinates must be one of {', '.join(COORDINATES)}, got {self.coordinates!r}",
         )
+        require(
+            self.ego_size in EGO_SIZES,
+            f"demonstrator.ego_size must be one of {', '.join(EGO_SIZES)}, got {self.ego_size!r}",
+        )
         if self.kind != RECORDING:
             require(
                 not self.file
@@ -155,23 +177,50 @@ class DemonstratorConfig:
                 and self.rate_window == RATE_WINDOW
                 and self.position == FRONT
                 and self.coordinates == NETWORK
-                and not self.vehicle_types,
-                "demonstrator.file / ego / rate_window / position / coordinates / vehicle_types belong to "
-                "kind = 'recording': set it, or drop them",
+                and not self.vehicle_types
+                and tuple(self.ego_classes) == (EGO_CLASS,)
+                and self.ego_size == SCENARIO_SIZE,
+                "demonstrator.file / ego / rate_window / position / coordinates / vehicle_types / "
+                "ego_classes / ego_size belong to kind = 'recording': set it, or drop them",
             )
             return
         require(
             bool(self.file), "demonstrator kind = 'recording' needs file = 'an FCD .xml, .csv or .parquet'"
         )
+        self._validate_egos()
+
+    def _validate_egos(self) -> None:
+        classes = tuple(self.ego_classes)
+        require(
+            bool(classes) and all(isinstance(c, str) and c for c in classes),
+            f"demonstrator.ego_classes must be SUMO vehicle classes, e.g. ['truck'], got {list(classes)}",
+        )
+        require(
+            classes == (EGO_CLASS,) or bool(self.vehicle_types),
+            "demonstrator.ego_classes are the recorded types' classes: give demonstrator.vehicle_types",
+        )
+        other = [c for c in classes if c != EGO_CLASS]
+        require(
+            not other or self.ego_size != SCENARIO_SIZE,
+            f"an ego of class {other[0] if other else ''} would be planned at a car's size: set "
+            "demonstrator.ego_size = 'recorded'",
+        )
 
     def read_as(self) -> ReadAs:
         """How a recording demonstrator's file is read."""
-        return ReadAs(self.position, tuple(self.vehicle_types), self.coordinates)
+        return ReadAs(
+            self.position, tuple(self.vehicle_types), self.coordinates, tuple(self.ego_classes), self.ego_size
+        )
 
-    def read_unlike_fcd(self) -> dict[str, str]:
+    def read_unlike_fcd(self) -> dict[str, Any]:
         """What a record (the manifest's, drive.json's) says of how the recording was read where not as
         SUMO's FCD is: its positions' point, its coordinates (the type files each record names its way)."""
-        fields = {"position": (self.position, FRONT), "coordinates": (self.coordinates, NETWORK)}
+        fields: dict[str, tuple[Any, Any]] = {
+            "position": (self.position, FRONT),
+            "coordinates": (self.coordinates, NETWORK),
+            "ego_classes": (list(self.ego_classes), [EGO_CLASS]),
+            "ego_size": (self.ego_size, SCENARIO_SIZE),
+        }
         return {k: value for k, (value, default) in fields.items() if value != default}
 
     def attributes(self) -> dict[str, Any]:
@@ -238,7 +287,9 @@ def resolve_recording(
     rec = open_recording(cfg.file, road, step, cfg.read_as())
     wanted = tuple(v.strip() for v in cfg.ego.split(",") if v.strip())
     refused: dict[str, int] = {}
-    ids = recorded_egos(rec, road, wanted, cfg.min_duration, refused)
+    ids = recorded_egos(rec, road, wanted, cfg.min_duration, refused, tuple(cfg.ego_classes))
+    if cfg.ego_size != SCENARIO_SIZE and ids:
+        recorded_size(rec, ids[0])  # one line now, not in an episode, where it has no sizes
     if refused:  # every vehicle was asked: say which were not egos, and why
         why = ", ".join(f"{n} {words}" for words, n in sorted(refused.items(), key=lambda kv: -kv[1]))
         print(f"recording {cfg.file}: {len(ids)} of {len(rec.ids)} vehicles are egos; not: {why}", flush=True)
@@ -306,6 +357,8 @@ def describe(record: dict[str, Any] | None) -> str:
         read = [f"positions at the {record['position']}"] if record.get("position") else []
         read += [f"{record['coordinates']} coordinates"] if record.get("coordinates") else []
         read += [f"types of {len(record['vehicle_types'])} file(s)"] if record.get("vehicle_types") else []
+        read += [f"egos of class {', '.join(record['ego_classes'])}"] if record.get("ego_classes") else []
+        read += [f"egos at their {record['ego_size']} size"] if record.get("ego_size") else []
         how = "".join(f", {r}" for r in read)
         return f"recording {record.get('file')} (sha256 {str(record.get('sha256'))[:12]}, {n} egos{how})"
     params = shown_params(record)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from irlsim.data.recording import Recording, load_recording
-from irlsim.data.recording_as import AS_RECORDED, ReadAs
+from irlsim.data.recording_as import AS_RECORDED, EGO_CLASS, RECORDED_SIZE, ReadAs
 from irlsim.errors import IrlsimError
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.planner import Planner
@@ -33,11 +33,7 @@ from irlsim.sim.replay import ReplaySimulation, Tracks
 from irlsim.sim.traffic import LoopEdges, wrap_route
 from irlsim.sim.types import EgoState, Observation, Trajectory
 from irlsim.sim.vehicle_types import vehicle_types
-from irlsim.sim.vtype import ego_type_attributes
 
-#: the class a recorded vehicle's type must have to be an ego, where the types are read (``ReadAs``):
-#: irlsim's ego type's (sumo_net/vtypes.add.xml)
-EGO_CLASS = ego_type_attributes()["vClass"]
 #: the episode of a recorded ego ends with its recording, never on laps
 LAPS = 1_000_000
 #: [s] the default window of the recorded ego's rates (:func:`local_rates`; ``demonstrator.rate_window``):
@@ -104,14 +100,23 @@ def _without_demand(road: Road) -> Road:
 
 
 def ego_track(
-    rec: Recording, vid: str, scenario_road: Road, routes: dict[tuple[str, ...], Road | str] | None = None
+    rec: Recording,
+    vid: str,
+    scenario_road: Road,
+    routes: dict[tuple[str, ...], Road | str] | None = None,
+    classes: tuple[str, ...] = (EGO_CLASS,),
 ) -> EgoTrack | str:
     """Vehicle ``vid`` of ``rec`` as an ego, or why it cannot be one (a phrase). ``routes``: the roads
-    of the routes met so far (or why each is none), shared by the vehicles that drove the same edges."""
+    of the routes met so far (or why each is none), shared by the vehicles that drove the same edges;
+    ``classes``: the SUMO classes of the egos (where the types were read)."""
     k = rec.ids.index(vid)
     why = rec.unrouted[k] if rec.unrouted else ""
-    if rec.vclass and rec.vclass[k] != EGO_CLASS:
-        why = f"it is of class {rec.vclass[k]} (its type's), not the ego's ({EGO_CLASS})"
+    if rec.vclass and rec.vclass[k] not in classes:
+        why = (
+            f"it is of class {rec.vclass[k]} (its type's), not the ego's ({EGO_CLASS})"
+            if classes == (EGO_CLASS,)
+            else f"it is of another class, {rec.vclass[k]} (its type's), than the egos' ({'/'.join(classes)})"
+        )
     if why:
         return why if why.startswith("it ") else f"it drove no connected route of the network ({why})"
     road = scenario_road
@@ -162,6 +167,7 @@ def ego_track(
 #: why a vehicle is no ego, by how the phrase begins (:func:`ego_track`, :func:`egos`) -> a few words
 NOT_EGO = (
     ("it is of class", "of another class than a car"),
+    ("it is of another class", "of another class than the egos'"),
     ("it drove on lane", "on lanes a car may not use"),
     ("it is recorded", "recorded under min_duration on their route"),
     ("it leaves its route", "leaving their route"),
@@ -180,10 +186,11 @@ def egos(
     wanted: tuple[str, ...],
     min_duration: float,
     refused: dict[str, int] | None = None,
+    classes: tuple[str, ...] = (EGO_CLASS,),
 ) -> list[str]:
     """The ego vehicles of ``rec``: ``wanted`` (each refused in one line unless it can be one), else every
     vehicle that can be one for ``min_duration`` seconds, in the recording's order; ``refused`` counts the
-    others by their reason (:func:`not_ego`)."""
+    others by their reason (:func:`not_ego`); ``classes``: the SUMO classes of the egos."""
     unknown = [v for v in wanted if v not in rec.ids]
     if unknown:
         raise IrlsimError(
@@ -193,7 +200,7 @@ def egos(
     out: list[str] = []
     routes: dict[tuple[str, ...], Road | str] = {}
     for vid in wanted or rec.ids:
-        et = ego_track(rec, vid, scenario_road, routes)
+        et = ego_track(rec, vid, scenario_road, routes, classes)
         why = et if isinstance(et, str) else None
         if why is None and isinstance(et, EgoTrack) and et.duration < min_duration:
             why = (
@@ -209,6 +216,22 @@ def egos(
         elif refused is not None:
             refused[not_ego(why)] = refused.get(not_ego(why), 0) + 1
     return out
+
+
+def recorded_size(rec: Recording, vid: str) -> tuple[float, float]:
+    """[m] the recorded length and width of ``vid``; one line where the recording has none."""
+    if not {"length", "width"} <= rec.size.keys():
+        raise IrlsimError(
+            f"recording {rec.path}: demonstrator.ego_size = 'recorded' needs each vehicle's length and "
+            "width: give the file length and width columns, or demonstrator.vehicle_types"
+        )
+    k = rec.ids.index(vid)
+    return float(rec.size["length"][k]), float(rec.size["width"][k])
+
+
+def ego_sized(planner: PlannerConfig, scenario: EpisodeConfig) -> PlannerConfig:
+    """``planner`` at the episode's ego size (a recorded ego's own, ``ego_size = 'recorded'``)."""
+    return dataclasses.replace(planner, ego_length=scenario.ego_length, ego_width=scenario.ego_width)
 
 
 def others(rec: Recording, vid: str) -> Tracks:
@@ -313,11 +336,15 @@ def recorded_episode(
     noisy positions make them), counted as a collision; ``read``: how the file is read
     (:func:`open_recording`)."""
     rec = open_recording(file, road, scenario.step, read)
-    et = ego_track(rec, vid, road)
+    et = ego_track(rec, vid, road, classes=read.ego_classes)
     if isinstance(et, str):
         raise IrlsimError(f"recording {rec.path}: vehicle {vid} cannot be an ego: {et}")
     road = et.road
     lane0 = int(road.lane_of_d(np.array([et.d[0]]))[0])
+    if read.ego_size == RECORDED_SIZE:  # planned, checked for collisions and sized in SUMO at its own size
+        size = recorded_size(rec, vid)
+        scenario = dataclasses.replace(scenario, ego_length=size[0], ego_width=size[1])
+        planner = ego_sized(planner, scenario)
     scn = dataclasses.replace(
         scenario,
         ego_start_random=False,

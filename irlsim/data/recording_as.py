@@ -11,6 +11,10 @@
 - ``vehicle_types`` (``demonstrator.vehicle_types``): the files defining the types a recording names
   (FCD's ``type``, a ``type`` column), loaded by SUMO (:mod:`irlsim.sim.vehicle_types`): each vehicle's
   length, width and class are then its type's (:func:`typed`).
+- ``ego_classes`` and ``ego_size`` (``demonstrator.ego_classes``, ``demonstrator.ego_size``): which of its
+  vehicles may be egos (their types' SUMO classes; a car's by default), and whether an ego is planned and
+  driven at the scenario's ego size or at its own recorded one
+  (:func:`irlsim.data.recorded.recorded_episode`).
 
 Each refusal is one line naming the file (and the row), before any work.
 """
@@ -29,6 +33,7 @@ from irlsim.data.recording_read import Rows
 from irlsim.errors import IrlsimError
 from irlsim.sim.geo import geo_to_network
 from irlsim.sim.vehicle_types import VehicleType
+from irlsim.sim.vtype import ego_type_attributes
 
 #: the point of a vehicle a recording's x, y give (``demonstrator.position``): its front bumper's centre
 #: (SUMO's convention, the FCD's by definition) or the centre of its box (most public datasets' tracks)
@@ -38,6 +43,13 @@ POSITIONS = (FRONT, CENTRE)
 #: longitude and latitude (SUMO's --fcd-output.geo) or its projection's before the netOffset (.utm)
 NETWORK, GEO, UTM = "network", "geo", "utm"
 COORDINATES = (NETWORK, GEO, UTM)
+#: the class a recorded vehicle's type has to be an ego by default: irlsim's ego type's
+#: (sumo_net/vtypes.add.xml, a passenger car)
+EGO_CLASS = ego_type_attributes()["vClass"]
+#: the size an ego is planned and driven at (``demonstrator.ego_size``): the scenario's ego size, or the
+#: ego's own recorded length and width
+SCENARIO_SIZE, RECORDED_SIZE = "scenario", "recorded"
+EGO_SIZES = (SCENARIO_SIZE, RECORDED_SIZE)
 
 
 @dataclass(frozen=True)
@@ -52,6 +64,10 @@ class ReadAs:
     vehicle_types: tuple[str, ...] = ()
     #: what its x, y are (:data:`COORDINATES`), turned into the network's before anything else
     coordinates: str = NETWORK
+    #: the SUMO classes (its types') whose vehicles may be egos
+    ego_classes: tuple[str, ...] = (EGO_CLASS,)
+    #: the size an ego is planned and driven at (:data:`EGO_SIZES`)
+    ego_size: str = SCENARIO_SIZE
 
 
 #: a file read as it is: front bumpers, no types

@@ -24,6 +24,8 @@ import numpy as np
 
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import RECORDING
+from irlsim.data.recorded import ego_sized
+from irlsim.data.recording_as import RECORDED_SIZE
 from irlsim.drive.demonstrated import (
     DemonstratorModel,
     demonstrator_episode,
@@ -300,7 +302,10 @@ def _decider(
     if not isinstance(model, LearnedReward):
         model = load_reward(model, runs, n_policies=cfg.planner.n_policies)
     seed_everything(seed)
-    return model, RewardDriver(model, road, cfg.planner, safety, None, *how), road, scenario, sim
+    planner = cfg.planner  # a recorded ego at its own size: planned at it (the episode's ego size)
+    if cfg.demonstrator.kind == RECORDING and cfg.demonstrator.ego_size == RECORDED_SIZE:
+        planner = ego_sized(planner, scenario)
+    return model, RewardDriver(model, road, planner, safety, None, *how), road, scenario, sim
 
 
 def _with_laps(scenario: EpisodeConfig, laps: int) -> EpisodeConfig:

@@ -41,10 +41,13 @@ from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
-from irlsim.sim.vtype import DEMO_TYPE, PLACED_TYPE, DemoTypeFile
+from irlsim.sim.vtype import DEMO_TYPE, PLACED_TYPE, DemoTypeFile, ego_type_attributes
 from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
+#: [m] the length and width of irlsim's ego type (sumo_net/vtypes.add.xml): an ego of another size (a
+#: recorded ego at its own, ``demonstrator.ego_size = 'recorded'``) is resized in SUMO when inserted
+EGO_TYPE_SIZE = tuple(float(ego_type_attributes()[k]) for k in ("length", "width"))
 MAX_SEED = 2**31 - 1  # SUMO's --seed is a signed 32-bit integer; larger ones make it fail to start
 _ACTIVE: Simulation | None = None  # the libsumo simulation of this process
 
@@ -229,6 +232,9 @@ class Simulation:
         lane0 = int(np.clip(lane0, road.layout.first[i], road.layout.first[i] + road.layout.count[i] - 1))
         d0 = float(road.lane_center(lane0))
         add_ego(api, EGO, road, eid, pos, lane0, v0, PLACED_TYPE if self.demo_type else "ego")
+        if (cfg.ego_length, cfg.ego_width) != EGO_TYPE_SIZE:  # SUMO's drivers see the ego at its size
+            api.vehicle.setLength(EGO, cfg.ego_length)
+            api.vehicle.setWidth(EGO, cfg.ego_width)
         api.vehicle.setSpeedMode(EGO, 0)
         x, y = road.to_xy(np.array(s0), np.array(d0))
         t = float(api.simulation.getTime())

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim.data.highd import (
+    CLASSES,
     HighD,
     plain_network,
     read_highd,
@@ -22,7 +23,7 @@ from irlsim.data.highd import (
     write_rows,
 )
 from irlsim.data.recorded import egos, open_recording
-from irlsim.data.recording_as import CENTRE, ReadAs
+from irlsim.data.recording_as import CENTRE, EGO_CLASS, ReadAs
 from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
@@ -32,6 +33,9 @@ from irlsim.utils import atomic_write_text, owned_output, write_json
 #: [s] the least time a car drives on its carriageway to be an ego: a highD road is about 420 m, which a
 #: car at 120 km/h crosses in 13 s (irlsim's default, 20 s, would leave only slow cars)
 MIN_DURATION = 10.0
+#: the fewest egos of a class a carriageway's configs are written for (one each to train, validate,
+#: test and drive)
+MIN_EGOS = 4
 #: [s] the step the recording is resampled to (SUMO's, as every collection's)
 STEP = 0.1
 NETCONVERT_CFG = """<configuration>
@@ -80,9 +84,10 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
         finally:
             shutil.rmtree(stage, ignore_errors=True)
     for name, what in written.items():
+        egos = f"egos {what['cars']} cars and {what['trucks']} trucks"
         print(
-            f"{name} carriageway: {what['egos']} egos of {what['vehicles']} vehicles; collect with "
-            f"'irlsim collect --config {what['collect']} --out data/{run.out.name}-{name}'"
+            f"{name} carriageway: {what['vehicles']} vehicles, {egos}; collect with 'irlsim collect "
+            f"--config {what['collect']} --out data/{run.out.name}-{name}'"
         )
     print(f"from-highd: {run.out} (road.net.xml, and per carriageway a scenario, a recording and configs; "
           "highd.json)")  # fmt: skip
@@ -108,7 +113,8 @@ def _write(h: HighD, stage: Path, out: Path, min_duration: float) -> dict[str, d
 
 def _carriageway(h: HighD, name: str, stage: Path, out: Path, min_duration: float) -> dict[str, object]:
     """One carriageway's scenario, recording and configs in ``stage`` (the configs name their place in
-    ``out``); what was written and how many egos."""
+    ``out``): its cars' (refused in one line when there are too few) and, where there are enough, its
+    trucks'; what was written and its egos."""
     recording, scenario = out / f"{name}.parquet", out / f"{name}.toml"
     write_rows(h.rows[name], stage / recording.name)
     atomic_write_text(
@@ -121,45 +127,67 @@ def _carriageway(h: HighD, name: str, stage: Path, out: Path, min_duration: floa
     read = ReadAs(CENTRE, (str(stage / "vtypes.add.xml"),))
     rec = open_recording(stage / recording.name, road, STEP, read)
     appears = dict(zip(rec.ids, rec.t0.tolist(), strict=True))
-    cars = sorted(egos(rec, road, (), min_duration), key=lambda v: (appears[v], int(v)))  # by time
-    held = max(1, len(cars) // 10)
-    learned, driven = cars[: len(cars) - held], cars[len(cars) - held :]
-    if len(learned) < 3:
-        raise IrlsimError(
-            f"highD recording {h.prefix}: the {name} carriageway has {len(cars)} cars on the road for "
-            f"{min_duration:g} s, too few to collect from and drive: lower --min-duration"
-        )
+    out_record: dict[str, object] = {
+        "vehicles": len(rec.ids), "scenario": str(scenario), "recording": str(recording),
+    }  # fmt: skip
+    for kind, vclass in CLASSES.items():
+        found = egos(rec, road, (), min_duration, classes=(vclass,))
+        chosen = sorted(found, key=lambda v: (appears[v], int(v)))  # in the order they entered
+        if len(chosen) < MIN_EGOS and kind == "car":
+            raise IrlsimError(
+                f"highD recording {h.prefix}: the {name} carriageway has {len(chosen)} cars on the road "
+                f"for {min_duration:g} s, too few to collect from and drive: lower --min-duration"
+            )
+        suffix = "" if kind == "car" else f"-{kind}s"
+        out_record[f"{kind}s"] = len(chosen)
+        if len(chosen) >= MIN_EGOS:
+            paths, learned, driven = _configs(h, name, kind, vclass, chosen, stage, out, min_duration, suffix)
+            out_record |= {
+                f"collect{suffix}": str(paths["collect"]), f"drive{suffix}": str(paths["drive"]),
+                f"collect_egos{suffix}": learned, f"drive_egos{suffix}": driven,
+            }  # fmt: skip
+    return out_record
+
+
+def _configs(
+    h: HighD,
+    name: str,
+    kind: str,
+    vclass: str,
+    chosen: list[str],
+    stage: Path,
+    out: Path,
+    min_duration: float,
+    suffix: str,
+) -> tuple[dict[str, Path], list[str], list[str]]:
+    """The collect and drive configs of one class's egos of a carriageway (the first nine in ten, in the
+    order they entered, collected; the last tenth driven), each at its recorded size."""
+    held = max(1, len(chosen) // 10)
+    learned, driven = chosen[: len(chosen) - held], chosen[len(chosen) - held :]
     test = val = max(1, len(learned) // 10)
+    classes = "" if vclass == EGO_CLASS else f'ego_classes = ["{vclass}"]\n'
     common = (
-        f'[scenario]\nname = "{scenario}"\n\n[planner]\nv_max = {top_speed(h, name):.1f}\n'
+        f'[scenario]\nname = "{out / f"{name}.toml"}"\n\n[planner]\nv_max = {top_speed(h, name):.1f}\n'
         f"v_target = {road_speed(h):.4f}\n\n"
-        f'[demonstrator]\nkind = "recording"\nfile = "{recording}"\nposition = "centre"\n'
+        f'[demonstrator]\nkind = "recording"\nfile = "{out / f"{name}.parquet"}"\nposition = "centre"\n'
         f'vehicle_types = ["{out / "vtypes.add.xml"}"]\nmin_duration = {min_duration:g}\n'
+        f'ego_size = "recorded"\n{classes}'
     )
     head = f"# highD {h.prefix.name}, the {name} carriageway (irlsim scenario from-highd)"
-    configs = {
+    texts = {
         "collect": (
-            f"{head}: its first {len(learned)} cars, each an ego in turn\nseed = 0\n"
+            f"{head}: its first {len(learned)} {kind}s, each an ego in turn\nseed = 0\n"
             f"train_episodes = {len(learned) - test - val}\nvalidation_episodes = {val}\n"
             f"test_episodes = {test}\n"
             f'\n{common}ego = "{",".join(learned)}"\n'
         ),
         "drive": (
-            f"{head}: the {len(driven)} cars no collected episode used\nseed = 0\n\n"
+            f"{head}: the {len(driven)} {kind}s no collected episode used\nseed = 0\n\n"
             f'{common}ego = "{",".join(driven)}"\n'
         ),
     }
     paths = {}
-    for kind, text in configs.items():
-        paths[kind] = out / f"{name}-{kind}.toml"
-        atomic_write_text(stage / paths[kind].name, text)
-    return {
-        "vehicles": len(set(h.rows[name].column("id").to_pylist())),
-        "egos": len(cars),
-        "scenario": str(scenario),
-        "recording": str(recording),
-        "collect": str(paths["collect"]),
-        "drive": str(paths["drive"]),
-        "collect_egos": learned,
-        "drive_egos": driven,
-    }
+    for what, text in texts.items():
+        paths[what] = out / f"{name}{suffix}-{what}.toml"
+        atomic_write_text(stage / paths[what].name, text)
+    return paths, learned, driven

@@ -75,7 +75,7 @@ def test_a_highd_recording_lands_where_sumo_drove_on_sumos_lanes(highd):
         rec = open_recording(out / f"{side}.parquet", road, 0.1, read)
         cars = sorted(str(ids[v]) for v in set(sumo_ids) if sample.kind_of(v) == "car")
         assert sorted(made[side]["collect_egos"] + made[side]["drive_egos"]) == cars
-        assert len(made[side]["drive_egos"]) == 1 and rec.vclass.count("truck") == 3
+        assert len(made[side]["drive_egos"]) == 1 and rec.vclass.count("truck") == 4
 
 
 def test_a_highd_import_collects_its_cars_in_the_order_they_came(highd, tmp_path):
@@ -152,3 +152,20 @@ def test_a_highd_import_that_cannot_finish_leaves_its_folder_as_it_was(highd, tm
     err = capsys.readouterr().err.strip()
     assert "carriageway has 0 cars on the road for 30 s, too few to collect from and drive" in err, err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+def test_a_highd_import_learns_its_trucks_too_at_their_size(highd, tmp_path):
+    """The trucks of a carriageway get configs of their own (egos of SUMO's class truck, each at its
+    recorded 12 m): collected, the episodes are trucks and the manifest says how they were taken."""
+    tmp, _, _, ids = highd
+    made = json.loads((tmp / "hd01" / "highd.json").read_text())["lower"]
+    assert made["trucks"] == 4 and len(made["collect_egos-trucks"]) == 3
+    config = tmp / "hd01" / "lower-trucks-collect.toml"
+    sets = ["--set", "planner.n_policies=100", "--set", "max_cycles=15", "--set", "workers=1"]
+    assert main(["collect", "--config", str(config), "--out", str(tmp_path / "data"), *sets]) == 0
+    manifest = json.loads((tmp_path / "data" / "manifest.json").read_text())
+    record = manifest["demonstrator"]
+    assert record["ego_classes"] == ["truck"] and record["ego_size"] == "recorded"
+    back = {str(h): v for v, h in ids.items()}
+    collected = collected_egos(manifest)
+    assert collected is not None and [sample.kind_of(back[e]) for e in collected[1]] == ["truck"] * 3
