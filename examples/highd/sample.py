@@ -4,11 +4,12 @@ written as highD's recording 01, to try ``irlsim scenario from-highd`` on.
     python examples/highd/sample.py --out data/highd-sample
 
 The road is built here from the lane markings (two carriageways of three 3.8 m lanes, 420 m, netconvert);
-SUMO (the eclipse-sumo wheel's binary) drives 12 vehicles on each, every third a 12 m truck, at 25 Hz,
-and its FCD output is written in highD's conventions: the upper left corner of each vehicle's box in the
-image's frame (x to the right, y down), the box's extent along x as ``width`` and along y as ``height``,
-``xVelocity`` and ``yVelocity``, frames from 1, ``class`` Car or Truck, ``drivingDirection`` 1 (upper,
-to the left) or 2 (lower, to the right), and the markings' image y in ``01_recordingMeta.csv``.
+SUMO (the eclipse-sumo wheel's binary) drives 12 vehicles on each, every third a 12 m truck (entering in
+the right lane, the cars in every lane), at 25 Hz, and its FCD output is written in highD's conventions:
+the upper left corner of each vehicle's box in the image's frame (x to the right, y down), the box's
+extent along x as ``width`` and along y as ``height``, ``xVelocity`` and ``yVelocity``, frames from 1,
+``class`` Car or Truck, ``drivingDirection`` 1 (upper, to the left) or 2 (lower, to the right), and the
+markings' image y in ``01_recordingMeta.csv``.
 """
 
 from __future__ import annotations
@@ -49,7 +50,8 @@ def sumo_run(tmp: Path, vehicles: int = 12, every: float = 2.0) -> tuple[Path, P
                     f'width="{w}" sigma="0" lcSpeedGain="5"/>' for k, (le, w) in SIZE.items())  # fmt: skip
     trips = "".join(
         f'<vehicle id="{side}{i}" type="{"truck" if i % 3 == 2 else "car"}" depart="{every * i}" '
-        f'departLane="{i % 3}" departSpeed="{18 + 2 * (i % 5)}"><route edges="{side}"/></vehicle>'
+        f'departLane="{0 if i % 3 == 2 else (i + i // 3) % 3}" departSpeed="{18 + 2 * (i % 5)}">'
+        f'<route edges="{side}"/></vehicle>'
         for i in range(vehicles)
         for side in ("lower", "upper")
     )
