@@ -79,7 +79,14 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
         stage = Path(tempfile.mkdtemp(dir=run.out, prefix=".from-highd-"))
         try:
             written = _write(h, stage, run.out, run.min_duration)
-            for f in sorted(stage.iterdir()):
+            files = sorted(stage.iterdir())
+            changed = [f.name for f in files if _differs(run.out / f.name, f)]
+            if changed:  # an import of the same files with the same options gives the same bytes
+                raise IrlsimError(
+                    f"--out {run.out} holds {changed[0]} of another import (or edited): choose another "
+                    "--out, or remove the files of the one there"
+                )
+            for f in files:
                 os.replace(f, run.out / f.name)
         finally:
             shutil.rmtree(stage, ignore_errors=True)
@@ -92,6 +99,11 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
     print(f"from-highd: {run.out} (road.net.xml, and per carriageway a scenario, a recording and configs; "
           "highd.json)")  # fmt: skip
     return written
+
+
+def _differs(target: Path, made: Path) -> bool:
+    """Whether ``target`` exists with other bytes than ``made``."""
+    return target.is_file() and target.read_bytes() != made.read_bytes()
 
 
 def _write(h: HighD, stage: Path, out: Path, min_duration: float) -> dict[str, dict[str, object]]:

@@ -137,7 +137,8 @@ def test_a_bad_highd_recording_is_one_line_and_writes_nothing(highd, tmp_path, e
 def test_a_highd_import_that_cannot_finish_leaves_its_folder_as_it_was(highd, tmp_path, capsys):
     """A missing file names the three a recording needs; a carriageway with too few cars for
     --min-duration is one line after the network is built, and nothing of that run is left in --out
-    (a previous import there keeps its bytes)."""
+    (a previous import there keeps its bytes); the same import again gives the same bytes, and another
+    one into the same --out is refused rather than overwrite it."""
     tmp, _, _, _ = highd
     recording = _copy(tmp / "highD", tmp_path / "highD")
     (tmp_path / "highD" / "01_tracksMeta.csv").rename(tmp_path / "meta.csv")
@@ -151,6 +152,14 @@ def test_a_highd_import_that_cannot_finish_leaves_its_folder_as_it_was(highd, tm
     assert main(["scenario", "from-highd", str(recording), "--out", str(out), "--min-duration", "30"]) == 2
     err = capsys.readouterr().err.strip()
     assert "carriageway has 0 cars on the road for 30 s, too few to collect from and drive" in err, err
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    # the same import again is the same bytes; another (here: another --min-duration) does not overwrite it
+    assert main(["scenario", "from-highd", str(recording), "--out", str(out)]) == 0
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+    capsys.readouterr()
+    assert main(["scenario", "from-highd", str(recording), "--out", str(out), "--min-duration", "8"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "of another import (or edited): choose another --out" in err and "\n" not in err, err
     assert {p.name: p.read_bytes() for p in out.iterdir()} == before
 
 
