@@ -2,7 +2,7 @@
 examples/reward_quickstart.py verbatim (tests/reward runs that file); the walkthrough of the guide's "Your
 own road network" goes from an OpenStreetMap extract to a learned reward driving it (real netconvert,
 SUMO, Parquet and training), that of "Demonstrators and style" from a recording to a learned reward
-driving where a car of it drove; every other ``irlsim`` command in a code block of the README, the guide,
+driving where a car of it drove, and that of a highD recording (slow); every other ``irlsim`` command in a code block of the README, the guide,
 the design, the results and the open questions names a command and options that exist, with values they
 accept (parsed, not run: most are hours of work)."""
 
@@ -122,6 +122,29 @@ def test_city_recording_commands_run_as_written(tmp_path, monkeypatch, capsys):
     drive = json.loads((tmp_path / "runs" / "city" / "drive" / "drive.json").read_text())
     assert drive["config"]["recording"]["egos"] == ["1_horizontal.3"]
     assert drive["config"]["recording"]["vehicle_types"] == ["sumo_tools/game/fkk_in/fkk_in.rou.xml"]
+    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
+    assert "nearest the demonstrator's style: " in out
+
+
+@pytest.mark.slow
+def test_highd_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    """A recording in highD's layout (SUMO's run, examples/highd/sample.py) imported, its cars collected at
+    their recorded sizes, learned, and a held-out car driven, each command as the guide writes it."""
+    import json
+    import subprocess
+    import sys
+
+    shutil.copytree(ROOT / "configs", tmp_path / "configs")
+    shutil.copytree(ROOT / "examples" / "highd", tmp_path / "examples" / "highd")
+    monkeypatch.chdir(tmp_path)
+    cmd = [sys.executable, "examples/highd/sample.py", "--out", "data/highd-sample"]
+    subprocess.run(cmd, check=True, capture_output=True)
+    run_walkthrough("highd", "docs/guide/demonstrators.md")
+    out = capsys.readouterr().out
+    assert "lower carriageway: 12 vehicles, egos 8 cars and 4 trucks" in out
+    record = json.loads((tmp_path / "data" / "highd01-lower" / "manifest.json").read_text())["demonstrator"]
+    assert record["ego_size"] == "recorded" and record["position"] == "centre"
+    drive = json.loads((tmp_path / "runs" / "highd01-lower" / "drive" / "drive.json").read_text())
     assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
     assert "nearest the demonstrator's style: " in out
 
