@@ -2,9 +2,9 @@
 examples/reward_quickstart.py verbatim (tests/reward runs that file); the walkthrough of the guide's "Your
 own road network" goes from an OpenStreetMap extract to a learned reward driving it (real netconvert,
 SUMO, Parquet and training), that of "Demonstrators and style" from a recording to a learned reward
-driving where a car of it drove, and that of a highD recording (slow); every other ``irlsim`` command in a code block of the README, the guide,
-the design, the results and the open questions names a command and options that exist, with values they
-accept (parsed, not run: most are hours of work)."""
+driving where a car of it drove, and that of a highD recording (slow); every other ``irlsim`` command in a
+code block of the README, the guide, the design, the results and the open questions names a command and
+options that exist, with values they accept (parsed, not run: most are hours of work)."""
 
 from __future__ import annotations
 

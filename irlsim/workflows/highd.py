@@ -94,7 +94,7 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
         egos = f"egos {what['cars']} cars and {what['trucks']} trucks"
         print(
             f"{name} carriageway: {what['vehicles']} vehicles, {egos}; collect with 'irlsim collect "
-            f"--config {what['collect']} --out data/{run.out.name}-{name}'"
+            f"--config {what['collect']} --out data/{run.out.resolve().name}-{name}'"
         )
     print(f"from-highd: {run.out} (road.net.xml, and per carriageway a scenario, a recording and configs; "
           "highd.json)")  # fmt: skip
@@ -132,7 +132,8 @@ def _carriageway(h: HighD, name: str, stage: Path, out: Path, min_duration: floa
     atomic_write_text(
         stage / scenario.name,
         f"# The {name} carriageway of highD recording {h.prefix.name} (irlsim scenario from-highd)\n"
-        f'name = "{out.name}-{name}"\ndescription = "highD {h.prefix.name}, the {name} carriageway"\n\n'
+        f'name = "{out.resolve().name}-{name}"\n'
+        f'description = "highD {h.prefix.name}, the {name} carriageway"\n\n'
         f'[network]\nfile = "road.net.xml"\n\n[route]\nedges = ["{name}"]\n',
     )
     road = load_road(scenario=stage / scenario.name)
