@@ -74,13 +74,11 @@ class HighD:
     speed_limit: float  # [m/s]; <= 0: none
     markings: dict[str, np.ndarray]  # per carriageway: the markings' image y, ascending
     rows: dict[str, pa.Table]  # per carriageway: id, t, x, y, v, heading, length, width, type
+    x_range: tuple[float, float]  # [m] the road's ends: MARGIN beyond the first and the last recorded box
 
     def carriageway(self, name: str) -> Carriageway:
         m = self.markings[name]
-        boxes = np.concatenate([_column(t, "x") for t in self.rows.values()])
-        lengths = np.concatenate([_column(t, "length") for t in self.rows.values()])
-        x0, x1 = float(np.min(boxes - lengths / 2)) - MARGIN, float(np.max(boxes + lengths / 2)) + MARGIN
-        ends = (x0, x1) if name == "lower" else (x1, x0)
+        ends = self.x_range if name == "lower" else self.x_range[::-1]
         return Carriageway(
             name, -float(m[0] + m[-1]) / 2, len(m) - 1, float(m[-1] - m[0]) / (len(m) - 1), *ends
         )
@@ -169,17 +167,14 @@ def read_highd(path: str | Path) -> HighD:
         for name, code in DIRECTIONS.items()
     }
     prefix = files["tracks"].parent / files["tracks"].name[: -len("_tracks.csv")]
-    return HighD(prefix, frame_rate, speed_limit, markings, rows)
+    ends = (float(np.min(table["x"] - length / 2)) - MARGIN, float(np.max(table["x"] + length / 2)) + MARGIN)
+    return HighD(prefix, frame_rate, speed_limit, markings, rows, ends)
 
 
 def write_rows(table: pa.Table, path: Path) -> None:
-    """One carriageway's rows as irlsim's columnar format (Parquet): vehicle by vehicle in the order they
-    appear (their rows in time), so that a recording's egos, taken in its order, are split by time."""
-    t = _column(table, "t")
-    _, vehicle = np.unique(table.column("id").to_numpy(zero_copy_only=False), return_inverse=True)
-    first = np.full(int(vehicle.max()) + 1, np.inf)
-    np.minimum.at(first, vehicle, t)
-    pq.write_table(table.take(pa.array(np.lexsort((t, vehicle, first[vehicle])))), path)
+    """One carriageway's rows as irlsim's columnar format (Parquet), vehicle by vehicle, each in time (the
+    order egos are split in is :mod:`irlsim.workflows.highd`'s: by the time they entered)."""
+    pq.write_table(table.sort_by([("id", "ascending"), ("t", "ascending")]), path)
 
 
 def vehicle_types_xml() -> str:
