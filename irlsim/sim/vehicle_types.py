@@ -26,7 +26,7 @@ _PROBE = """
 import json, sys, libsumo
 net, files = sys.argv[1], sys.argv[2]
 try:
-    libsumo.start(["sumo", "-n", net, "-a", files, "--begin", "0", "--end", "0", "--no-step-log", "true",
+    libsumo.start(["sumo", "-n", net, "-a", files, "--begin", "0", "--no-step-log", "true",
                    "--no-warnings", "true", "--xml-validation", "never"])
 except Exception as e:
     print(json.dumps({"error": str(e)}))

@@ -78,6 +78,20 @@ def test_each_vehicle_takes_its_types_size_and_class_as_sumo_makes_them(typed):
         egos(rec, road, ("veh1",), 20.0)
 
 
+def test_a_route_file_with_open_flows_gives_its_types(tmp_path):
+    # The route file a recording's SUMO run loaded is where its types are (SUMO's game scenarios define
+    # them beside flows that begin after 0 s and have no end): SUMO loads it whole, flows and all, and
+    # with a simulation ending at 0 s such a flow "ends before its begin time".
+    road = load_road()
+    routes = tmp_path / "traffic.rou.xml"
+    routes.write_text(
+        f'<routes><vType id="van" length="5.5" width="2.0"/><route id="loop" edges="{road.edges[0]}"/>'
+        '<flow id="f" type="van" route="loop" begin="3.00" period="exp(0.15)"/></routes>'
+    )
+    van = vehicle_types(road.net_file, (str(routes),))["van"]
+    assert (van.length, van.width, van.vclass) == (5.5, 2.0, "passenger")
+
+
 def test_what_cannot_be_typed_is_one_line(typed, tmp_path):
     types_file, fcd = typed
     road = load_road()
