@@ -187,10 +187,12 @@ def egos(
     min_duration: float,
     refused: dict[str, int] | None = None,
     classes: tuple[str, ...] = (EGO_CLASS,),
+    routes: dict[tuple[str, ...], Road | str] | None = None,
 ) -> list[str]:
     """The ego vehicles of ``rec``: ``wanted`` (each refused in one line unless it can be one), else every
     vehicle that can be one for ``min_duration`` seconds, in the recording's order; ``refused`` counts the
-    others by their reason (:func:`not_ego`); ``classes``: the SUMO classes of the egos."""
+    others by their reason (:func:`not_ego`); ``classes``: the SUMO classes of the egos; ``routes``: the
+    roads of the routes met (:func:`ego_track`), kept for the caller where given."""
     unknown = [v for v in wanted if v not in rec.ids]
     if unknown:
         raise IrlsimError(
@@ -198,7 +200,7 @@ def egos(
             + (", ..." if len(rec.ids) > 8 else "")
         )
     out: list[str] = []
-    routes: dict[tuple[str, ...], Road | str] = {}
+    routes = {} if routes is None else routes
     for vid in wanted or rec.ids:
         et = ego_track(rec, vid, scenario_road, routes, classes)
         why = et if isinstance(et, str) else None

@@ -114,7 +114,7 @@ def build_net(
             env={**os.environ, "SUMO_HOME": sumo_home()},
         )
         if proc.returncode != 0:
-            raise IrlsimError(f"{tool} failed on {subject}: {_tool_error(proc)}; {fix}")
+            raise IrlsimError(f"{tool} failed on {subject}: {tool_error(proc)}; {fix}")
         tmp.write_bytes(strip_header(tmp.read_bytes()))
     return target
 
@@ -124,7 +124,7 @@ def strip_header(data: bytes) -> bytes:
     return _HEADER.sub(b"", data, count=1)
 
 
-def _tool_error(proc: subprocess.CompletedProcess[str]) -> str:
+def tool_error(proc: subprocess.CompletedProcess[str]) -> str:
     """The line that says what went wrong: the tool's first 'Error:' line (netconvert's last line is
     only 'Quitting (on error).'), else its last line."""
     lines = [ln.strip() for ln in (proc.stderr + "\n" + proc.stdout).splitlines() if ln.strip()]

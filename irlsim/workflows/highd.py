@@ -6,9 +6,6 @@ split into train, validation and test episodes) and a drive config (the cars no 
 
 from __future__ import annotations
 
-import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,17 +22,14 @@ from irlsim.data.highd import (
 from irlsim.data.recorded import egos, open_recording
 from irlsim.data.recording_as import CENTRE, EGO_CLASS, ReadAs
 from irlsim.errors import IrlsimError
-from irlsim.outputs import check_output_dir
 from irlsim.road import load_road
 from irlsim.road.network import build_net
-from irlsim.utils import atomic_write_text, owned_output, write_json
+from irlsim.utils import atomic_write_text, write_json
+from irlsim.workflows.imports import MIN_EGOS, split_egos, staged
 
 #: [s] the least time a car drives on its carriageway to be an ego: a highD road is about 420 m, which a
 #: car at 120 km/h crosses in 13 s (irlsim's default, 20 s, would leave only slow cars)
 MIN_DURATION = 10.0
-#: the fewest egos of a class a carriageway's configs are written for (one each to train, validate,
-#: test and drive)
-MIN_EGOS = 4
 #: [s] the step the recording is resampled to (SUMO's, as every collection's)
 STEP = 0.1
 NETCONVERT_CFG = """<configuration>
@@ -72,24 +66,8 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
     if not run.min_duration > 0:
         raise IrlsimError(f"--min-duration must be > 0 s, got {run.min_duration:g}")
     h = read_highd(run.recording)
-    check_output_dir(run.out, "--out")
-    run.out.mkdir(parents=True, exist_ok=True)
-    with owned_output(run.out, "scenario from-highd"):
-        # written in a folder of its own first, moved into --out only when every carriageway is done
-        stage = Path(tempfile.mkdtemp(dir=run.out, prefix=".from-highd-"))
-        try:
-            written = _write(h, stage, run.out, run.min_duration)
-            files = sorted(stage.iterdir())
-            changed = [f.name for f in files if _differs(run.out / f.name, f)]
-            if changed:  # an import of the same files with the same options gives the same bytes
-                raise IrlsimError(
-                    f"--out {run.out} holds {changed[0]} of another import (or edited): choose another "
-                    "--out, or remove the files of the one there"
-                )
-            for f in files:
-                os.replace(f, run.out / f.name)
-        finally:
-            shutil.rmtree(stage, ignore_errors=True)
+    with staged(run.out, "from-highd") as stage:
+        written = _write(h, stage, run.out, run.min_duration)
     for name, what in written.items():
         egos = f"egos {what['cars']} cars and {what['trucks']} trucks"
         print(
@@ -99,11 +77,6 @@ def import_highd(run: HighDRun) -> dict[str, dict[str, object]]:
     print(f"from-highd: {run.out} (road.net.xml, and per carriageway a scenario, a recording and configs; "
           "highd.json)")  # fmt: skip
     return written
-
-
-def _differs(target: Path, made: Path) -> bool:
-    """Whether ``target`` exists with other bytes than ``made``."""
-    return target.is_file() and target.read_bytes() != made.read_bytes()
 
 
 def _write(h: HighD, stage: Path, out: Path, min_duration: float) -> dict[str, dict[str, object]]:
@@ -175,9 +148,8 @@ def _configs(
 ) -> tuple[dict[str, Path], list[str], list[str]]:
     """The collect and drive configs of one class's egos of a carriageway (the first nine in ten, in the
     order they entered, collected; the last tenth driven), each at its recorded size."""
-    held = max(1, len(chosen) // 10)
-    learned, driven = chosen[: len(chosen) - held], chosen[len(chosen) - held :]
-    test = val = max(1, len(learned) // 10)
+    learned, driven, test = split_egos(chosen)
+    val = test
     classes = "" if vclass == EGO_CLASS else f'ego_classes = ["{vclass}"]\n'
     common = (
         f'[scenario]\nname = "{out / f"{name}.toml"}"\n\n[planner]\nv_max = {top_speed(h, name):.1f}\n'
