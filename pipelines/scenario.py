@@ -1,8 +1,10 @@
-"""``irlsim scenario list | show | check | sweep | generate | from-highd``: the shipped scenarios; what
-irlsim derives from one (route, lanes, stops, exits, mission, traffic) with a picture; the acceptance of
-one (the expert and SUMO's driver on the same seeds: :mod:`irlsim.workflows.scenarios`); a sweep of
-random routes over many networks (:mod:`irlsim.workflows.sweep`); generated networks to sweep; a highD
-recording's road, tracks and configs (:mod:`irlsim.workflows.highd`)."""
+"""``irlsim scenario list | show | check | sweep | generate | from-highd | from-sumo``: the shipped
+scenarios; what irlsim derives from one (route, lanes, stops, exits, mission, traffic) with a picture;
+the acceptance of one (the expert and SUMO's driver on the same seeds:
+:mod:`irlsim.workflows.scenarios`); a sweep of random routes over many networks
+(:mod:`irlsim.workflows.sweep`); generated networks to sweep; a highD recording's road, tracks and
+configs (:mod:`irlsim.workflows.highd`); a SUMO configuration's recording and configs
+(:mod:`irlsim.workflows.from_sumo`)."""
 
 from __future__ import annotations
 
@@ -16,13 +18,15 @@ from irlsim.errors import IrlsimError
 from irlsim.outputs import check_output_file
 from irlsim.road import Road, load_road
 from irlsim.road.scenario import load_scenario, shipped_scenarios
+from irlsim.workflows import from_sumo
 from irlsim.workflows.highd import MIN_DURATION, HighDRun, import_highd
 from irlsim.workflows.scenarios import CheckRun, GenerateRun, check_scenario_run, generate_networks
 from irlsim.workflows.sweep import SweepRun, sweep_networks
 
 HELP = (
     "list the shipped scenarios, show what irlsim derives from one, check the expert on one, sweep "
-    "random routes over many networks, generate networks to sweep, import a highD recording"
+    "random routes over many networks, generate networks to sweep, import a highD recording or a SUMO "
+    "scenario's traffic"
 )
 
 
@@ -46,6 +50,36 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     p.add_argument("--out", type=Path, required=True, help="output folder (kept networks are not rebuilt)")
     _add_highd(sub)
+    _add_from_sumo(sub)
+
+
+def _add_from_sumo(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
+    p = _action(
+        sub,
+        "from-sumo",
+        "a SUMO scenario's traffic made ready to learn from: SUMO runs your .sumocfg on its own and "
+        "records it (or give --recording), and its network, vehicle types and signal programs become a "
+        "scenario, with a collect config (its cars as egos in turn) and a drive config (the cars no "
+        "collected episode used) (docs/guide/demonstrators.md)",
+    )
+    p.add_argument("config", type=Path, help="the SUMO configuration (.sumocfg) of your scenario")
+    p.add_argument("--out", type=Path, required=True, help="output folder")
+    p.add_argument(
+        "--recording", type=Path, default=None,
+        help="a recording already made with this configuration (SUMO's FCD output .xml[.gz], or a .csv / "
+        ".parquet file of tracks); default: SUMO runs it and records",
+    )  # fmt: skip
+    p.add_argument(
+        "--duration", type=float_in(0.0, above=True), default=None,
+        help="[s] how long SUMO runs from the configuration's begin (default: to its end; "
+        f"{from_sumo.DEFAULT_DURATION:g} s where it has none)",
+    )  # fmt: skip
+    p.add_argument("--seed", type=int_in(0, MAX_SEED), default=0, help="SUMO's random seed (default: 0)")
+    p.add_argument(
+        "--min-duration", type=float_in(0.0, above=True), default=from_sumo.MIN_DURATION,
+        help="[s] the least time a car drives on its route to be an ego "
+        f"(default: {from_sumo.MIN_DURATION:g})",
+    )  # fmt: skip
 
 
 def _add_highd(sub: argparse._SubParsersAction) -> None:  # type: ignore[type-arg]
@@ -135,6 +169,12 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if args.action == "from-highd":
         import_highd(HighDRun(args.recording, args.out, args.min_duration))
+        return 0
+    if args.action == "from-sumo":
+        run = from_sumo.SumoImport(
+            args.config, args.out, args.recording, args.duration, args.seed, args.min_duration
+        )
+        from_sumo.import_sumo(run)
         return 0
     return show(args)
 
