@@ -149,6 +149,24 @@ def test_highd_commands_run_as_written(tmp_path, monkeypatch, capsys):
     assert "nearest the demonstrator's style: " in out
 
 
+@pytest.mark.slow
+def test_from_sumo_commands_run_as_written(tmp_path, monkeypatch, capsys):
+    """SUMO's game crossing, run by SUMO alone from its configuration and recorded, imported; its cars
+    collected, learned, and a held-out car driven, each command as the guide writes it."""
+    import json
+
+    shutil.copytree(ROOT / "configs", tmp_path / "configs")
+    monkeypatch.chdir(tmp_path)
+    run_walkthrough("from-sumo", "docs/guide/demonstrators.md")
+    out = capsys.readouterr().out
+    made = json.loads((tmp_path / "data" / "cross" / "from-sumo.json").read_text())
+    manifest = json.loads((tmp_path / "data" / "cross-demos" / "manifest.json").read_text())
+    assert manifest["demonstrator"]["kind"] == "recording" and made["egos"] >= 4
+    drive = json.loads((tmp_path / "runs" / "cross" / "drive" / "drive.json").read_text())
+    assert [s["drive/model"] for s in drive["summary"]] == ["expert", "PACNN+S", "demonstrator"]
+    assert "nearest the demonstrator's style: " in out
+
+
 def documented_commands(text: str) -> list[str]:
     """The ``irlsim ...`` lines of a page's code blocks (fenced or indented), continuations joined, comments
     dropped."""

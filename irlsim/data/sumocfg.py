@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from irlsim.errors import IrlsimError
+from irlsim.road.network import sumo_tools_path
 
 #: an option -> its names in a configuration (SUMO's own name first, then its synonyms)
 NAMES = {
@@ -70,8 +71,9 @@ def sumo_time(text: str, what: str) -> float:
 
 def read_sumocfg(path: str | Path) -> SumoConfig:
     """``path`` read as a SUMO configuration; one line naming what is wrong (no file, no XML, no network,
-    a file it names missing, a time that is none)."""
-    path = Path(path)
+    a file it names missing, a time that is none); ``sumo_tools/<path>`` is inside the SUMO wheel's tools
+    folder (its game scenarios: ``sumo_tools/game/cross.sumocfg``)."""
+    path = sumo_tools_path(str(path))
     if not path.is_file():
         raise IrlsimError(f"SUMO configuration {path} not found: give the .sumocfg your SUMO run used")
     root = xml_root(path, "SUMO configuration")

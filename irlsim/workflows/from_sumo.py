@@ -74,7 +74,7 @@ def import_sumo(run: SumoImport) -> dict[str, object]:
         write_json(stage / "from-sumo.json", written)
     print(
         f"{cfg.path.name}: {written['vehicles']} vehicles recorded, {written['egos']} cars as egos; collect "
-        f"with 'irlsim collect --config {written['collect']} --out data/{run.out.resolve().name}'"
+        f"with 'irlsim collect --config {written['collect']} --out data/{run.out.resolve().name}-demos'"
     )
     print(f"from-sumo: {run.out} (scenario.toml, vtypes.add.xml, collect.toml, drive.toml, from-sumo.json"
           + (f", {RECORDING})" if run.recording is None else ")"))  # fmt: skip
@@ -183,7 +183,10 @@ def _any_road(cfg: SumoConfig) -> Road:
             return Road(cfg.net, (edge.getID(),))
         except IrlsimError:
             continue
-    raise IrlsimError(f"{cfg.path.name}: network {cfg.net} has no road for cars to record them on")
+    raise IrlsimError(
+        f"{cfg.path.name}: network {cfg.net} has no road for cars to record them on: give a configuration "
+        "whose network has roads for cars"
+    )
 
 
 def _scenario_text(cfg: SumoConfig, out: Path, base: Path, edges: tuple[str, ...], longest: str) -> str:

@@ -22,25 +22,32 @@ MIN_EGOS = 4
 @contextmanager
 def staged(out: Path, command: str) -> Iterator[Path]:
     """A folder to write an import into; its files move into ``out`` when the block ends without an error,
-    none otherwise (``out`` is left as it was). An import of the same input with the same options gives
-    the same bytes, so a file of ``out`` with other bytes is another import's: one line, nothing moved."""
+    none otherwise (``out`` is left as it was; one this import made is removed). An import of the same
+    input with the same options gives the same bytes, so a file of ``out`` with other bytes is another
+    import's: one line, nothing moved."""
     check_output_dir(out, "--out")
+    made = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
-    with owned_output(out, f"scenario {command}"):
-        stage = Path(tempfile.mkdtemp(dir=out, prefix=f".{command}-"))
-        try:
-            yield stage
-            files = sorted(stage.iterdir())
-            changed = [f.name for f in files if _differs(out / f.name, f)]
-            if changed:
-                raise IrlsimError(
-                    f"--out {out} holds {changed[0]} of another import (or edited): choose another "
-                    "--out, or remove the files of the one there"
-                )
-            for f in files:
-                os.replace(f, out / f.name)
-        finally:
-            shutil.rmtree(stage, ignore_errors=True)
+    try:
+        with owned_output(out, f"scenario {command}"):
+            stage = Path(tempfile.mkdtemp(dir=out, prefix=f".{command}-"))
+            try:
+                yield stage
+                files = sorted(stage.iterdir())
+                changed = [f.name for f in files if _differs(out / f.name, f)]
+                if changed:
+                    raise IrlsimError(
+                        f"--out {out} holds {changed[0]} of another import (or edited): choose another "
+                        "--out, or remove the files of the one there"
+                    )
+                for f in files:
+                    os.replace(f, out / f.name)
+            finally:
+                shutil.rmtree(stage, ignore_errors=True)
+    except BaseException:
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
 
 
 def _differs(target: Path, made: Path) -> bool:
