@@ -33,6 +33,8 @@ DEFAULT_DURATION = 600.0
 STEP = 0.1
 #: the recording SUMO's run writes into --out
 RECORDING = "recording.fcd.xml.gz"
+#: the other class whose egos get configs of their own (where there are enough)
+TRUCK = "truck"
 
 
 @dataclass(frozen=True)
@@ -72,9 +74,11 @@ def import_sumo(run: SumoImport) -> dict[str, object]:
         written = _write(cfg, stage, run.out, recording, run.min_duration)
         written["vehicle_types"] = n_types
         write_json(stage / "from-sumo.json", written)
+    trucks = f" and {written['trucks']} trucks (trucks-collect.toml)" if "trucks-collect" in written else ""
     print(
-        f"{cfg.path.name}: {written['vehicles']} vehicles recorded, {written['egos']} cars as egos; collect "
-        f"with 'irlsim collect --config {written['collect']} --out data/{run.out.resolve().name}-demos'"
+        f"{cfg.path.name}: {written['vehicles']} vehicles recorded, {written['egos']} cars{trucks} as egos; "
+        f"collect with 'irlsim collect --config {written['collect']} "
+        f"--out data/{run.out.resolve().name}-demos'"
     )
     print(f"from-sumo: {run.out} (scenario.toml, vtypes.add.xml, collect.toml, drive.toml, from-sumo.json"
           + (f", {RECORDING})" if run.recording is None else ")"))  # fmt: skip
@@ -131,14 +135,9 @@ def _write(
     rec = open_recording(at, first, STEP, read)
     routes: dict[tuple[str, ...], Road | str] = {}
     refused: dict[str, int] = {}
-    found = egos(rec, first, (), min_duration, refused, routes=routes)
-    if len(found) < MIN_EGOS:
-        why = ", ".join(f"{n} {words}" for words, n in sorted(refused.items(), key=lambda kv: -kv[1]))
-        raise IrlsimError(
-            f"{cfg.path.name}: {len(found)} of the recording's {len(rec.ids)} vehicles are cars that drive "
-            f"a route of the network for {min_duration:g} s (not: {why or 'none'}), too few to collect from "
-            "and drive: record longer (--duration) or lower --min-duration"
-        )
+    found = _enough(
+        cfg, rec.ids, egos(rec, first, (), min_duration, refused, routes=routes), refused, min_duration
+    )
     tracks = [ego_track(rec, v, first, routes) for v in found]
     longest = max((t for t in tracks if not isinstance(t, str)), key=lambda t: t.duration)
     q = json.dumps  # a TOML basic string
@@ -147,31 +146,60 @@ def _write(
     atomic_write_text(staged_scenario, _scenario_text(cfg, out, stage, longest.road.edges, longest.vid))
     road = load_road(scenario=staged_scenario)
     staged_scenario.unlink()
-    found = egos(rec, road, (), min_duration, routes=routes)
-    chosen = sorted(found, key=lambda v: (float(rec.t0[rec.ids.index(v)]), v))  # in the order they entered
-    learned, driven, test = split_egos(chosen)
+    refused.clear()
+    found = _enough(
+        cfg, rec.ids, egos(rec, road, (), min_duration, refused, routes=routes), refused, min_duration
+    )
+    trucks = egos(rec, road, (), min_duration, classes=(TRUCK,), routes=routes)
+    entered = {v: float(rec.t0[k]) for k, v in enumerate(rec.ids)}
     common = (
         f'[scenario]\nname = {q(str(out / "scenario.toml"))}\n\n[demonstrator]\nkind = "recording"\n'
         f"file = {q(str(recording))}\nvehicle_types = [{q(str(out / 'vtypes.add.xml'))}]\n"
         f'min_duration = {min_duration:g}\nego_size = "recorded"\n'
     )
     head = f"# SUMO configuration {cfg.path.name} (irlsim scenario from-sumo)"
-    atomic_write_text(
-        stage / "collect.toml",
-        f"{head}: its first {len(learned)} cars, each an ego in turn\nseed = 0\n"
-        f"train_episodes = {len(learned) - 2 * test}\nvalidation_episodes = {test}\ntest_episodes = {test}\n"
-        f"\n{common}ego = {q(','.join(learned))}\n",
-    )
-    atomic_write_text(
-        stage / "drive.toml",
-        f"{head}: the {len(driven)} cars no collected episode used\nseed = 0\n\n{common}"
-        f"ego = {q(','.join(driven))}\n",
-    )
-    return {
-        "config": str(cfg.path), "recording": str(recording), "vehicles": len(rec.ids), "egos": len(chosen),
-        "scenario": str(out / "scenario.toml"), "collect": str(out / "collect.toml"),
-        "drive": str(out / "drive.toml"), "collect_egos": learned, "drive_egos": driven,
+    written: dict[str, object] = {
+        "config": str(cfg.path), "recording": str(recording), "vehicles": len(rec.ids),
+        "scenario": str(out / "scenario.toml"), "egos": len(found), "trucks": len(trucks),
     }  # fmt: skip
+    for kind, ids in (("cars", found), ("trucks", trucks)):
+        if len(ids) < MIN_EGOS:
+            continue
+        chosen = sorted(ids, key=lambda v: (entered[v], v))  # in the order they entered
+        learned, driven, test = split_egos(chosen)
+        prefix = "" if kind == "cars" else f"{kind}-"
+        classes = "" if kind == "cars" else f'ego_classes = ["{TRUCK}"]\n'
+        atomic_write_text(
+            stage / f"{prefix}collect.toml",
+            f"{head}: its first {len(learned)} {kind}, each an ego in turn\nseed = 0\n"
+            f"train_episodes = {len(learned) - 2 * test}\nvalidation_episodes = {test}\n"
+            f"test_episodes = {test}\n\n{common}{classes}ego = {q(','.join(learned))}\n",
+        )
+        atomic_write_text(
+            stage / f"{prefix}drive.toml",
+            f"{head}: the {len(driven)} {kind} no collected episode used\nseed = 0\n\n{common}{classes}"
+            f"ego = {q(','.join(driven))}\n",
+        )
+        written |= {
+            f"{prefix}collect": str(out / f"{prefix}collect.toml"), f"{prefix}collect_egos": learned,
+            f"{prefix}drive": str(out / f"{prefix}drive.toml"), f"{prefix}drive_egos": driven,
+        }  # fmt: skip
+    return written
+
+
+def _enough(
+    cfg: SumoConfig, ids: tuple[str, ...], found: list[str], refused: dict[str, int], min_duration: float
+) -> list[str]:
+    """``found``, the egos of a recording of ``ids``, where there are enough to collect from and drive;
+    else one line with the others counted by reason (``refused``)."""
+    if len(found) >= MIN_EGOS:
+        return found
+    why = ", ".join(f"{n} {words}" for words, n in sorted(refused.items(), key=lambda kv: -kv[1]))
+    raise IrlsimError(
+        f"{cfg.path.name}: {len(found)} of the recording's {len(ids)} vehicles are cars that drive a route "
+        f"of the network for {min_duration:g} s (not: {why or 'none'}), too few to collect from and drive: "
+        "record longer (--duration) or lower --min-duration"
+    )
 
 
 def _any_road(cfg: SumoConfig) -> Road:

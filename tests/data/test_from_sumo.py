@@ -119,6 +119,33 @@ def test_a_recording_made_with_the_configuration_is_imported_as_given(imported, 
     assert again["collect_egos"] == made["collect_egos"]
 
 
+def test_a_configurations_trucks_get_configs_of_their_own(tmp_path):
+    # SUMO's class decides: the game's types are all of class passenger; a type of class truck is a truck
+    rel = os.path.relpath(CROSS, tmp_path)
+    (tmp_path / "lorries.rou.xml").write_text(
+        '<routes><vType id="lorry" vClass="truck" length="12.0" width="2.5"/>'
+        '<route id="lorry_route" edges="1fi 1si 2o 2fo"/>'
+        '<flow id="lorry" type="lorry" route="lorry_route" begin="2" end="70" period="9" departSpeed="10"/>'
+        "</routes>"
+    )
+    cfg = write_config(tmp_path)
+    cfg.write_text(cfg.read_text().replace(f"{rel}/cross.rou.xml", f"{rel}/cross.rou.xml,lorries.rou.xml"))
+    out = tmp_path / "out"
+    assert main(["scenario", "from-sumo", str(cfg), "--out", str(out)]) == 0
+    made = json.loads((out / "from-sumo.json").read_text())
+    trucks = made["trucks-collect_egos"] + made["trucks-drive_egos"]
+    assert made["trucks"] == len(trucks) >= 4 and all(v.startswith("lorry.") for v in trucks)
+    assert not set(trucks) & set(made["collect_egos"] + made["drive_egos"])  # no truck among the cars
+    text = (out / "trucks-collect.toml").read_text()
+    assert 'ego_classes = ["truck"]' in text and 'ego_size = "recorded"' in text
+    data = tmp_path / "data"
+    small = ["--set", "train_episodes=1", "--set", "validation_episodes=0", "--set", "test_episodes=0",
+             "--set", "max_cycles=10", "--set", "planner.n_policies=100", "--set", "workers=1"]  # fmt: skip
+    assert main(["collect", "--config", made["trucks-collect"], "--out", str(data), *small]) == 0
+    collected = collected_egos(json.loads((data / "manifest.json").read_text()))
+    assert collected is not None and collected[1][:1] == made["trucks-collect_egos"][:1]
+
+
 @pytest.mark.parametrize(
     ("case", "message"),
     [
