@@ -25,7 +25,8 @@ import numpy as np
 from irlsim.errors import IrlsimError
 from irlsim.road import Road, load_road, wrap_angle, yaw_to_sumo_angle
 from irlsim.road.network import SUMO_NET_DIR, VTYPES_FILE, sumo_binary
-from irlsim.sim.collision import first_collision, obb_collide
+from irlsim.sim.bodies import Bodies
+from irlsim.sim.collision import first_collision
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.inputs import (
@@ -106,6 +107,7 @@ class Simulation:
         self.signals = SignalWatch(self.road)  # the route's traffic lights, on the ego's own lane
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
+        self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
         self._sumo_wall = 0.0
@@ -264,7 +266,7 @@ class Simulation:
         self.odometry = []
         self._ego_by_sumo = False
         self.signals = SignalWatch(road)
-        self._colliding, self._sumo_pairs = set(), set()
+        self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies()
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
         self._wall = self._sumo_wall = 0.0
@@ -359,22 +361,11 @@ class Simulation:
         if veh.count == 0:
             self._colliding = set()
             return 0
-        near = np.flatnonzero((np.abs(veh.x - ego.x) < 20.0) & (np.abs(veh.y - ego.y) < 20.0))
-        now: set[str] = set()
-        if len(near):
-            hit = obb_collide(
-                ego.x,
-                ego.y,
-                ego.yaw,
-                self.cfg.ego_length,
-                self.cfg.ego_width,
-                veh.x[near],
-                veh.y[near],
-                veh.yaw[near],
-                veh.length[near],
-                veh.width[near],
-            )
-            now = {veh.ids[i] for i in near[hit]}
+        # a long vehicle's body reaches farther from its front (a car's: within 20 m, as ever)
+        far = 20.0 + max(self.cfg.ego_length - 5.0, 0.0) + np.maximum(veh.length - 5.0, 0.0)
+        near = np.flatnonzero((np.abs(veh.x - ego.x) < far) & (np.abs(veh.y - ego.y) < far))
+        hit = self.bodies.hits(ego, self.cfg.ego_length, self.cfg.ego_width, veh, near)
+        now = {veh.ids[i] for i in near[hit]}
         if now - self._colliding and self.first_collision is None:
             i, get, road = veh.ids.index(min(now - self._colliding)), self._api.vehicle.getLaneID, self.road
             lanes = (get(EGO), get(veh.ids[i]))
