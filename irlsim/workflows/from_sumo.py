@@ -11,11 +11,16 @@ from __future__ import annotations
 import gzip
 import json
 import os
+import re
 import subprocess
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from irlsim.data.recorded import ego_track, egos, open_recording
+from irlsim.data.recording import MAX_GAP, Recording
 from irlsim.data.recording_as import ReadAs
 from irlsim.data.sumocfg import SumoConfig, read_sumocfg, signal_files, vtypes_xml
 from irlsim.errors import IrlsimError
@@ -117,11 +122,43 @@ def _record(cfg: SumoConfig, target: Path, duration: float | None, seed: int) ->
             f"so that 'sumo -c {cfg.path.name}' runs, or give --recording"
         )
     with raw.open("rb") as src, gzip.GzipFile(target, "wb", mtime=0) as dst:
-        head = src.read(1 << 16)
-        dst.write(strip_header(head))
-        while chunk := src.read(1 << 20):
-            dst.write(chunk)
+        lines, batch = split_at_gaps(src), []
+        for line in lines:  # the header comment: the first lines, up to its end
+            batch.append(line)
+            if b"-->" in line or len(batch) > 1000:
+                break
+        dst.write(strip_header(b"".join(batch)))
+        batch = []
+        for line in lines:
+            batch.append(line)
+            if len(batch) >= 10_000:
+                dst.write(b"".join(batch))
+                batch = []
+        dst.write(b"".join(batch))
     raw.unlink()
+
+
+_TIME = re.compile(rb'<timestep time="([^"]+)"')
+_VEHICLE = re.compile(rb'(<vehicle id=")([^"]+)(")')
+
+
+def split_at_gaps(lines: Iterable[bytes], max_gap: float = MAX_GAP) -> Iterator[bytes]:
+    """SUMO's FCD lines with each stretch of a vehicle after a gap of more than ``max_gap`` [s] (SUMO
+    teleports a vehicle stuck in a jam: it leaves the FCD and comes back further on) under an id of its
+    own, ``<id>#1``, ``<id>#2``, ...: one vehicle per stretch, as a recording takes them."""
+    t = 0.0
+    last: dict[bytes, tuple[float, int]] = {}
+    for line in lines:
+        if m := _TIME.search(line):
+            t = float(m.group(1))
+        elif m := _VEHICLE.search(line):
+            vid = m.group(2)
+            seen, k = last.get(vid, (t, 0))
+            k += t - seen > max_gap + 1e-9
+            last[vid] = (t, k)
+            if k:
+                line = line[: m.end(2)] + b"#%d" % k + line[m.end(2) :]
+        yield line
 
 
 def _write(
@@ -135,9 +172,8 @@ def _write(
     rec = open_recording(at, first, STEP, read)
     routes: dict[tuple[str, ...], Road | str] = {}
     refused: dict[str, int] = {}
-    found = _enough(
-        cfg, rec.ids, egos(rec, first, (), min_duration, refused, routes=routes), refused, min_duration
-    )
+    unfinished = _unfinished(rec)
+    found = _enough(cfg, rec, egos(rec, first, (), min_duration, refused, routes=routes), refused, unfinished)
     tracks = [ego_track(rec, v, first, routes) for v in found]
     longest = max((t for t in tracks if not isinstance(t, str)), key=lambda t: t.duration)
     q = json.dumps  # a TOML basic string
@@ -147,10 +183,10 @@ def _write(
     road = load_road(scenario=staged_scenario)
     staged_scenario.unlink()
     refused.clear()
-    found = _enough(
-        cfg, rec.ids, egos(rec, road, (), min_duration, refused, routes=routes), refused, min_duration
-    )
-    trucks = egos(rec, road, (), min_duration, classes=(TRUCK,), routes=routes)
+    found = _enough(cfg, rec, egos(rec, road, (), min_duration, refused, routes=routes), refused, unfinished)
+    trucks = [
+        v for v in egos(rec, road, (), min_duration, classes=(TRUCK,), routes=routes) if v not in unfinished
+    ]
     entered = {v: float(rec.t0[k]) for k, v in enumerate(rec.ids)}
     common = (
         f'[scenario]\nname = {q(str(out / "scenario.toml"))}\n\n[demonstrator]\nkind = "recording"\n'
@@ -161,6 +197,7 @@ def _write(
     written: dict[str, object] = {
         "config": str(cfg.path), "recording": str(recording), "vehicles": len(rec.ids),
         "scenario": str(out / "scenario.toml"), "egos": len(found), "trucks": len(trucks),
+        "unfinished": len(unfinished),
     }  # fmt: skip
     for kind, ids in (("cars", found), ("trucks", trucks)):
         if len(ids) < MIN_EGOS:
@@ -187,18 +224,28 @@ def _write(
     return written
 
 
+def _unfinished(rec: Recording) -> set[str]:
+    """The vehicles still driving when the recording ends: the end of the route each was recorded on is
+    where SUMO stopped, not where it was going (at a crossing, often the stop line of a red light)."""
+    ends = rec.t0 + (np.diff(rec.start) - 1) * rec.step
+    return {rec.ids[k] for k in np.flatnonzero(ends >= ends.max() - 0.5 * rec.step)}
+
+
 def _enough(
-    cfg: SumoConfig, ids: tuple[str, ...], found: list[str], refused: dict[str, int], min_duration: float
+    cfg: SumoConfig, rec: Recording, found: list[str], refused: dict[str, int], unfinished: set[str]
 ) -> list[str]:
-    """``found``, the egos of a recording of ``ids``, where there are enough to collect from and drive;
-    else one line with the others counted by reason (``refused``)."""
-    if len(found) >= MIN_EGOS:
-        return found
+    """The cars of ``found`` (egos of ``rec``) that finished their drive, where there are enough to collect
+    from and drive; else one line with the others counted by reason (``refused``)."""
+    done = [v for v in found if v not in unfinished]
+    if len(done) >= MIN_EGOS:
+        return done
+    if len(found) > len(done):
+        refused["still driving when the recording ends"] = len(found) - len(done)
     why = ", ".join(f"{n} {words}" for words, n in sorted(refused.items(), key=lambda kv: -kv[1]))
     raise IrlsimError(
-        f"{cfg.path.name}: {len(found)} of the recording's {len(ids)} vehicles are cars that drive a route "
-        f"of the network for {min_duration:g} s (not: {why or 'none'}), too few to collect from and drive: "
-        "record longer (--duration) or lower --min-duration"
+        f"{cfg.path.name}: {len(done)} of the recording's {len(rec.ids)} vehicles are cars that drive a "
+        f"route of the network long enough (--min-duration) and finish it (not: {why or 'none'}), too few "
+        "to collect from and drive: record longer (--duration) or lower --min-duration"
     )
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import gzip
 import json
 import os
+import re
 from pathlib import Path
 
 import pytest
@@ -22,6 +23,7 @@ from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.road.network import sumo_home
 from irlsim.sim.vehicle_types import vehicle_types
+from irlsim.workflows.from_sumo import split_at_gaps
 
 CROSS = Path(sumo_home()) / "tools" / "game" / "cross"
 
@@ -60,6 +62,22 @@ def test_a_configuration_is_read_as_sumo_reads_it(tmp_path):
         sumo_time("noon", "end")
 
 
+def test_a_vehicle_sumo_teleported_is_one_vehicle_per_stretch():
+    # SUMO teleports a vehicle stuck in a jam: it leaves the FCD output and comes back further on; a
+    # recording refuses a gap over 1 s, so each stretch after one gets an id of its own
+    fcd = [b"<fcd-export>\n"]
+    for t in (0.0, 0.5, 1.0, 4.0, 4.5, 9.0):
+        fcd.append(b'    <timestep time="%.2f">\n' % t)
+        fcd.append(b'        <vehicle id="a" x="%.1f" y="0.00" angle="90.00"/>\n' % t)
+        if t < 1.2:
+            fcd.append(b'        <vehicle id="b" x="1.0" y="3.00" angle="90.00"/>\n')
+        fcd.append(b"    </timestep>\n")
+    out = b"".join(split_at_gaps(fcd + [b"</fcd-export>\n"])).decode()
+    ids = re.findall(r'<vehicle id="([^"]+)"', out)
+    assert ids == ["a", "b", "a", "b", "a", "b", "a#1", "a#1", "a#2"]
+    assert out.count("<timestep") == 6 and 'x="4.0"' in out  # nothing else changes
+
+
 def test_every_vehicle_type_of_the_files_is_one_file_sumo_loads(tmp_path):
     # types inside a distribution are what FCD names; a type defined twice is kept as first defined
     a, b = tmp_path / "a.rou.xml", tmp_path / "b.add.xml"
@@ -93,6 +111,11 @@ def test_a_configuration_becomes_a_scenario_whose_cars_collect_in_the_order_they
     assert len(egos) == made["egos"] >= 4 and len(made["drive_egos"]) == max(1, len(egos) // 10)
     entered = [float(rec.t0[rec.ids.index(v)]) for v in egos]
     assert entered == sorted(entered)  # collected first, driven last, in the order they came
+    # no ego is a car still driving when SUMO stopped (its route's end would be where the recording ends)
+    ends = {v: rec.t0[k] + (rec.start[k + 1] - rec.start[k] - 1) * rec.step for k, v in enumerate(rec.ids)}
+    last = max(ends.values())
+    assert made["unfinished"] == sum(1 for t in ends.values() if t > last - 0.05) > 0
+    assert all(ends[v] < last - 0.05 for v in egos)
     data = tmp_path / "data"
     small = ["--set", "train_episodes=1", "--set", "validation_episodes=1", "--set", "test_episodes=1",
              "--set", "max_cycles=10", "--set", "planner.n_policies=100", "--set", "workers=1"]  # fmt: skip
@@ -124,11 +147,11 @@ def test_a_configurations_trucks_get_configs_of_their_own(tmp_path):
     rel = os.path.relpath(CROSS, tmp_path)
     (tmp_path / "lorries.rou.xml").write_text(
         '<routes><vType id="lorry" vClass="truck" length="12.0" width="2.5"/>'
-        '<route id="lorry_route" edges="1fi 1si 2o 2fo"/>'
+        '<route id="lorry_route" edges="3fi 3si 4o 4fo"/>'
         '<flow id="lorry" type="lorry" route="lorry_route" begin="2" end="70" period="9" departSpeed="10"/>'
         "</routes>"
     )
-    cfg = write_config(tmp_path)
+    cfg = write_config(tmp_path, end="240")
     cfg.write_text(cfg.read_text().replace(f"{rel}/cross.rou.xml", f"{rel}/cross.rou.xml,lorries.rou.xml"))
     out = tmp_path / "out"
     assert main(["scenario", "from-sumo", str(cfg), "--out", str(out)]) == 0
@@ -179,5 +202,5 @@ def test_a_bad_configuration_is_one_line_and_writes_nothing(tmp_path, case, mess
     assert main(["scenario", "from-sumo", str(cfg), "--out", str(out), *extra]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "Traceback" not in err
-    assert __import__("re").search(message, err), err
+    assert re.search(message, err), err
     assert not out.exists()  # a folder the import made is removed with what it held
