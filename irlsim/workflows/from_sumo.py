@@ -81,7 +81,8 @@ def import_sumo(run: SumoImport) -> dict[str, object]:
         write_json(stage / "from-sumo.json", written)
     trucks = f" and {written['trucks']} trucks (trucks-collect.toml)" if "trucks-collect" in written else ""
     print(
-        f"{cfg.path.name}: {written['vehicles']} vehicles recorded, {written['egos']} cars{trucks} as egos; "
+        f"{cfg.path.name}: {written['vehicles']} vehicles recorded ({written['unfinished']} still driving at "
+        f"its end), {written['egos']} cars{trucks} as egos; "
         f"collect with 'irlsim collect --config {written['collect']} "
         f"--out data/{run.out.resolve().name}-demos'"
     )
