@@ -62,7 +62,11 @@ def _add_from_sumo(sub: argparse._SubParsersAction) -> None:  # type: ignore[typ
         "scenario, with a collect config (its cars as egos in turn) and a drive config (the cars no "
         "collected episode used) (docs/guide/demonstrators.md)",
     )
-    p.add_argument("config", type=Path, help="the SUMO configuration (.sumocfg) of your scenario")
+    p.add_argument(
+        "config", type=Path,
+        help="the SUMO configuration (.sumocfg) of your scenario; sumo_tools/... is inside the SUMO wheel "
+        "(its game scenarios: sumo_tools/game/cross.sumocfg)",
+    )  # fmt: skip
     p.add_argument("--out", type=Path, required=True, help="output folder")
     p.add_argument(
         "--recording", type=Path, default=None,

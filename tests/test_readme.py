@@ -151,8 +151,8 @@ def test_highd_commands_run_as_written(tmp_path, monkeypatch, capsys):
 
 @pytest.mark.slow
 def test_from_sumo_commands_run_as_written(tmp_path, monkeypatch, capsys):
-    """SUMO's game crossing, run by SUMO alone from its configuration and recorded, imported; its cars
-    collected, learned, and a held-out car driven, each command as the guide writes it."""
+    """SUMO's game crossing (its demo), run by SUMO alone from its configuration and recorded, imported;
+    its cars collected, learned, and a held-out car driven, each command as the guide writes it."""
     import json
 
     shutil.copytree(ROOT / "configs", tmp_path / "configs")
