@@ -25,6 +25,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: collect, drive, the table)
+from ego_configs import ego_configs  # noqa: E402  (a recording's egos' configs)
 
 from irlsim.rollout.style import pool_styles  # noqa: E402
 
@@ -56,26 +57,7 @@ def configs(hd: Path, cls: str, learned: int, driven: int) -> tuple[str, str, st
     base = tomllib.loads(Path(made[f"collect{CLASSES[cls]}"]).read_text())
     planner = {"n_policies": 500, **base["planner"]}
     tables = {"scenario": base["scenario"], "planner": planner, "demonstrator": base["demonstrator"]}
-    out = []
-    for name, ids, splits in (
-        ("collect", egos[:learned], (learned - 2, 1, 1)),
-        ("drive", egos[learned : learned + driven], None),
-        ("reference", egos[learned : learned + driven], (driven, 0, 0)),
-    ):
-        tables["demonstrator"] = {**tables["demonstrator"], "ego": ",".join(ids)}
-        head = "seed = 0\nmax_cycles = 800\n"
-        if splits:
-            head += "".join(
-                f"{k}_episodes = {n}\n" for k, n in zip(("train", "validation", "test"), splits, strict=True)
-            )
-        body = "".join(
-            f"\n[{t}]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in values.items())
-            for t, values in tables.items()
-        )
-        path = hd.parent / f"{cls}-{name}.toml"
-        path.write_text(head + body)
-        out.append(str(path))
-    return out[0], out[1], out[2]
+    return ego_configs(tables, egos[:learned], egos[learned : learned + driven], hd.parent, f"{cls}-")
 
 
 def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) -> Path:

@@ -27,6 +27,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: collect, drive, the table)
+from ego_configs import ego_configs  # noqa: E402  (a recording's egos' configs)
 
 from irlsim.road.network import sumo_binary, sumo_home  # noqa: E402
 from irlsim.rollout.style import pool_styles  # noqa: E402
@@ -84,26 +85,7 @@ def configs(folder: Path, learned: int, driven: int) -> tuple[str, str, str]:
             f"the import has {len(made['collect_egos'])} collected and {len(made['drive_egos'])} held-out "
             "cars: record longer (--duration) or ask for fewer"
         )
-    out = []
-    for name, ids, splits in (
-        ("collect", learn, (learned - 2, 1, 1)),
-        ("drive", drive, None),
-        ("reference", drive, (driven, 0, 0)),
-    ):
-        tables["demonstrator"] = {**tables["demonstrator"], "ego": ",".join(ids)}
-        head = "seed = 0\nmax_cycles = 800\n"
-        if splits:
-            head += "".join(
-                f"{k}_episodes = {n}\n" for k, n in zip(("train", "validation", "test"), splits, strict=True)
-            )
-        body = "".join(
-            f"\n[{t}]\n" + "".join(f"{k} = {json.dumps(v)}\n" for k, v in values.items())
-            for t, values in tables.items()
-        )
-        path = folder.parent / f"{name}.toml"
-        path.write_text(head + body)
-        out.append(str(path))
-    return out[0], out[1], out[2]
+    return ego_configs(tables, learn, drive, folder.parent)
 
 
 def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) -> Path:
