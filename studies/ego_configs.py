@@ -1,11 +1,16 @@
-"""The configs of a recording's egos for a study: collect, drive and reference (the driven egos as
-recorded), shared by the studies that learn from an imported recording."""
+"""A study's recording egos: their configs (collect, drive and reference, the driven egos as recorded)
+and their reactive drives, shared by the studies that learn from an imported recording."""
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
 from typing import Any
+
+import styles  # studies/styles.py: run, irlsim, driven_models
+
+#: the recording rows' rules of the style study (studies/recording_dataset.py)
+RULES = ["--full-stop", "--keep-distance", "0.3", "--in-lane"]
 
 
 def ego_configs(
@@ -34,3 +39,15 @@ def ego_configs(
         path.write_text(head + body)
         out.append(str(path))
     return out[0], out[1], out[2]
+
+
+def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) -> Path:
+    """``irlsim drive --reactive`` of ``models`` on the driven egos (the learned rewards with the
+    recording rows' rules)."""
+    if not set(models) <= styles.driven_models(out / "drive.json"):
+        styles.run(
+            [styles.irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
+            + ["--reactive", *(RULES if runs else []), "--episodes", str(a.driven), "--config", config]
+            + ["--max-cycles", "800", "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
+        )
+    return out / "drive.json"

@@ -25,13 +25,11 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: collect, drive, the table)
-from ego_configs import ego_configs  # noqa: E402  (a recording's egos' configs)
+from ego_configs import drive, ego_configs  # noqa: E402  (a recording's egos: configs, drives)
 
 from irlsim.rollout.style import pool_styles  # noqa: E402
 
 SIDE = "lower"
-#: the recording rows' rules of the style study (studies/recording_dataset.py)
-RULES = ["--full-stop", "--keep-distance", "0.3", "--in-lane"]
 CLASSES = {"cars": "", "trucks": "-trucks"}  # the import's config suffix per class
 
 
@@ -58,18 +56,6 @@ def configs(hd: Path, cls: str, learned: int, driven: int) -> tuple[str, str, st
     planner = {"n_policies": 500, **base["planner"]}
     tables = {"scenario": base["scenario"], "planner": planner, "demonstrator": base["demonstrator"]}
     return ego_configs(tables, egos[:learned], egos[learned : learned + driven], hd.parent, f"{cls}-")
-
-
-def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) -> Path:
-    """``irlsim drive --reactive`` of ``models`` on a class's driven egos (the learned rewards with the
-    recording rows' rules)."""
-    if not set(models) <= styles.driven_models(out / "drive.json"):
-        styles.run(
-            [styles.irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-            + ["--reactive", *(RULES if runs else []), "--episodes", str(a.driven), "--config", config]
-            + ["--max-cycles", "800", "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
-        )
-    return out / "drive.json"
 
 
 def main(argv: list[str] | None = None) -> int:

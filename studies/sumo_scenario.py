@@ -27,13 +27,10 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: collect, drive, the table)
-from ego_configs import ego_configs  # noqa: E402  (a recording's egos' configs)
+from ego_configs import drive, ego_configs  # noqa: E402  (a recording's egos: configs, drives)
 
 from irlsim.road.network import sumo_binary, sumo_home  # noqa: E402
 from irlsim.rollout.style import pool_styles  # noqa: E402
-
-#: the recording rows' rules of the style study (studies/recording_dataset.py)
-RULES = ["--full-stop", "--keep-distance", "0.3", "--in-lane"]
 
 
 def grid_config(out: Path, seed: int, duration: float) -> str:
@@ -86,18 +83,6 @@ def configs(folder: Path, learned: int, driven: int) -> tuple[str, str, str]:
             "cars: record longer (--duration) or ask for fewer"
         )
     return ego_configs(tables, learn, drive, folder.parent)
-
-
-def drive(config: str, runs: Path | None, models: list[str], out: Path, a: Any) -> Path:
-    """``irlsim drive --reactive`` of ``models`` on the held-out cars (the learned rewards with the
-    recording rows' rules)."""
-    if not set(models) <= styles.driven_models(out / "drive.json"):
-        styles.run(
-            [styles.irlsim(), "drive", *(["--runs", str(runs)] if runs else []), "--model", ",".join(models)]
-            + ["--reactive", *(RULES if runs else []), "--episodes", str(a.driven), "--config", config]
-            + ["--max-cycles", "800", "--frames", "0", "--workers", str(a.workers), "--out", str(out)]
-        )
-    return out / "drive.json"
 
 
 def main(argv: list[str] | None = None) -> int:
