@@ -62,9 +62,6 @@ class Bodies:
         self.trails: dict[str, list[tuple[float, float]]] = {}
         self.ego_trail: list[tuple[float, float]] = []
 
-    def reset(self) -> None:
-        self.trails, self.ego_trail = {}, []
-
     @staticmethod
     def _follow(trail: list[tuple[float, float]], x: float, y: float, length: float) -> None:
         """Add the front (``x``, ``y``) to ``trail`` where it moved, keeping a vehicle's length and a part."""

@@ -28,7 +28,7 @@ from irlsim.road import Road, load_road
 from irlsim.road.draw import car_edges, read_network
 from irlsim.road.network import strip_header, sumo_binary, sumo_home, tool_error
 from irlsim.utils import atomic_write_text, write_json
-from irlsim.workflows.imports import MIN_EGOS, split_egos, staged
+from irlsim.workflows.imports import MIN_EGOS, ego_configs, staged
 
 #: [s] the least time a car drives on its route to be an ego (irlsim's default for recordings)
 MIN_DURATION = 20.0
@@ -203,21 +203,12 @@ def _write(
     for kind, ids in (("cars", found), ("trucks", trucks)):
         if len(ids) < MIN_EGOS:
             continue
-        chosen = sorted(ids, key=lambda v: (entered[v], v))  # in the order they entered
-        learned, driven, test = split_egos(chosen)
         prefix = "" if kind == "cars" else f"{kind}-"
         classes = "" if kind == "cars" else f'ego_classes = ["{TRUCK}"]\n'
-        atomic_write_text(
-            stage / f"{prefix}collect.toml",
-            f"{head}: its first {len(learned)} {kind}, each an ego in turn\nseed = 0\n"
-            f"train_episodes = {len(learned) - 2 * test}\nvalidation_episodes = {test}\n"
-            f"test_episodes = {test}\n\n{common}{classes}ego = {q(','.join(learned))}\n",
-        )
-        atomic_write_text(
-            stage / f"{prefix}drive.toml",
-            f"{head}: the {len(driven)} {kind} no collected episode used\nseed = 0\n\n{common}{classes}"
-            f"ego = {q(','.join(driven))}\n",
-        )
+        chosen = sorted(ids, key=lambda v: (entered[v], v))  # in the order they entered
+        texts, learned, driven = ego_configs(head, kind, chosen, common + classes)
+        for what, text in texts.items():
+            atomic_write_text(stage / f"{prefix}{what}.toml", text)
         written |= {
             f"{prefix}collect": str(out / f"{prefix}collect.toml"), f"{prefix}collect_egos": learned,
             f"{prefix}drive": str(out / f"{prefix}drive.toml"), f"{prefix}drive_egos": driven,

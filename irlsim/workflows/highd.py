@@ -25,7 +25,7 @@ from irlsim.errors import IrlsimError
 from irlsim.road import load_road
 from irlsim.road.network import build_net
 from irlsim.utils import atomic_write_text, write_json
-from irlsim.workflows.imports import MIN_EGOS, split_egos, staged
+from irlsim.workflows.imports import MIN_EGOS, ego_configs, staged
 
 #: [s] the least time a car drives on its carriageway to be an ego: a highD road is about 420 m, which a
 #: car at 120 km/h crosses in 13 s (irlsim's default, 20 s, would leave only slow cars)
@@ -148,8 +148,6 @@ def _configs(
 ) -> tuple[dict[str, Path], list[str], list[str]]:
     """The collect and drive configs of one class's egos of a carriageway (the first nine in ten, in the
     order they entered, collected; the last tenth driven), each at its recorded size."""
-    learned, driven, test = split_egos(chosen)
-    val = test
     classes = "" if vclass == EGO_CLASS else f'ego_classes = ["{vclass}"]\n'
     common = (
         f'[scenario]\nname = "{out / f"{name}.toml"}"\n\n[planner]\nv_max = {top_speed(h, name):.1f}\n'
@@ -159,18 +157,7 @@ def _configs(
         f'ego_size = "recorded"\n{classes}'
     )
     head = f"# highD {h.prefix.name}, the {name} carriageway (irlsim scenario from-highd)"
-    texts = {
-        "collect": (
-            f"{head}: its first {len(learned)} {kind}s, each an ego in turn\nseed = 0\n"
-            f"train_episodes = {len(learned) - test - val}\nvalidation_episodes = {val}\n"
-            f"test_episodes = {test}\n"
-            f'\n{common}ego = "{",".join(learned)}"\n'
-        ),
-        "drive": (
-            f"{head}: the {len(driven)} {kind}s no collected episode used\nseed = 0\n\n"
-            f'{common}ego = "{",".join(driven)}"\n'
-        ),
-    }
+    texts, learned, driven = ego_configs(head, f"{kind}s", chosen, common)
     paths = {}
     for what, text in texts.items():
         paths[what] = out / f"{name}{suffix}-{what}.toml"

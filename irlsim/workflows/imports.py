@@ -4,6 +4,7 @@ egos into those collected and those driven."""
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import tempfile
@@ -61,3 +62,24 @@ def split_egos(chosen: list[str]) -> tuple[list[str], list[str], int]:
     held = max(1, len(chosen) // 10)
     learned, driven = chosen[: len(chosen) - held], chosen[len(chosen) - held :]
     return learned, driven, max(1, len(learned) // 10)
+
+
+def ego_configs(
+    head: str, kind: str, chosen: list[str], common: str
+) -> tuple[dict[str, str], list[str], list[str]]:
+    """The collect and drive configs' texts of ``chosen`` egos (``kind``, plural: "cars"), split by
+    :func:`split_egos`: ``head`` (a comment line) and ``common`` (their scenario, planner and
+    demonstrator tables) around each one's episodes and egos; and the egos collected and driven."""
+    learned, driven, test = split_egos(chosen)
+    texts = {
+        "collect": (
+            f"{head}: its first {len(learned)} {kind}, each an ego in turn\nseed = 0\n"
+            f"train_episodes = {len(learned) - 2 * test}\nvalidation_episodes = {test}\n"
+            f"test_episodes = {test}\n\n{common}ego = {json.dumps(','.join(learned))}\n"
+        ),
+        "drive": (
+            f"{head}: the {len(driven)} {kind} no collected episode used\nseed = 0\n\n{common}"
+            f"ego = {json.dumps(','.join(driven))}\n"
+        ),
+    }
+    return texts, learned, driven

@@ -94,5 +94,5 @@ def test_the_simulation_check_keeps_each_long_vehicles_path():
         ("car",), *(np.array([v]) for v in (-3.2, -9.0, -math.pi / 2, 10.0, 0.0, 0.0, 4.5, 1.8))
     )
     assert not ego_bodies.hits(ego, length, width, oncoming, np.array([0]))[0]
-    ego_bodies.reset()
+    ego_bodies = Bodies()  # a new episode's
     assert ego_bodies.hits(ego, length, width, oncoming, np.array([0]))[0]  # no trail: the rigid box
