@@ -40,7 +40,7 @@ import numpy as np
 from irlsim import FEATURE_NAMES
 from irlsim.planner.choice import CHOICES, expected_choice
 from irlsim.planner.config import PlannerConfig
-from irlsim.planner.features import predicted_stop_distance
+from irlsim.planner.following import lane_outlook
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
 from irlsim.road import Road
@@ -116,80 +116,6 @@ def mission_penalty(sel: SelectionConfig, remaining: float) -> float:
     in between."""
     x = (sel.mission_far - remaining) / max(sel.mission_far - sel.mission_near, 1e-6)
     return float(sel.mission_base + (sel.mission_cap - sel.mission_base) * np.clip(x, 0.0, 1.0))
-
-
-def lane_outlook(
-    internals: Any,
-    obs: Observation,
-    sel: SelectionConfig,
-    dt: float,
-    stop_lines: tuple[float, ...],
-    ego_width: float,
-    v_target: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """(shortfall [N] m, outlook [N] m) of every policy against the vehicles predicted ahead of it.
-
-    shortfall: by how much the policy falls short, at worst over the check times
-    ``sel.follow_times`` [s], of a safe following distance to the vehicle predicted ahead of it in its
-    lane then: required gap = headway v + gap + max(0, v^2 - v_m^2) / (2 b) (it could still fall back
-    behind that vehicle braking ``follow_decel``). Vehicles are predicted at constant speed, standing
-    where they will stop before a stop line within 80 m, queue included
-    (:func:`irlsim.planner.features.predicted_stop_distance`). Without it the expert, whose
-    safety zone looks 3 s ahead, keeps choosing policies that brake late in the horizon, closes in on
-    slow vehicles at full speed and is then pushed out of its lane by the safety zone.
-
-    outlook: the progress the policy's final lane offers for ``sel.outlook_time`` seconds beyond the
-    horizon: v_target * outlook_time, or less where the predicted vehicle ahead in that lane at the
-    horizon (gap g, speed v_m) limits it to max(0, g - follow_gap) + v_m * outlook_time; capped at the
-    active stop line. It extends the 5 s horizon for the choice of lane: leaving a lane blocked by slow
-    vehicles pays off only after the horizon."""
-    lon, lat = internals.lon, internals.lat
-    n = len(internals.lon_idx)
-    veh = obs.vehicles
-    s_end = lon.s[internals.lon_idx, -1]
-    outlook = np.full(n, v_target * sel.outlook_time)
-    if np.isfinite(obs.stop_s):
-        outlook = np.minimum(outlook, np.maximum(obs.stop_s - obs.ego.s - s_end, 0.0))
-    shortfall = np.zeros(n)
-    if veh.count == 0:
-        return shortfall, outlook
-    lap = obs.lap_length
-    ds0 = (veh.s - obs.ego.s % lap + lap / 2) % lap - lap / 2
-    near = (ds0 > -20.0) & (ds0 < 200.0)
-    if not near.any():
-        return shortfall, outlook
-    cols = [min(int(round(t / dt)), lon.s.shape[1] - 1) for t in sel.follow_times]
-    t = np.array([c * dt for c in cols])  # [C]
-    v_m = veh.v[near][:, None]  # [M, 1]
-    travel = v_m * t[None, :]  # [M, C]
-    v_c = np.broadcast_to(v_m, travel.shape).copy()
-    # where each stands at the next stop line, queue included (the planner's prediction)
-    to_stop = predicted_stop_distance(veh.s, veh.d, veh.length, veh.width, stop_lines, lap)[near][:, None]
-    stands = travel >= to_stop  # False where to_stop is inf (no stop line within reach)
-    travel = np.where(stands, to_stop, travel)
-    v_c = np.where(stands, 0.0, v_c)
-    rear = ds0[near][:, None] + travel - veh.length[near][:, None]  # [M, C] rear bumpers
-    s_e = lon.s[:, cols][internals.lon_idx]  # [N, C] front bumper, relative
-    v_e = lon.v[:, cols][internals.lon_idx]
-    d_e = lat.d[:, cols][internals.lat_idx]
-    gap = rear[None] - s_e[:, None, :]  # [N, M, C]
-    same = np.abs(d_e[:, None, :] - veh.d[near][None, :, None]) < (
-        (veh.width[near][None, :, None] + ego_width) / 2 + 0.3
-    )
-    need = (
-        sel.follow_headway * v_e[:, None, :]
-        + sel.follow_gap
-        + np.maximum(v_e[:, None, :] ** 2 - v_c[None] ** 2, 0.0) / (2 * sel.follow_decel)
-    )
-    ahead = same & (gap > -2.0)
-    shortfall = np.where(ahead, np.maximum(need - gap, 0.0), 0.0).max(axis=(1, 2))
-    # the lead at the horizon (the last check time) in the final lane
-    g_end = np.where(ahead[:, :, -1], gap[:, :, -1], np.inf)  # [N, M]
-    lead = np.argmin(g_end, axis=1)
-    g_lead = g_end[np.arange(n), lead]
-    limited = np.maximum(g_lead - sel.follow_gap, 0.0) + v_c[lead, -1] * sel.outlook_time
-    outlook = np.where(np.isfinite(g_lead), np.minimum(outlook, limited), outlook)
-    return shortfall, outlook
 
 
 def mission_lanes_away(ps: PolicySet, target_s: float, req: int, final_lane: np.ndarray) -> np.ndarray:
@@ -457,12 +383,13 @@ def keeping_distance(
     sel: SelectionConfig | None = None,
 ) -> np.ndarray:
     """[N] bool: the policies that keep a safe following distance to the vehicle predicted ahead of them
-    in their lane at 1..5 s: the expert's following check (:func:`lane_outlook`'s shortfall with ``sel``,
-    default the expert's: a headway of 0.8 s plus 2 m, and room to brake to that vehicle's speed at 3
-    m/s^2; vehicles at constant speed,
-    standing at the stop line they reach). Where every policy falls short (a car cut in, a leader
-    braked), those within ``KEEP_DISTANCE_TOL`` of the least shortfall. ``internals``: the planner's
-    ``last`` of this cycle; ``stop_lines``: the road's (route positions [m])."""
+    in their lane at 1..5 s: the expert's following check
+    (:func:`~irlsim.planner.following.lane_outlook`'s shortfall with ``sel``, default the expert's: a
+    headway of 0.8 s plus 2 m, and room to brake to that vehicle's speed at 3 m/s^2; vehicles at constant
+    speed, standing at the stop line they reach; a vehicle the policy would drive into stays ahead).
+    Where every policy falls short (a car cut in, a leader braked), those within ``KEEP_DISTANCE_TOL`` of
+    the least shortfall. ``internals``: the planner's ``last`` of this cycle; ``stop_lines``: the road's
+    (route positions [m])."""
     sel = sel or SelectionConfig()
     shortfall, _ = lane_outlook(internals, obs, sel, cfg.dt, stop_lines, cfg.ego_width, cfg.v_target)
     least = float(shortfall.min())

@@ -295,3 +295,23 @@ def test_the_following_rule_in_lane_keeps_the_rewards_lane_and_picks_the_speed()
     none_there = np.array([False, False, True, False])
     assert choose_index(ps, E0, distance=none_there, in_lane=True) == 2
     assert choose_index(ps, E0, in_lane=True) == 0  # no distance given: in_lane changes nothing
+
+
+def test_the_following_rule_keeps_a_vehicle_ahead_that_a_policy_would_drive_through():
+    cfg = PlannerConfig()
+    # a car standing with its rear 3 m ahead of the ego's front: at 7 m/s the ego is 4 m past its rear
+    # at 1 s (through it); braking to a stand within 1 m falls short of 2 m less than driving on does.
+    # The car stays ahead of a policy that drives into it, so driving on is not "keeping the distance"
+    internals, obs = _following([7.0, 0.0], rear=3.0)
+    car = obs.vehicles
+    obs.vehicles = replace(car, v=np.zeros(1))
+    assert keeping_distance(internals, obs, cfg, ()).tolist() == [False, True]
+    # a car the ego passes in the next lane and then drives in front of is behind it, not run into
+    lat_d = np.zeros((1, cfg.n_steps))
+    lat_d[0, : int(2.0 / cfg.dt)] = 3.2  # beside the car's lane for 2 s, then in it, 11-17 m ahead of it
+    internals.lat.d = lat_d
+    obs.vehicles = replace(car, v=np.full(1, 5.0))
+    t = np.arange(cfg.n_steps) * cfg.dt
+    internals.lon.s[:] = np.outer([12.0, 15.0], t)
+    internals.lon.v[:] = np.array([[12.0], [15.0]])
+    assert keeping_distance(internals, obs, cfg, ()).tolist() == [True, True]
