@@ -255,12 +255,12 @@ class Episode:
                 if self.marks.signal_s
                 else {}
             )
-            | (  # only on routes with yield points (minor links)
-                {
-                    "sim/yields_passed": c.get("yields_passed", 0),
-                    "sim/yield_violations": c.get("yield_violations", 0),
-                }
-                if self.marks.yield_s
+            | (  # only on routes with yield points (minor links); the violations also at minor greens
+                {"sim/yields_passed": c.get("yields_passed", 0)} if self.marks.yield_s else {}
+            )
+            | (
+                {"sim/yield_violations": c.get("yield_violations", 0)}
+                if self.marks.yield_s or self.marks.signal_s
                 else {}
             )
         )

@@ -7,27 +7,41 @@ from typing import Any
 import numpy as np
 
 from irlsim.road import Road
+from irlsim.sim.minor_green import MinorGreen
 
 #: SUMO signal states on a link: red (and red-yellow), and yellow; the stop line binds while either shows
 RED_STATES = ("r", "R", "u")
 YELLOW_STATES = ("y", "Y")
+#: SUMO's permissive green (a minor link: a turn that yields to oncoming traffic on its green)
+PERMISSIVE = "g"
 
 
 class SignalWatch:
     """Each traffic light on the route, read on the ego's own lane's link into the route (lanes of one
     approach may show different signals: a green arrow beside a red): ``red`` (crossing it is a failure)
-    and ``binding`` (red or yellow: its stop line binds the ego). The ego's lane on a light's incoming edge
-    is the one it drives on there, or drove on last (a crossing is seen a step later, from the junction or
-    the next edge); where it has none yet, the route's middle lane's link."""
+    and ``binding`` (red or yellow: its stop line binds the ego; on SUMO's minor green 'g' while a foe with
+    priority is due: :mod:`irlsim.sim.minor_green`), ``permissive`` (the minor green), and ``violations``
+    (lines crossed on a minor green while they bound, last step). The ego's lane on a light's incoming
+    edge is the one it drives on there, or drove on last (a crossing is seen a step later, from the
+    junction or the next edge); where it has none yet, the route's middle lane's link. ``ego_length``,
+    ``v_max``: the ego's, for its time to clear a junction."""
 
-    def __init__(self, road: Road):
+    def __init__(self, road: Road, ego_length: float = 4.5, v_max: float = 13.9):
         self.signals = road.signals
+        self.lap = float(road.lap_length)
+        self.minor = MinorGreen(ego_length, min(v_max, road.max_speed_limit))
+        self.violations = 0
+        self._yielding = np.zeros(len(self.signals), dtype=bool)  # bound by a minor green last step
+        self._s = 0.0  # the ego's route position last step
         self.red = np.zeros(len(self.signals), dtype=bool)
         self.binding = np.zeros(len(self.signals), dtype=bool)
+        self.permissive = np.zeros(len(self.signals), dtype=bool)
         self._lanes: tuple[tuple[str, int], ...] = ()  # the ego's lane on its last two edges
 
-    def read(self, api: Any, ego: str) -> None:
-        """The lights' states after a step of ``api`` (libsumo or TraCI) for vehicle ``ego``."""
+    def read(self, api: Any, ego: str, ego_v: float = 0.0, ego_s: float | None = None) -> None:
+        """The lights' states after a step of ``api`` (libsumo or TraCI) for vehicle ``ego`` (at route
+        position ``ego_s`` and speed ``ego_v``: the minor greens are judged where it is given)."""
+        self.violations = 0
         if not self.signals:
             return
         try:
@@ -38,6 +52,29 @@ class SignalWatch:
             pass
         on = dict(self._lanes)
         tl = api.trafficlight
-        states = [tl.getRedYellowGreenState(g.tls)[g.link_of(on.get(g.edge, -1))] for g in self.signals]
+        full = {g.tls: tl.getRedYellowGreenState(g.tls) for g in self.signals}
+        states = [full[g.tls][g.link_of(on.get(g.edge, -1))] for g in self.signals]
         self.red = np.array([c in RED_STATES for c in states], dtype=bool)
         self.binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
+        self.permissive = np.array([c == PERMISSIVE for c in states], dtype=bool)
+        if ego_s is not None:
+            self._minor_greens(api, on, full, ego_v, ego_s)
+
+    def _minor_greens(
+        self, api: Any, on: dict[str, int], full: dict[str, str], ego_v: float, ego_s: float
+    ) -> None:
+        """Bind each minor green's line while a foe with priority is due; count a line crossed while it
+        bound the step before."""
+        yielding = np.zeros(len(self.signals), dtype=bool)
+        for i in np.flatnonzero(self.permissive):
+            g = self.signals[i]
+            to_line = (g.s - ego_s + self.lap / 2) % self.lap - self.lap / 2
+            link = g.link_of(on.get(g.edge, -1))
+            yielding[i] = self.minor.too_soon(api, g.tls, link, full[g.tls], to_line, ego_v)
+        if self._yielding.any():  # bound last step: crossed since?
+            lines = np.array([g.s for g in self.signals])
+            ahead = (lines - self._s + self.lap / 2) % self.lap - self.lap / 2
+            crossed = (ahead > 0) & (ahead <= ego_s - self._s)
+            self.violations = int((crossed & self._yielding).sum())
+        self.binding |= yielding
+        self._yielding, self._s = yielding, ego_s

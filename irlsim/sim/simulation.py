@@ -104,7 +104,7 @@ class Simulation:
         self.demo_type = DemoTypeFile(demo_vtype) if demo_vtype else None  # SumoDriver's type (.vtype)
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
         self.errors = SumoErrorLog()  # SUMO's reason where libsumo says only 'Process Error'
-        self.signals = SignalWatch(self.road)  # the route's traffic lights, on the ego's own lane
+        self.signals = SignalWatch(self.road, self.cfg.ego_length, self.cfg.ego_target_speed)  # on its lane
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
@@ -265,7 +265,7 @@ class Simulation:
         )
         self.odometry = []
         self._ego_by_sumo = False
-        self.signals = SignalWatch(road)
+        self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed)
         self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies()
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
@@ -316,8 +316,8 @@ class Simulation:
         new_obb = self._ego_collisions(state)
         new_sumo = self._sumo_collisions()
         teleports = int(api.simulation.getStartingTeleportNumber())
-        self.signals.read(api, EGO)
-        violations = self.yields.read(api, EGO, state.v, state.s)
+        self.signals.read(api, EGO, state.v, state.s)
+        violations = self.yields.read(api, EGO, state.v, state.s) + self.signals.violations
         if bookkeeping:
             self.episode.update(
                 state,

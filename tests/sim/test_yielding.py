@@ -11,7 +11,7 @@ import pytest
 from irlsim.road import load_road
 from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
-from irlsim.sim import yielding
+from irlsim.sim import minor_green, signals, yielding
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.simulation import Simulation
@@ -147,3 +147,63 @@ def test_a_violation_is_counted_like_a_red_crossing():
     st = ep.stats()
     assert st["sim/yields_passed"] == 1 and st["sim/yield_violations"] == 1
     assert "sim/yield_violations" not in Episode(dataclasses.replace(marks, yield_s=()), 1, 100.0).stats()
+
+
+#: a signalised crossing: the ego turns left from the west into the north, on SUMO's minor green 'g',
+#: across a platoon going straight from the east on the same green
+X_NODES = (
+    '<node id="w" x="-400" y="0"/><node id="e" x="400" y="0"/><node id="n" x="0" y="300"/>'
+    '<node id="s" x="0" y="-300"/><node id="j" x="0" y="0" type="traffic_light"/>'
+)
+X_EDGES = "".join(
+    f'<edge id="{a}{b}" from="{a}" to="{b}" numLanes="1" speed="13.9"/>'
+    for a, b in ("wj", "je", "ej", "jw", "nj", "jn", "sj", "js")
+)
+ONCOMING = """<routes>
+    <vType id="car" length="4.5" minGap="2.5" sigma="0" speedDev="0"/>
+    <flow id="p" type="car" begin="0" end="{end}" period="2" departSpeed="max"><route edges="ej jw"/></flow>
+</routes>
+"""
+
+
+def _crossing(tmp_path, end: float):
+    more = '\n[traffic]\nroutes = ["demand.rou.xml"]\nwarmup = 0.0\n'
+    folder = make_scenario(tmp_path / "x", X_NODES, X_EDGES, 'edges = ["wj", "jn"]', more=more)
+    (folder / "demand.rou.xml").write_text(ONCOMING.format(end=end))
+    road = load_road(scenario=folder)
+    (signal,) = road.signals
+    cfg = EpisodeConfig(
+        name="x", max_time=120.0, ego_start_random=False, ego_start_s=signal.s - 100.0, ego_start_speed=10.0
+    )
+    return road, cfg
+
+
+def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_path, monkeypatch):
+    road, cfg = _crossing(tmp_path, end=40.0)
+    (signal,) = road.signals
+    assert road.yield_points == ()  # a light, no minor link without one
+    with Simulation(road, cfg) as sim:
+        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        od = sim.odometry_arrays()
+    st = res.stats
+    line = signal.s
+    waited = (od["v"] < 0.1) & (od["s"] <= line) & (od["s"] > line - 15.0)
+    assert st["sim/red_crossings"] == 0 and st["sim/signals_passed"] == 1
+    assert st["sim/yield_violations"] == 0 and st["sim/collisions"] == 0
+    assert waited.sum() * 0.1 >= 5.0  # it stood at the line on its green while the platoon passed
+    # the same episode with the minor green judged but not holding the ego: it turns across the platoon,
+    # a violation; with no foe seen at all, no violation and a collision
+    judge = signals.SignalWatch._minor_greens
+
+    def not_holding(self, *args):
+        judge(self, *args)
+        self.binding &= ~self._yielding
+
+    monkeypatch.setattr(signals.SignalWatch, "_minor_greens", not_holding)
+    with Simulation(road, cfg) as sim:
+        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+    assert res.stats["sim/yield_violations"] == 1
+    monkeypatch.setattr(minor_green.MinorGreen, "too_soon", lambda self, *args: False)
+    with Simulation(road, cfg) as sim:
+        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+    assert res.stats["sim/yield_violations"] == 0 and res.stats["sim/collisions"] == 1
