@@ -91,6 +91,8 @@ class Recording:
     unrouted: tuple[str, ...] = ()
     #: [V] [m] per vehicle, its recorded length and width, where the recording has them
     size: dict[str, np.ndarray] = field(default_factory=dict)
+    #: [s] the recording's own sampling interval (the median time between a vehicle's rows; 0: not known)
+    interval: float = 0.0
     #: per vehicle, SUMO's class of its type where the recording's types were read (``ReadAs``); empty: not
     vclass: tuple[str, ...] = ()
 
@@ -386,6 +388,8 @@ def resample(
     bounds = np.r_[starts, len(order)]
     ids, start, t0s, parts, edges, unrouted = [], [0], [], [], [], []
     kept: list[int] = []  # the vehicles (groups) kept
+    gaps = [np.diff(rows.t[order[a:b]]) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+    gap = np.concatenate(gaps) if gaps else np.zeros(0)
     for g, (a, b) in enumerate(zip(bounds[:-1], bounds[1:], strict=True)):  # per vehicle, not per row
         idx = order[a:b]
         t = rows.t[idx]
@@ -420,6 +424,7 @@ def resample(
         unrouted=tuple(unrouted),
         size={c: col[order[kept]] for c, col in rows.size.items()},
         vclass=tuple(str(c) for c in vclass[order[kept]]) if vclass is not None else (),
+        interval=float(np.median(gap[gap > 0])) if (gap > 0).any() else 0.0,
     )
 
 

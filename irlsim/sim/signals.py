@@ -24,9 +24,12 @@ class SignalWatch:
     (lines crossed on a minor green while they bound, last step). The ego's lane on a light's incoming
     edge is the one it drives on there, or drove on last (a crossing is seen a step later, from the
     junction or the next edge); where it has none yet, the route's middle lane's link. ``ego_length``,
-    ``v_max``: the ego's, for its time to clear a junction."""
+    ``v_max``: the ego's, for its time to clear a junction. ``grace`` [s] > 0: a light that turns from red
+    to another state for the ego's link within ``grace`` is not ``red`` (a recorded ego replayed between
+    rows ``grace`` + a step apart: SUMO moves a vehicle through the step that ends as its light turns
+    green, and the recording's row at that time is already past the line)."""
 
-    def __init__(self, road: Road, ego_length: float = 4.5, v_max: float = 13.9):
+    def __init__(self, road: Road, ego_length: float = 4.5, v_max: float = 13.9, grace: float = 0.0):
         self.signals = road.signals
         self.lap = float(road.lap_length)
         self.minor = MinorGreen(ego_length, min(v_max, road.max_speed_limit))
@@ -37,6 +40,8 @@ class SignalWatch:
         self.binding = np.zeros(len(self.signals), dtype=bool)
         self.permissive = np.zeros(len(self.signals), dtype=bool)
         self._lanes: tuple[tuple[str, int], ...] = ()  # the ego's lane on its last two edges
+        self.grace = float(grace)
+        self._programs: dict[tuple[str, str], list[str]] = {}  # (tls, program) -> its phases' states
 
     def read(self, api: Any, ego: str, ego_v: float = 0.0, ego_s: float | None = None) -> None:
         """The lights' states after a step of ``api`` (libsumo or TraCI) for vehicle ``ego`` (at route
@@ -55,10 +60,30 @@ class SignalWatch:
         full = {g.tls: tl.getRedYellowGreenState(g.tls) for g in self.signals}
         states = [full[g.tls][g.link_of(on.get(g.edge, -1))] for g in self.signals]
         self.red = np.array([c in RED_STATES for c in states], dtype=bool)
+        if self.grace > 0.0 and self.red.any():
+            links = [g.link_of(on.get(g.edge, -1)) for g in self.signals]
+            self.red &= ~np.array(
+                [self._turns_soon(api, g.tls, k) for g, k in zip(self.signals, links, strict=True)]
+            )
         self.binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
         self.permissive = np.array([c == PERMISSIVE for c in states], dtype=bool)
         if ego_s is not None:
             self._minor_greens(api, on, full, ego_v, ego_s)
+
+    def _turns_soon(self, api: Any, tls: str, link: int) -> bool:
+        """Whether ``tls`` switches within ``grace`` to a phase that shows ``link`` other than red."""
+        tl = api.trafficlight
+        if tl.getNextSwitch(tls) - api.simulation.getTime() > self.grace + 1e-9:
+            return False
+        key = (tls, tl.getProgram(tls))
+        if key not in self._programs:
+            logic = next((lg for lg in tl.getAllProgramLogics(tls) if lg.programID == key[1]), None)
+            self._programs[key] = [ph.state for ph in logic.phases] if logic is not None else []
+        phases = self._programs[key]
+        if not phases:
+            return False
+        nxt = phases[(tl.getPhase(tls) + 1) % len(phases)]
+        return link < len(nxt) and nxt[link] not in RED_STATES
 
     def _minor_greens(
         self, api: Any, on: dict[str, int], full: dict[str, str], ego_v: float, ego_s: float

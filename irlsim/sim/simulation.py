@@ -105,6 +105,7 @@ class Simulation:
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
         self.errors = SumoErrorLog()  # SUMO's reason where libsumo says only 'Process Error'
         self.signals = SignalWatch(self.road, self.cfg.ego_length, self.cfg.ego_target_speed)  # on its lane
+        self.red_grace = 0.0  # [s] SignalWatch's grace (a recorded ego replayed between its rows)
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
         self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
@@ -265,7 +266,7 @@ class Simulation:
         )
         self.odometry = []
         self._ego_by_sumo = False
-        self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed)
+        self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed, self.red_grace)
         self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies()
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None

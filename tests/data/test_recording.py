@@ -76,6 +76,7 @@ def test_fcd_round_trip_and_resampling(fcd):
         assert math.remainder(tr["heading"][j] - yaw, 2 * math.pi) == pytest.approx(0.0, abs=1e-9)
     tr = rec.track("veh0")
     assert np.allclose(np.diff(tr["t"]), 0.1)  # 0.5 s rows -> 0.1 s, linear in between
+    assert rec.step == 0.1 and rec.interval == pytest.approx(0.5)  # and the rows' own interval is kept
     assert tr["x"][2] == pytest.approx(0.6 * tr["x"][0] + 0.4 * tr["x"][5])
     n0 = sum(1 for r in rows if r[0] == "veh0")
     assert len(tr["t"]) == (n0 - 1) * 5 + 1
