@@ -144,8 +144,8 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         metavar="HEADWAY",
         help="a learned model keeps a safe following distance to the vehicle ahead: HEADWAY seconds "
         f"(alone: the expert's check, {FOLLOW_HEADWAY:g} s) plus 2 m, and room to brake to its speed at 3 "
-        "m/s^2; where no policy does, it falls short least (a rule of the road; default: the reward alone "
-        "decides, the paper's)",
+        "m/s^2 (a vehicle braking harder than 1 m/s^2 seen braking on to a stand); where no policy does, it "
+        "falls short least (a rule of the road; default: the reward alone decides, the paper's)",
     )
     p.add_argument(
         "--in-lane",

@@ -264,9 +264,19 @@ class ThetaDriver:
         self.last_theta: np.ndarray | None = None
         self.heading: int | None = None  # the lane a lane change under way heads to (with commit)
         self.stopping = False  # the last policy chosen comes to a stand (with commit)
+        self._speeds: tuple[float, dict[str, float]] = (0.0, {})  # the vehicles' speeds last cycle
 
     def reset(self) -> None:
-        self.heading, self.stopping = None, False
+        self.heading, self.stopping, self._speeds = None, False, (0.0, {})
+
+    def _accelerations(self, obs: Observation) -> np.ndarray:
+        """[M] m/s^2: each vehicle's speed change since the last cycle (0 for one not seen then)."""
+        veh, (t0, before) = obs.vehicles, self._speeds
+        dt = obs.ego.t - t0
+        prev = np.array([before.get(i, np.nan) for i in veh.ids], dtype=np.float64)
+        accel = np.where(np.isfinite(prev) & (dt > 0), (veh.v - prev) / max(dt, 1e-9), 0.0)
+        self._speeds = (obs.ego.t, dict(zip(veh.ids, veh.v.tolist(), strict=True)))
+        return accel
 
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
@@ -279,7 +289,8 @@ class ThetaDriver:
         braking = within_braking_curve(ps, obs.stop_s, cfg) if self.full_stop else None
         distance = None
         if self._follow is not None and self.planner.last is not None:
-            distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow)
+            accel = self._accelerations(obs)  # a leader braking hard is predicted braking on
+            distance = keeping_distance(self.planner.last, obs, cfg, self._stop_lines, self._follow, accel)
         rules = (self.heading, stopping, braking, distance)
         idx = choose_index(
             ps, theta, self.safe, self.choice, self.lane_change_bias, *rules, in_lane=self.in_lane
@@ -381,17 +392,19 @@ def keeping_distance(
     cfg: PlannerConfig,
     stop_lines: tuple[float, ...],
     sel: SelectionConfig | None = None,
+    accel: np.ndarray | None = None,
 ) -> np.ndarray:
     """[N] bool: the policies that keep a safe following distance to the vehicle predicted ahead of them
     in their lane at 1..5 s: the expert's following check
     (:func:`~irlsim.planner.following.lane_outlook`'s shortfall with ``sel``, default the expert's: a
     headway of 0.8 s plus 2 m, and room to brake to that vehicle's speed at 3 m/s^2; vehicles at constant
-    speed, standing at the stop line they reach; a vehicle the policy would drive into stays ahead).
+    speed or, with ``accel``, braking on, standing at the stop line they reach; a vehicle the policy would
+    drive into stays ahead).
     Where every policy falls short (a car cut in, a leader braked), those within ``KEEP_DISTANCE_TOL`` of
     the least shortfall. ``internals``: the planner's ``last`` of this cycle; ``stop_lines``: the road's
-    (route positions [m])."""
+    (route positions [m]); ``accel``: the vehicles' accelerations (a braking one predicted braking on)."""
     sel = sel or SelectionConfig()
-    shortfall, _ = lane_outlook(internals, obs, sel, cfg.dt, stop_lines, cfg.ego_width, cfg.v_target)
+    shortfall, _ = lane_outlook(internals, obs, sel, cfg.dt, stop_lines, cfg.ego_width, cfg.v_target, accel)
     least = float(shortfall.min())
     return shortfall <= (least + KEEP_DISTANCE_TOL if least > 0.0 else 0.0)
 

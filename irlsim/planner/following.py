@@ -19,8 +19,11 @@ def lane_outlook(
     stop_lines: tuple[float, ...],
     ego_width: float,
     v_target: float,
+    accel: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """(shortfall [N] m, outlook [N] m) of every policy against the vehicles predicted ahead of it.
+    ``accel`` [M] m/s^2 (``obs.vehicles``' order; None: every one at constant speed): a vehicle braking
+    harder than ``BRAKING`` is predicted to brake on at that rate to a stand (:func:`braking_travel`).
 
     shortfall: by how much the policy falls short, at worst over the check times
     ``sel.follow_times`` [s], of a safe following distance to the vehicle predicted ahead of it in its
@@ -54,8 +57,7 @@ def lane_outlook(
     cols = [min(int(round(t / dt)), lon.s.shape[1] - 1) for t in sel.follow_times]
     t = np.array([c * dt for c in cols])  # [C]
     v_m = veh.v[near][:, None]  # [M, 1]
-    travel = v_m * t[None, :]  # [M, C]
-    v_c = np.broadcast_to(v_m, travel.shape).copy()
+    travel, v_c = braking_travel(v_m, None if accel is None else accel[near][:, None], t)  # [M, C] each
     # where each stands at the next stop line, queue included (the planner's prediction)
     to_stop = predicted_stop_distance(veh.s, veh.d, veh.length, veh.width, stop_lines, lap)[near][:, None]
     stands = travel >= to_stop  # False where to_stop is inf (no stop line within reach)
@@ -86,6 +88,22 @@ def lane_outlook(
     limited = np.maximum(g_lead - sel.follow_gap, 0.0) + v_c[lead, -1] * sel.outlook_time
     outlook = np.where(np.isfinite(g_lead), np.minimum(outlook, limited), outlook)
     return shortfall, outlook
+
+
+#: [m/s^2] a vehicle decelerating harder than this is predicted braking on (``lane_outlook``'s ``accel``)
+BRAKING = -1.0
+
+
+def braking_travel(v: np.ndarray, a: np.ndarray | None, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(travel [M, C] m, speed [M, C] m/s) at the times ``t`` [C] of vehicles at speeds ``v`` [M, 1]: at
+    constant speed, or where ``a`` [M, 1] is below ``BRAKING``, braking at ``a`` until they stand."""
+    travel, speed = v * t[None, :], np.broadcast_to(v, (len(v), len(t))).copy()
+    if a is None:
+        return travel, speed
+    brake = a < BRAKING
+    decel = np.where(brake, -a, 1.0)
+    tt = np.minimum(t[None, :], v / decel)  # braking until the stand
+    return np.where(brake, v * tt - 0.5 * decel * tt**2, travel), np.where(brake, v - decel * tt, speed)
 
 
 def _ahead_in_lane(same: np.ndarray, gap: np.ndarray, ahead_now: np.ndarray) -> np.ndarray:

@@ -21,6 +21,7 @@ from irlsim.planner.expert import (
     keeping_distance,
     within_braking_curve,
 )
+from irlsim.planner.following import braking_travel
 from irlsim.planner.policy_set import PolicySet
 from irlsim.sim.types import VehicleStates
 
@@ -315,3 +316,38 @@ def test_the_following_rule_keeps_a_vehicle_ahead_that_a_policy_would_drive_thro
     internals.lon.s[:] = np.outer([12.0, 15.0], t)
     internals.lon.v[:] = np.array([[12.0], [15.0]])
     assert keeping_distance(internals, obs, cfg, ()).tolist() == [True, True]
+
+
+def test_the_following_rule_sees_a_leader_braking_on():
+    cfg = PlannerConfig()
+    # the car 20 m ahead at 20 m/s, braking at 4 m/s^2: at constant speed a policy at 20 m/s keeps its
+    # 0.8 s + 2 m = 18 m; braking on, the car stands after 5 s and 50 m, so the gap at 5 s is
+    # 20 + 50 - 100 < 0: short. A policy that brakes as the car does keeps it
+    internals, obs = _following([20.0, 20.0], rear=20.0)
+    t = np.arange(cfg.n_steps) * cfg.dt
+    v = np.maximum(20.0 - 4.0 * t, 0.0)
+    internals.lon.v[1], internals.lon.s[1] = v, np.concatenate([[0.0], np.cumsum(v[1:] * cfg.dt)])
+    assert keeping_distance(internals, obs, cfg, ()).tolist() == [True, True]
+    braking = np.full(1, -4.0)
+    assert keeping_distance(internals, obs, cfg, (), accel=braking).tolist() == [False, True]
+    assert keeping_distance(internals, obs, cfg, (), accel=np.full(1, -0.5)).tolist() == [True, True]
+    # the prediction in closed form: 20 m/s braking at 4 m/s^2 stands after 5 s, 50 m on
+    travel, speed = braking_travel(
+        np.array([[20.0], [20.0]]), np.array([[-4.0], [0.0]]), np.array([1.0, 5.0, 6.0])
+    )
+    assert travel.tolist() == [[18.0, 50.0, 50.0], [20.0, 100.0, 120.0]]
+    assert speed.tolist() == [[16.0, 0.0, 0.0], [20.0, 20.0, 20.0]]
+
+
+def test_the_driver_reads_each_vehicles_acceleration_from_its_last_cycle():
+    driver = ThetaDriver(_Planner([]), lambda ps, obs: E0)  # type: ignore[arg-type]
+
+    def seen(t: float, ids: tuple[str, ...], v: list[float]) -> SimpleNamespace:
+        veh = SimpleNamespace(ids=ids, v=np.array(v))
+        return SimpleNamespace(ego=SimpleNamespace(t=t), vehicles=veh)
+
+    assert driver._accelerations(seen(10.0, ("a", "b"), [20.0, 8.0])).tolist() == [0.0, 0.0]  # first seen
+    got = driver._accelerations(seen(10.2, ("b", "c"), [7.0, 3.0]))  # b braked 1 m/s in 0.2 s; c is new
+    assert got.tolist() == pytest.approx([-5.0, 0.0])
+    driver.reset()
+    assert driver._accelerations(seen(10.4, ("b",), [6.0])).tolist() == [0.0]  # a new episode: none seen
