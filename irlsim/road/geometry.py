@@ -39,6 +39,12 @@ REF_STEP = 0.5  # [m] reference line resampling
 #: beyond an open route's ends) and still count as on the road
 CHECKPOINT_MARGIN = 1.0
 SMOOTH_HALF_WINDOW = 8.0  # [m] the reference is smoothed over +-8 m: SUMO's 6-degree shape kinks vanish
+#: [m] in a tight turn the window narrows so that the smoothing moves the line inwards by about this much
+#: (a moving average over +-h on radius R moves it by about h^2 / (6 R); R read over +-8 m, which makes a
+#: junction's turn look wider than it is): +-8 m cut a netgenerate grid's right turns by 1.0-1.7 m, the
+#: ego's lane into the next lane's turn, now 0.3-0.5 m; every shipped route keeps +-8 m (its tightest
+#: bend, 153 m on the oval, allows 9.6 m)
+SMOOTH_SHIFT = 0.1
 RAMP_RANGE = 160.0  # [m] of an exit ramp kept in the route frame, from where it leaves lane 0
 OPEN_EXTENSION = 300.0  # [m] an open route's reference runs on straight this far beyond both ends
 #: [m] the shortest open route: its reference runs on OPEN_EXTENSION beyond both ends, so the planner's
@@ -269,7 +275,8 @@ class Road:
         speeds = [float(self.net.getEdge(e).getSpeed()) for e in self.edges]
         self._vmax = route.edge_table(self.ref_s, self._edge_bounds, speeds, self.closed)
         self._vmax_min, self._vmax_max = float(self._vmax.min()), float(self._vmax.max())
-        self._vturn = turn_speeds(self._kappa)  # [m/s] per reference vertex, inf where no turn
+        inner = (self.layout.n_lanes - 1) / 2 * self.layout.width  # [m] the innermost lane's offset
+        self._vturn = turn_speeds(self._kappa, inner)  # [m/s] per reference vertex, inf where no turn
         self._turns = bool(np.isfinite(self._vturn).any())
         self._centrelines: dict[int, LaneCentreline] = {}
 
@@ -984,10 +991,13 @@ class Road:
         }
 
 
-def turn_speeds(kappa: np.ndarray) -> np.ndarray:
-    """[M] [m/s] the speed of a turn at each reference vertex from its curvature ``kappa`` [M] [1/m]:
-    TURN_LAT_ACC of lateral acceleration where the radius is below TURN_RADIUS, inf elsewhere."""
+def turn_speeds(kappa: np.ndarray, inner: float = 0.0) -> np.ndarray:
+    """[M] [m/s] the speed of a turn at each reference vertex from its curvature ``kappa`` [M] [1/m] on the
+    lane ``inner`` metres inside the reference (the innermost: the reference follows a junction's own
+    lanes, whose inner one turns tighter): TURN_LAT_ACC of lateral acceleration where that lane's radius
+    is below TURN_RADIUS, inf elsewhere."""
     k = np.abs(kappa)
+    k = k / np.maximum(1.0 - k * inner, 0.2)  # the inner lane's curvature
     return np.where(k > 1.0 / TURN_RADIUS, np.sqrt(TURN_LAT_ACC / np.maximum(k, 1e-9)), np.inf)
 
 
@@ -1006,12 +1016,36 @@ def _dilate(a: np.ndarray, r: int, op: np.ufunc, fill: int) -> np.ndarray:
 
 
 def _smooth_closed(pts: np.ndarray, half_window: float) -> np.ndarray:
-    """Moving average of a closed, evenly sampled polyline over +-half_window metres."""
+    """Moving average of a closed, evenly sampled polyline over +-half_window metres (narrower in tight
+    turns: :func:`_tight_turns`)."""
     step = float(np.linalg.norm(pts[1] - pts[0]))
     w = max(1, int(round(half_window / step)))
     kern = np.ones(2 * w + 1) / (2 * w + 1)
     padded = np.concatenate([pts[-w:], pts, pts[:w]])
-    return np.stack([np.convolve(padded[:, k], kern, mode="valid") for k in range(2)], axis=1)
+    out = np.stack([np.convolve(padded[:, k], kern, mode="valid") for k in range(2)], axis=1)
+    return _tight_turns(padded, out, w, step)
+
+
+def _tight_turns(padded: np.ndarray, smoothed: np.ndarray, w: int, step: float) -> np.ndarray:
+    """``smoothed`` (the moving average over +-``w`` vertices of ``padded``, [N + 2w, 2] evenly sampled
+    ``step`` apart) where the line turns gently, and over a narrower window +-k where it turns tightly:
+    k the vertices of sqrt(6 SMOOTH_SHIFT R), R the radius the line turns on over +-w vertices (its
+    heading change between the chords back and ahead), the least within +-w, so the window narrows before
+    a turn as well. Vertices that keep +-w keep their bytes."""
+    a = padded[w:-w] - padded[: -2 * w]
+    b = padded[2 * w :] - padded[w:-w]
+    turn = np.abs(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1)))  # [N] rad
+    radius = 2 * w * step / np.maximum(turn, 1e-12)
+    k = np.clip(np.floor(np.sqrt(6.0 * SMOOTH_SHIFT * radius) / step), 1, w).astype(np.int64)
+    if (k >= w).all():
+        return smoothed
+    k = np.lib.stride_tricks.sliding_window_view(np.pad(k, w, mode="edge"), 2 * w + 1).min(axis=1)
+    tight = np.flatnonzero(k < w)
+    csum = np.concatenate([np.zeros((1, 2)), np.cumsum(padded, axis=0)])
+    mid, kk = tight + w, k[tight][:, None]
+    out = smoothed.copy()
+    out[tight] = (csum[mid + kk[:, 0] + 1] - csum[mid - kk[:, 0]]) / (2 * kk + 1)
+    return out
 
 
 def _open_length(pts: np.ndarray) -> float:
@@ -1061,7 +1095,8 @@ def _open_reference(centre: np.ndarray) -> np.ndarray:
     steps = np.arange(1, k + 1)[:, None] * h
     ext = np.vstack([(core[0] + steps * u0)[::-1], core, core[-1] + steps * u1])
     kern = np.ones(2 * w + 1) / (2 * w + 1)
-    return np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
+    out = np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
+    return _tight_turns(ext, out, w, h)
 
 
 #: the networks read in this process, the most recent last: (network, its mtime and size) -> sumolib net.

@@ -57,10 +57,14 @@ def test_the_reference_follows_the_turns(grid_turns):
     # caps its target by the lowest turn speed within its horizon's reach)
     v5 = np.array([road.turn_speed_over(float(a) - 5.0, float(a) + 5.0) for a in s])
     assert (v5[turning] ** 2 * np.abs(kappa[turning]) <= TURN_LAT_ACC * 1.02).all()
-    # the reference follows each turn's junction lane moved onto the middle of the road (within 2 m: it
-    # is smoothed over +-8 m), also where the middle lane turns neither way: no chord across the corner
-    x, y = road.to_xy(s, np.zeros_like(s))
+    # the reference follows each turn's junction lane moved onto the middle of the road, also where the
+    # middle lane turns neither way: no chord across the corner. Within 0.6 m: the smoothing's window
+    # narrows in a tight turn (over +-8 m it cut this grid's right turns by 1.0-1.7 m, the ego's lane
+    # into the next lane's turn)
+    fine = np.arange(road.route_begin_s, road.route_end_s, 0.1)
+    x, y = road.to_xy(fine, np.zeros_like(fine))
     middle = (road.n_lanes - 1) / 2
+    gaps = []
     for a, b in zip(ROUTE, ROUTE[1:], strict=False):
         for ln in road.net.getEdge(a).getLanes():
             for c in ln.getOutgoing():
@@ -68,7 +72,8 @@ def test_the_reference_follows_the_turns(grid_turns):
                     via = np.asarray(road.net.getLane(c.getViaLaneID()).getShape())
                     via = offset_polyline(via, (middle - ln.getIndex()) * road.lane_width)
                     gap = np.hypot(via[:, 0][:, None] - x, via[:, 1][:, None] - y).min(axis=1)
-                    assert gap.max() < 2.0, (a, b, ln.getIndex())
+                    gaps.append(gap.max())
+    assert max(gaps) < 0.6, gaps
     # the shipped roads have no turn at a junction: no turn speed, their planners as before
     for name in ("oval", "ramp", "motorway", "corridor", "grid"):
         other = load_road(scenario=name)
