@@ -1,8 +1,9 @@
-"""Vehicle bodies in the ego's collision check: a car is one box along its heading, a long vehicle a chain
-of boxes along the path its front drove. Closed-form cases: on a straight path the chain is the rigid box
-(the same overlaps with any box), and where the front has turned through a lane's shift (SUMO's game
-crossing: a 16.25 m truck-trailer whose front turned 14-21 degrees) the chain stays in its lane where
-the rigid box swings its rear across into the oncoming truck."""
+"""Vehicle bodies in the ego's collision check: another car is one box along its heading, a long vehicle
+and the ego a chain of boxes along the path its front drove. Closed-form cases: on a straight path the
+chain is the rigid box (the same overlaps with any box); where the front has turned through a lane's
+shift (SUMO's game crossing: a 16.25 m truck-trailer whose front turned 14-21 degrees) the chain stays in
+its lane where the rigid box swings its rear across into the oncoming truck; and a car ego in a tight
+turn does not swing its rear into the car turning beside it."""
 
 from __future__ import annotations
 
@@ -83,7 +84,7 @@ def test_the_simulation_check_keeps_each_long_vehicles_path():
         hit = bodies.hits(car, 4.5, 1.8, veh, np.array([0]))
         assert not hit[0], k
     assert obb_collide(car.x, car.y, car.yaw, 4.5, 1.8, x, y, yaw, length, width)  # rigid: a false hit
-    assert len(bodies.trails["truck"]) > 2 and bodies.ego_trail == []  # a car's own trail is not kept
+    assert len(bodies.trails["truck"]) > 2 and len(bodies.ego_trail) == 1  # the standing car's own trail
     # the truck as the ego, the car as the other: the same chain from the ego's own trail
     ego_bodies = Bodies()
     none = VehicleStates.empty()
@@ -96,3 +97,28 @@ def test_the_simulation_check_keeps_each_long_vehicles_path():
     assert not ego_bodies.hits(ego, length, width, oncoming, np.array([0]))[0]
     ego_bodies = Bodies()  # a new episode's
     assert ego_bodies.hits(ego, length, width, oncoming, np.array([0]))[0]  # no trail: the rigid box
+
+
+def test_a_car_ego_turning_tightly_is_a_box_along_its_path():
+    """Through a junction's right turn of 6 m radius a 4.5 m car's body lies along the chord from its front
+    to where its front was 4.5 m before (its rear follows the path); a box along its front's heading
+    swings its rear 1.5 m outwards (sqrt(6^2 + 4.5^2) - 6) into the car turning beside it 3.2 m further
+    out and 1 m behind, whose heading SUMO gives from its rear to its front (both on its lane), which its
+    body does not touch."""
+    r, length, width = 6.0, 4.5, 1.8
+    ang = np.arange(0.0, math.pi / 2, 0.25 / r)  # clockwise round (0, 0) from the top: a right turn
+    pts = [(r * math.sin(a), r * math.cos(a)) for a in ang]
+    bodies = Bodies()
+    for px, py in pts[:-1]:
+        bodies.hits(state(px, py, 0.0), length, width, VehicleStates.empty(), np.zeros(0, int))
+    a = ang[-1]
+    x, y, yaw = pts[-1][0], pts[-1][1], -a  # the front, heading along the turn (ENU: east at the top)
+    out = r + 3.2  # the car in the next lane's turn, its front 1 m behind the ego's
+    ao = a - 1.0 / out
+    fx, fy = out * math.sin(ao), out * math.cos(ao)
+    back = ao - length / out  # where its rear is on its lane
+    chord = math.atan2(fy - out * math.cos(back), fx - out * math.sin(back))
+    box = (fx, fy, chord, 4.5, 1.8)
+    other = VehicleStates(("car",), *(np.array([v]) for v in (fx, fy, chord, 5.0, 0.0, 0.0, 4.5, 1.8)))
+    assert obb_collide(x, y, yaw, length, width, *box)  # along the front's heading: a hit
+    assert not bodies.hits(state(x, y, yaw), length, width, other, np.array([0]))[0]  # along its path: none
