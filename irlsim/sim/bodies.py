@@ -31,6 +31,9 @@ LONG_VEHICLE = 7.5
 PART = 5.0
 #: [m] a trail point is kept where the front has moved at least this far from the last one
 TRAIL_STEP = 0.25
+#: [rad] a front that moved more than this off its heading jumped sideways (SUMO's instantaneous lane
+#: change moves a vehicle 3.2 m sideways in one step): its trail starts again from the new point
+TRAIL_JUMP = math.pi / 4
 
 
 def chain(
@@ -67,14 +70,26 @@ def chain(
 class Bodies:
     """The trails of the long vehicles and of the ego through an episode, and the ego's check."""
 
-    def __init__(self) -> None:
+    def __init__(self, ego_along_path: bool = True) -> None:
+        """``ego_along_path`` False: a car ego is one box along its heading, as other cars are (a recorded
+        ego replayed as recorded: SUMO changed its lane in one step, the recording's rows a second apart
+        draw that across both lanes, and its recorded heading stays along the lane)."""
         self.trails: dict[str, list[tuple[float, float]]] = {}
         self.ego_trail: list[tuple[float, float]] = []
+        self.ego_along_path = ego_along_path
 
     @staticmethod
-    def _follow(trail: list[tuple[float, float]], x: float, y: float, length: float) -> None:
-        """Add the front (``x``, ``y``) to ``trail`` where it moved, keeping a vehicle's length and a part."""
+    def _follow(trail: list[tuple[float, float]], x: float, y: float, yaw: float, length: float) -> None:
+        """Add the front (``x``, ``y``, heading ``yaw``) to ``trail`` where it moved, keeping a vehicle's
+        length and a part; where it moved more than TRAIL_JUMP off its heading (sideways: a lane change
+        SUMO made in one step, or a recording's rows a second apart interpolated across it) the trail
+        starts again there (the body then lies straight back along the heading, as a rigid box)."""
         if not trail or math.hypot(x - trail[-1][0], y - trail[-1][1]) >= TRAIL_STEP:
+            if trail:
+                dx, dy = x - trail[-1][0], y - trail[-1][1]
+                off = math.atan2(dy, dx) - yaw
+                if abs(math.atan2(math.sin(off), math.cos(off))) > TRAIL_JUMP:
+                    trail.clear()
             trail.append((x, y))
             while len(trail) > 2 and _arc(trail[1:]) > length + PART:
                 trail.pop(0)
@@ -90,11 +105,14 @@ class Bodies:
             del self.trails[vid]
         for i in long:
             trail = self.trails.setdefault(veh.ids[i], [])
-            self._follow(trail, float(veh.x[i]), float(veh.y[i]), float(veh.length[i]))
-        self._follow(self.ego_trail, ego.x, ego.y, length)  # the ego's body follows its path, any length
+            self._follow(trail, float(veh.x[i]), float(veh.y[i]), float(veh.yaw[i]), float(veh.length[i]))
+        self._follow(
+            self.ego_trail, ego.x, ego.y, ego.yaw, length
+        )  # the ego's body follows its path, any length
         if not len(near):
             return np.zeros(0, dtype=bool)
-        ex, ey, eyaw, elen, ewid = chain(self.ego_trail, ego.x, ego.y, ego.yaw, length, width, along=True)
+        along = self.ego_along_path
+        ex, ey, eyaw, elen, ewid = chain(self.ego_trail, ego.x, ego.y, ego.yaw, length, width, along=along)
         if len(ex) == 1 and not np.any(veh.length[near] > LONG_VEHICLE):
             return obb_collide(
                 ex[0], ey[0], eyaw[0], length, width,

@@ -108,6 +108,7 @@ class Simulation:
         self.red_grace = 0.0  # [s] SignalWatch's grace (a recorded ego replayed between its rows)
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
+        self.ego_along_path = True  # Bodies': the ego's body along its path (False: a recorded ego replayed)
         self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
@@ -267,7 +268,7 @@ class Simulation:
         self.odometry = []
         self._ego_by_sumo = False
         self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed, self.red_grace)
-        self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies()
+        self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies(self.ego_along_path)
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
         self._wall = self._sumo_wall = 0.0

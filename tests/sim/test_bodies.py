@@ -122,3 +122,24 @@ def test_a_car_ego_turning_tightly_is_a_box_along_its_path():
     other = VehicleStates(("car",), *(np.array([v]) for v in (fx, fy, chord, 5.0, 0.0, 0.0, 4.5, 1.8)))
     assert obb_collide(x, y, yaw, length, width, *box)  # along the front's heading: a hit
     assert not bodies.hits(state(x, y, yaw), length, width, other, np.array([0]))[0]  # along its path: none
+    # a recorded ego replayed as recorded keeps the box along its (recorded) heading
+    rigid = Bodies(ego_along_path=False)
+    for px, py in pts[:-1]:
+        rigid.hits(state(px, py, 0.0), length, width, VehicleStates.empty(), np.zeros(0, int))
+    assert rigid.hits(state(x, y, yaw), length, width, other, np.array([0]))[0]
+
+
+def test_a_lane_change_in_one_step_does_not_lay_the_body_across_both_lanes():
+    """SUMO's instantaneous lane change moves a vehicle 3.2 m sideways in one step: the trail starts again
+    there, so the body of the car that stands after it lies in its new lane, not across into the old one,
+    where a car passes."""
+    bodies = Bodies()
+    for y in np.arange(-30.0, 0.0, 0.5):  # north along x = 0, then one step to x = 3.2, and it stands
+        bodies.hits(state(0.0, float(y), math.pi / 2), 4.5, 1.8, VehicleStates.empty(), np.zeros(0, int))
+    for _ in range(3):
+        bodies.hits(state(3.2, 0.0, math.pi / 2), 4.5, 1.8, VehicleStates.empty(), np.zeros(0, int))
+    assert bodies.ego_trail == [(3.2, 0.0)]  # begun again in the new lane
+    passing = VehicleStates(
+        ("car",), *(np.array([v]) for v in (0.0, -1.5, math.pi / 2, 5.0, 0.0, 0.0, 4.5, 1.8))
+    )  # in the old lane, its front 1.5 m behind the ego's
+    assert not bodies.hits(state(3.2, 0.0, math.pi / 2), 4.5, 1.8, passing, np.array([0]))[0]
