@@ -361,6 +361,5 @@ def recorded_episode(
     start = driver.state(0)
     sim = ReplaySimulation(road, scn, others(rec, vid), et.t0, start=start, reactive=reactive)
     if not end_on_collision:  # the recorded ego drives as recorded
-        sim.red_grace = max(rec.interval - scenario.step, 0.0)  # its rows' motion: what the light allowed
-        sim.ego_along_path = False  # its body: a box along its recorded heading
+        sim.replayed_rows = rec.interval
     return driver, road, scn, sim

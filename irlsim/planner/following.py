@@ -68,9 +68,8 @@ def lane_outlook(
     v_e = lon.v[:, cols][internals.lon_idx]
     d_e = lat.d[:, cols][internals.lat_idx]
     gap = rear[None] - s_e[:, None, :]  # [N, M, C]
-    same = np.abs(d_e[:, None, :] - veh.d[near][None, :, None]) < (
-        (veh.width[near][None, :, None] + ego_width) / 2 + 0.3
-    )
+    band = (veh.width[near] + ego_width) / 2 + 0.3  # [M] |d| apart within which a vehicle is in the lane
+    same = np.abs(d_e[:, None, :] - veh.d[near][None, :, None]) < band[None, :, None]
     need = (
         sel.follow_headway * v_e[:, None, :]
         + sel.follow_gap
@@ -78,8 +77,8 @@ def lane_outlook(
     )
     # now: the ego's offset (every policy starts at it) and each vehicle's rear ahead of its front
     d_now = lat.d[internals.lat_idx, 0][:, None]  # [N, 1]
-    near_now = np.abs(d_now - veh.d[near][None, :]) < (veh.width[near][None, :] + ego_width) / 2 + 0.3
-    ahead = _ahead_in_lane(same, gap, near_now & (ds0[near] - veh.length[near] > -2.0)[None, :])
+    same_now = np.abs(d_now - veh.d[near][None, :]) < band[None, :]
+    ahead = _ahead_in_lane(same, gap, same_now & (ds0[near] - veh.length[near] > -BEHIND)[None, :])
     shortfall = np.where(ahead, np.maximum(need - gap, 0.0), 0.0).max(axis=(1, 2))
     # the lead at the horizon (the last check time) in the final lane
     g_end = np.where(ahead[:, :, -1], gap[:, :, -1], np.inf)  # [N, M]
@@ -90,6 +89,8 @@ def lane_outlook(
     return shortfall, outlook
 
 
+#: [m] a vehicle whose rear is less than this behind the ego's front is still ahead of it
+BEHIND = 2.0
 #: [m/s^2] a vehicle decelerating harder than this is predicted braking on (``lane_outlook``'s ``accel``)
 BRAKING = -1.0
 
@@ -108,13 +109,13 @@ def braking_travel(v: np.ndarray, a: np.ndarray | None, t: np.ndarray) -> tuple[
 
 def _ahead_in_lane(same: np.ndarray, gap: np.ndarray, ahead_now: np.ndarray) -> np.ndarray:
     """[N, M, C] bool: vehicle m is ahead of policy n in its lane at check time c: in the same lane
-    (``same``) with its rear bumper no more than 2 m behind the ego's front (``gap`` > -2 m), or in the same
+    (``same``) with its rear bumper less than ``BEHIND`` behind the ego's front (``gap``), or in the same
     lane and ahead of it at the check before (``ahead_now`` [N, M]: now), so that a policy that drives
     into or through the vehicle ahead in its lane keeps it ahead, its gap negative, instead of leaving it
     behind unseen; a vehicle the policy passes in another lane and then drives in front of is behind it."""
     out = np.empty_like(same)
     prev = ahead_now
     for c in range(same.shape[2]):  # the check times (five), not policies
-        prev = same[:, :, c] & ((gap[:, :, c] > -2.0) | prev)
+        prev = same[:, :, c] & ((gap[:, :, c] > -BEHIND) | prev)
         out[:, :, c] = prev
     return out

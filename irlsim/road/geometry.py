@@ -1017,21 +1017,20 @@ def _dilate(a: np.ndarray, r: int, op: np.ufunc, fill: int) -> np.ndarray:
 
 def _smooth_closed(pts: np.ndarray, half_window: float) -> np.ndarray:
     """Moving average of a closed, evenly sampled polyline over +-half_window metres (narrower in tight
-    turns: :func:`_tight_turns`)."""
+    turns: :func:`_average`)."""
     step = float(np.linalg.norm(pts[1] - pts[0]))
     w = max(1, int(round(half_window / step)))
+    return _average(np.concatenate([pts[-w:], pts, pts[:w]]), w, step)
+
+
+def _average(padded: np.ndarray, w: int, step: float) -> np.ndarray:
+    """[N, 2] the moving average over +-``w`` vertices of ``padded`` ([N + 2w, 2], evenly sampled ``step``
+    apart) where the line turns gently, and over a narrower window +-k where it turns tightly: k the
+    vertices of sqrt(6 SMOOTH_SHIFT R), R the radius the line turns on over +-w vertices (its heading
+    change between the chords back and ahead), the least within +-w, so the window narrows before a turn
+    as well. Vertices that keep +-w keep their bytes."""
     kern = np.ones(2 * w + 1) / (2 * w + 1)
-    padded = np.concatenate([pts[-w:], pts, pts[:w]])
-    out = np.stack([np.convolve(padded[:, k], kern, mode="valid") for k in range(2)], axis=1)
-    return _tight_turns(padded, out, w, step)
-
-
-def _tight_turns(padded: np.ndarray, smoothed: np.ndarray, w: int, step: float) -> np.ndarray:
-    """``smoothed`` (the moving average over +-``w`` vertices of ``padded``, [N + 2w, 2] evenly sampled
-    ``step`` apart) where the line turns gently, and over a narrower window +-k where it turns tightly:
-    k the vertices of sqrt(6 SMOOTH_SHIFT R), R the radius the line turns on over +-w vertices (its
-    heading change between the chords back and ahead), the least within +-w, so the window narrows before
-    a turn as well. Vertices that keep +-w keep their bytes."""
+    smoothed = np.stack([np.convolve(padded[:, j], kern, mode="valid") for j in range(2)], axis=1)
     a = padded[w:-w] - padded[: -2 * w]
     b = padded[2 * w :] - padded[w:-w]
     turn = np.abs(np.arctan2(a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0], (a * b).sum(axis=1)))  # [N] rad
@@ -1039,7 +1038,7 @@ def _tight_turns(padded: np.ndarray, smoothed: np.ndarray, w: int, step: float) 
     k = np.clip(np.floor(np.sqrt(6.0 * SMOOTH_SHIFT * radius) / step), 1, w).astype(np.int64)
     if (k >= w).all():
         return smoothed
-    k = np.lib.stride_tricks.sliding_window_view(np.pad(k, w, mode="edge"), 2 * w + 1).min(axis=1)
+    k = _dilate(k[None, :], w, np.minimum, w)[0]
     tight = np.flatnonzero(k < w)
     csum = np.concatenate([np.zeros((1, 2)), np.cumsum(padded, axis=0)])
     mid, kk = tight + w, k[tight][:, None]
@@ -1094,9 +1093,7 @@ def _open_reference(centre: np.ndarray) -> np.ndarray:
     u1 = (core[-1] - core[-2]) / np.linalg.norm(core[-1] - core[-2])
     steps = np.arange(1, k + 1)[:, None] * h
     ext = np.vstack([(core[0] + steps * u0)[::-1], core, core[-1] + steps * u1])
-    kern = np.ones(2 * w + 1) / (2 * w + 1)
-    out = np.stack([np.convolve(ext[:, j], kern, mode="valid") for j in range(2)], axis=1)
-    return _tight_turns(ext, out, w, h)
+    return _average(ext, w, h)
 
 
 #: the networks read in this process, the most recent last: (network, its mtime and size) -> sumolib net.

@@ -106,9 +106,7 @@ class Bodies:
         for i in long:
             trail = self.trails.setdefault(veh.ids[i], [])
             self._follow(trail, float(veh.x[i]), float(veh.y[i]), float(veh.yaw[i]), float(veh.length[i]))
-        self._follow(
-            self.ego_trail, ego.x, ego.y, ego.yaw, length
-        )  # the ego's body follows its path, any length
+        self._follow(self.ego_trail, ego.x, ego.y, ego.yaw, length)  # the ego's body: any length
         if not len(near):
             return np.zeros(0, dtype=bool)
         along = self.ego_along_path

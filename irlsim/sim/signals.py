@@ -35,6 +35,7 @@ class SignalWatch:
         self.minor = MinorGreen(ego_length, min(v_max, road.max_speed_limit))
         self.violations = 0
         self._yielding = np.zeros(len(self.signals), dtype=bool)  # bound by a minor green last step
+        self._lines = np.array([g.s for g in self.signals], dtype=np.float64)  # [m] their route positions
         self._s = 0.0  # the ego's route position last step
         self.red = np.zeros(len(self.signals), dtype=bool)
         self.binding = np.zeros(len(self.signals), dtype=bool)
@@ -56,19 +57,19 @@ class SignalWatch:
         except api.TraCIException:  # off the network (arrived): as last seen
             pass
         on = dict(self._lanes)
+        links = [g.link_of(on.get(g.edge, -1)) for g in self.signals]  # the ego's link at each light
         tl = api.trafficlight
         full = {g.tls: tl.getRedYellowGreenState(g.tls) for g in self.signals}
-        states = [full[g.tls][g.link_of(on.get(g.edge, -1))] for g in self.signals]
+        states = [full[g.tls][k] for g, k in zip(self.signals, links, strict=True)]
         self.red = np.array([c in RED_STATES for c in states], dtype=bool)
         if self.grace > 0.0 and self.red.any():
-            links = [g.link_of(on.get(g.edge, -1)) for g in self.signals]
             self.red &= ~np.array(
                 [self._turns_soon(api, g.tls, k) for g, k in zip(self.signals, links, strict=True)]
             )
         self.binding = np.array([c in RED_STATES + YELLOW_STATES for c in states], dtype=bool)
         self.permissive = np.array([c == PERMISSIVE for c in states], dtype=bool)
         if ego_s is not None:
-            self._minor_greens(api, on, full, ego_v, ego_s)
+            self._minor_greens(api, links, full, ego_v, ego_s)
 
     def _turns_soon(self, api: Any, tls: str, link: int) -> bool:
         """Whether ``tls`` switches within ``grace`` to a phase that shows ``link`` other than red."""
@@ -86,7 +87,7 @@ class SignalWatch:
         return link < len(nxt) and nxt[link] not in RED_STATES
 
     def _minor_greens(
-        self, api: Any, on: dict[str, int], full: dict[str, str], ego_v: float, ego_s: float
+        self, api: Any, links: list[int], full: dict[str, str], ego_v: float, ego_s: float
     ) -> None:
         """Bind each minor green's line while a foe with priority is due; count a line crossed while it
         bound the step before."""
@@ -94,11 +95,9 @@ class SignalWatch:
         for i in np.flatnonzero(self.permissive):
             g = self.signals[i]
             to_line = (g.s - ego_s + self.lap / 2) % self.lap - self.lap / 2
-            link = g.link_of(on.get(g.edge, -1))
-            yielding[i] = self.minor.too_soon(api, g.tls, link, full[g.tls], to_line, ego_v)
+            yielding[i] = self.minor.too_soon(api, g.tls, links[i], full[g.tls], to_line, ego_v)
         if self._yielding.any():  # bound last step: crossed since?
-            lines = np.array([g.s for g in self.signals])
-            ahead = (lines - self._s + self.lap / 2) % self.lap - self.lap / 2
+            ahead = (self._lines - self._s + self.lap / 2) % self.lap - self.lap / 2
             crossed = (ahead > 0) & (ahead <= ego_s - self._s)
             self.violations = int((crossed & self._yielding).sum())
         self.binding |= yielding

@@ -105,10 +105,11 @@ class Simulation:
         self.lane_change_duration = lane_change_duration  # [s] SUMO's --lanechange.duration (0: one step)
         self.errors = SumoErrorLog()  # SUMO's reason where libsumo says only 'Process Error'
         self.signals = SignalWatch(self.road, self.cfg.ego_length, self.cfg.ego_target_speed)  # on its lane
-        self.red_grace = 0.0  # [s] SignalWatch's grace (a recorded ego replayed between its rows)
+        #: [s] a recorded ego replayed as recorded: its rows' interval (None: the ego is driven); from it
+        #: its lights' grace (SignalWatch) and its body's box along its recorded heading (Bodies)
+        self.replayed_rows: float | None = None
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
         self._colliding: set[str] = set()
-        self.ego_along_path = True  # Bodies': the ego's body along its path (False: a recorded ego replayed)
         self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
         self._sumo_pairs: set[tuple[str, str]] = set()
         self._wall = 0.0
@@ -267,8 +268,8 @@ class Simulation:
         )
         self.odometry = []
         self._ego_by_sumo = False
-        self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed, self.red_grace)
-        self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies(self.ego_along_path)
+        self.signals = SignalWatch(road, cfg.ego_length, cfg.ego_target_speed, self._red_grace(cfg))
+        self._colliding, self._sumo_pairs, self.bodies = set(), set(), Bodies(self.replayed_rows is None)
         #: the episode's first collision (:func:`.collision.first_collision`), None while there is none
         self.first_collision: dict[str, Any] | None = None
         self._wall = self._sumo_wall = 0.0
@@ -300,6 +301,11 @@ class Simulation:
         state = sumo_step(self._api, EGO, self.road, self.ego)
         self._sumo_wall += time.perf_counter() - t1
         return state
+
+    def _red_grace(self, cfg: EpisodeConfig) -> float:
+        """[s] SignalWatch's grace: a replayed recorded ego's rows' interval less a step (its motion between
+        rows is what the light then allowed); 0 for a driven ego."""
+        return 0.0 if self.replayed_rows is None else max(self.replayed_rows - cfg.step, 0.0)
 
     def _advance(self, state: EgoState, bookkeeping: bool = True, placed: bool = False) -> None:
         """Place the ego at ``state`` and advance SUMO one step (``placed``: SUMO has already driven it
