@@ -4,10 +4,10 @@ libsumo by default (in-process, thousands of steps per second); ``gui=True`` run
 for a user with a display (same API). SUMO is imported and located only in :meth:`Simulation.start`.
 libsumo holds one simulation per process: starting a second :class:`Simulation` closes the first.
 
-Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by
-``moveToXY(keepRoute=2)`` at the state it is given; :meth:`execute` runs the first ``cycle / step``
-states of a driver's trajectory (state j at the j-th step), and the ego's state becomes the executed
-trajectory state, so the next plan starts exactly where the last one left off.
+Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by ``moveToXY`` at the
+state it is given (:data:`KEEP_ROUTE`); :meth:`execute` runs the first ``cycle / step`` states of a
+driver's trajectory (state j at the j-th step), and the ego's state becomes the executed trajectory
+state, so the next plan starts exactly where the last one left off.
 """
 
 from __future__ import annotations
@@ -46,6 +46,9 @@ from irlsim.sim.vtype import DEMO_TYPE, PLACED_TYPE, DemoTypeFile, ego_type_attr
 from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
+#: moveToXY's mode for the ego: its exact pose, on its route (SUMO's drivers see it at a junction only by its
+#: route's next edges; mode 2 cut the route to another connection's edge lying nearer: eclipse-sumo/sumo#6140)
+KEEP_ROUTE = 3
 #: [m] the length and width of irlsim's ego type (sumo_net/vtypes.add.xml): an ego of another size (a
 #: recorded ego at its own, ``demonstrator.ego_size = 'recorded'``) is resized in SUMO when inserted
 EGO_TYPE_SIZE = tuple(float(ego_type_attributes()[k]) for k in ("length", "width"))
@@ -313,7 +316,9 @@ class Simulation:
         api = self._api
         t0 = time.perf_counter()
         if not placed:
-            api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
+            api.vehicle.moveToXY(
+                EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=KEEP_ROUTE
+            )
             t1 = time.perf_counter()
             api.simulationStep()
             self._sumo_wall += time.perf_counter() - t1
