@@ -377,8 +377,10 @@ OTHER_PASS_REACH = 40.0
 def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None = None) -> VehicleStates:
     """``vehicles`` as the planner's collision and proximity terms see them, boxes aligned with the route
     frame: a vehicle turned by theta > :data:`BOX_TURN_MIN` to the route's heading at its position gets the
-    extent of its rotated box (length L|cos| + W|sin|, width L|sin| + W|cos|) about the box's true centre,
-    so that a car standing at an angle beside a junction is not thinner, in the frame, than it is. Where a
+    extent of its body's four corners in the route frame, so that a car standing at an angle beside a
+    junction is not thinner, in the frame, than it is (on a straight stretch: length L|cos| + W|sin|, width
+    L|sin| + W|cos| about the body's centre), and a car following its own lane through a tight turn, at an
+    angle to the route's reference there, is not wider than it is. Where a
     route passes a place twice, a vehicle within OTHER_PASS_REACH of the ``ego``
     that the frame puts on the other pass (further along the route than it is away) is projected onto the
     ego's pass: at a junction both passes share, it stands beside the ego, not a lap away."""
@@ -400,18 +402,22 @@ def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None 
     turned = np.abs(theta) > BOX_TURN_MIN
     if not turned.any():
         return vehicles
-    c, sn = np.abs(np.cos(theta)), np.abs(np.sin(theta))
-    ln, wd = vehicles.length, vehicles.width
-    cs = vehicles.s - ln / 2 * np.cos(theta)  # the box's centre (s, d is the front bumper's)
-    cd = vehicles.d - ln / 2 * np.sin(theta)
-    length = np.where(turned, ln * c + wd * sn, ln)
-    return dataclasses.replace(
-        vehicles,
-        s=np.where(turned, (cs + length / 2) % road.lap_length, vehicles.s),
-        d=np.where(turned, cd, vehicles.d),
-        length=length,
-        width=np.where(turned, ln * sn + wd * c, wd),
-    )
+    k = np.flatnonzero(turned)
+    lap = road.lap_length
+    # the body's corners (x, y is the front bumper's centre), in the frame by each vehicle's own place
+    yaw, ln, wd = vehicles.yaw[k], vehicles.length[k], vehicles.width[k]
+    back, side = np.array([0.0, 0.0, 1.0, 1.0]), np.array([0.5, -0.5, 0.5, -0.5])
+    along, across = -back[None, :] * ln[:, None], side[None, :] * wd[:, None]  # [K, 4] in the body's frame
+    cx = vehicles.x[k, None] + along * np.cos(yaw)[:, None] - across * np.sin(yaw)[:, None]
+    cy = vehicles.y[k, None] + along * np.sin(yaw)[:, None] + across * np.cos(yaw)[:, None]
+    cs, cd = road.to_frenet(cx, cy, near=np.repeat(vehicles.s[k, None], 4, axis=1))
+    ds = (cs - vehicles.s[k, None] + lap / 2) % lap - lap / 2  # [K, 4] about the vehicle's own s
+    s_new, d_new = vehicles.s.copy(), vehicles.d.copy()
+    length, width = vehicles.length.copy(), vehicles.width.copy()
+    s_new[k] = (vehicles.s[k] + ds.max(axis=1)) % lap
+    d_new[k] = (cd.min(axis=1) + cd.max(axis=1)) / 2
+    length[k], width[k] = ds.max(axis=1) - ds.min(axis=1), cd.max(axis=1) - cd.min(axis=1)
+    return dataclasses.replace(vehicles, s=s_new, d=d_new, length=length, width=width)
 
 
 def lane_targets(road: Road, lanes: tuple[np.ndarray, np.ndarray], d0: float) -> np.ndarray:

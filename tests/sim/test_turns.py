@@ -100,3 +100,43 @@ def test_the_expert_takes_turns_as_a_driver(grid_turns):
     a_lat = np.convolve(a_lat, np.ones(5) / 5, mode="same")  # over 0.5 s
     assert a_lat.max() <= TURN_LAT_ACC + 0.5  # the planner's own limit is 5 m/s^2
     assert v.max() > 1.5 * v[1:][a_lat.argmax()]  # slower in the turn than on the straight
+
+
+def test_a_car_following_the_next_lane_through_a_turn_is_no_wider_in_the_frame(grid_turns):
+    """A car on the junction lane of the next lane's right turn, along that lane, is turned to the route's
+    reference there (the two bend at different places) but sits in its own lane: in the route frame it
+    is about as wide as it is, within its lane's band, where the rotated box's closed form about the
+    reference's heading made it up to twice as wide (the planner then labelled every policy in the lane
+    beside it a collision, and a learned reward turned into the car)."""
+    from irlsim.planner.planner import BOX_TURN_MIN, route_frame_boxes
+    from irlsim.road import wrap_angle
+    from irlsim.sim.types import VehicleStates
+
+    road = load_road(scenario=grid_turns)
+    lane = road.net.getEdge(ROUTE[0]).getLane(0)  # the right lane, the turn's inner lane
+    via = next(c.getViaLaneID() for c in lane.getOutgoing() if c.getTo().getID() == ROUTE[1])
+    # the lane's way through the turn, every 0.1 m: the incoming lane's end, the junction lane
+    path = np.asarray(lane.getShape()[-2:] + road.net.getLane(via).getShape()[1:])
+    seg = np.hypot(*np.diff(path, axis=0).T)
+    arc = np.concatenate([[0.0], np.cumsum(seg)])
+    fine = np.arange(0.0, arc[-1], 0.1)
+    px, py = np.interp(fine, arc, path[:, 0]), np.interp(fine, arc, path[:, 1])
+    # front bumpers in the junction, each car's body the chord to its back 4.5 m behind on the lane (as
+    # SUMO places a car: its angle from its back to its front)
+    front = np.flatnonzero(fine >= arc[-1] - float(road.net.getLane(via).getLength()))[::5]
+    front = front[fine[front] >= 4.5]
+    back = np.searchsorted(fine, fine[front] - 4.5)
+    x, y = px[front], py[front]
+    yaw = np.arctan2(y - py[back], x - px[back])
+    s, d = road.to_frenet(x, y)
+    n = len(x)
+    cars = VehicleStates(tuple(f"v{i}" for i in range(n)), x, y, yaw, np.zeros(n), s, d,
+                         np.full(n, 4.5), np.full(n, 1.8))  # fmt: skip
+    theta = wrap_angle(yaw - road.heading(s))
+    assert (np.abs(theta) > BOX_TURN_MIN).any()  # turned to the reference: its box is recomputed
+    closed_form = 4.5 * np.abs(np.sin(theta)) + 1.8 * np.abs(np.cos(theta))
+    out = route_frame_boxes(road, cars)
+    assert closed_form.max() > 2.5 and (out.width < 2.4).all(), (closed_form, out.width)
+    # and within the right lane's band
+    centre = float(road.lane_center(0))
+    assert (np.abs(out.d - centre) < road.lane_width / 2 + 0.5).all(), (out.d, centre)
