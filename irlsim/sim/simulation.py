@@ -5,9 +5,9 @@ for a user with a display (same API). SUMO is imported and located only in :meth
 libsumo holds one simulation per process: starting a second :class:`Simulation` closes the first.
 
 Clocks: every :meth:`step` advances SUMO by ``cfg.step`` with the ego placed by ``moveToXY`` at the
-state it is given (:data:`KEEP_ROUTE`); :meth:`execute` runs the first ``cycle / step`` states of a
-driver's trajectory (state j at the j-th step), and the ego's state becomes the executed trajectory
-state, so the next plan starts exactly where the last one left off.
+state it is given, its route in SUMO kept whole (:class:`~irlsim.sim.sumo_ego.EgoRoute`); :meth:`execute`
+runs the first ``cycle / step`` states of a driver's trajectory (state j at the j-th step), and the ego's
+state becomes the executed trajectory state, so the next plan starts exactly where the last one left off.
 """
 
 from __future__ import annotations
@@ -39,16 +39,13 @@ from irlsim.sim.inputs import (
 )
 from irlsim.sim.signals import SignalWatch
 from irlsim.sim.start import draw_start, start_scale
-from irlsim.sim.sumo_ego import add_ego, sumo_step, take_over
+from irlsim.sim.sumo_ego import EgoRoute, add_ego, sumo_step, take_over
 from irlsim.sim.traffic import BackgroundTraffic, LoopEdges
 from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
 from irlsim.sim.vtype import DEMO_TYPE, PLACED_TYPE, DemoTypeFile, ego_type_attributes
 from irlsim.sim.yielding import YieldWatch
 
 EGO = "ego"
-#: moveToXY's mode for the ego: its exact pose, on its route (SUMO's drivers see it at a junction only by its
-#: route's next edges; mode 2 cut the route to another connection's edge lying nearer: eclipse-sumo/sumo#6140)
-KEEP_ROUTE = 3
 #: [m] the length and width of irlsim's ego type (sumo_net/vtypes.add.xml): an ego of another size (a
 #: recorded ego at its own, ``demonstrator.ego_size = 'recorded'``) is resized in SUMO when inserted
 EGO_TYPE_SIZE = tuple(float(ego_type_attributes()[k]) for k in ("length", "width"))
@@ -93,6 +90,7 @@ class Simulation:
         self.vtypes_file = Path(vtypes_file) if vtypes_file else SUMO_NET_DIR / VTYPES_FILE
         self.marks = CourseMarks.from_road(self.road)
         self._edges = LoopEdges.from_road(self.road)
+        self._route = EgoRoute(self.road)
         #: the factor on the ego's start clearances this route allows (1 unless it is short); a route too
         #: short for any start is refused here, before SUMO starts
         self.start_scale = start_scale(self.road, self.cfg, self._edges)
@@ -316,12 +314,11 @@ class Simulation:
         api = self._api
         t0 = time.perf_counter()
         if not placed:
-            api.vehicle.moveToXY(
-                EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=KEEP_ROUTE
-            )
+            api.vehicle.moveToXY(EGO, "", -1, state.x, state.y, yaw_to_sumo_angle(state.yaw), keepRoute=2)
             t1 = time.perf_counter()
             api.simulationStep()
             self._sumo_wall += time.perf_counter() - t1
+            self._route.keep(api, EGO)
         self.ego = state = dataclasses.replace(state, t=float(api.simulation.getTime()))
         self.vehicles = self._read_vehicles(state.s)
         assert self.traffic is not None and self.episode is not None

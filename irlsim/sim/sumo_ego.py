@@ -36,6 +36,39 @@ def add_ego(
     )
 
 
+class EgoRoute:
+    """The placed ego's route in SUMO, kept whole. ``moveToXY`` in mode 2 (the ego's exact pose, counted on
+    the lane it is on, whatever edge that is: SUMO's drivers see it where it is) replaces a moved vehicle's
+    route by the edge it maps it onto when that edge is not on the route, as inside a junction where
+    another connection's lane lies nearer than the ego's own. SUMO's drivers see a moved vehicle coming
+    through a junction only by its route's next edges (eclipse-sumo/sumo#6140), so once the ego is back on
+    an edge of its route, a cut route is replaced by the rest of irlsim's (the ``loop@<edge>`` route the
+    traffic defines from each route edge). Asked only when the ego's edge changes; a route never cut (the
+    oval's) is never touched."""
+
+    def __init__(self, road: Road):
+        n = len(road.edges)
+        #: per route edge, the fewest edges a whole route has left from it (a loop: at least one more lap)
+        self.rest = {e: (n if road.closed else n - i) for i, e in enumerate(road.edges)}
+        self._on = ""
+
+    def keep(self, api: Any, ego: str) -> None:
+        """After a step: the ego on a new route edge with less of its route left than a whole one has, its
+        route set to the rest of irlsim's from there."""
+        try:
+            edge = api.vehicle.getRoadID(ego)
+            if edge == self._on:
+                return
+            self._on = edge
+            if (
+                edge in self.rest
+                and len(api.vehicle.getRoute(ego)) - api.vehicle.getRouteIndex(ego) < self.rest[edge]
+            ):
+                api.vehicle.setRoute(ego, api.route.getEdges(f"loop@{edge}"))
+        except api.TraCIException:  # off the network (arrived at its route's end)
+            pass
+
+
 def take_over(api: Any, ego: str, target_speed: float, vtype: str | None = None) -> None:
     """Hand the ego to SUMO: every safety check of its driver model, the road's limits, ``target_speed``.
     ``vtype``: a demonstrator's vehicle type (:mod:`irlsim.sim.vtype`), whose models and attributes,

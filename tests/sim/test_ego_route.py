@@ -1,51 +1,78 @@
-"""The ego's route in SUMO (real SUMO): placed by moveToXY anywhere inside a junction, even nearer another
-connection's lane than its own, the ego keeps the route irlsim drives. SUMO's drivers see a moved vehicle
-coming through a junction by its route's next edges: with a route cut to another connection's (SUMO's
-mode 2 of moveToXY), a car turning on a minor green drove into the ego going straight on its green."""
+"""The ego's route in SUMO (real SUMO, a netgenerate grid): placed by moveToXY inside a junction nearer
+another connection's lane than its own, SUMO counts it on that lane and cuts its route to that
+connection's edges; back on an edge of its route, the ego has the rest of irlsim's route again. SUMO's
+drivers see a moved vehicle coming through a junction by its route's next edges: with its route cut for
+good, a car turning on its minor green at the next light drove into the ego going straight on its green."""
 
 from __future__ import annotations
 
 import dataclasses
+import subprocess
 
 import numpy as np
 import pytest
 
 from irlsim.road import load_road
-from irlsim.sim import simulation
+from irlsim.road.network import sumo_binary
+from irlsim.sim import sumo_ego
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import EGO, Simulation
-from tests.road.test_scenario import make_scenario
-from tests.sim.test_yielding import X_EDGES, X_NODES
+
+ROUTE = ["A0A1", "A1B1", "B1B2", "B2B3"]  # north, right turn east at A1, left turn north at B1, on north
 
 
-def _via(api, lane: str, to: str) -> str:
-    """The internal lane of the connection from ``lane`` to ``to``."""
-    return next(c[4] for c in api.lane.getLinks(lane) if c[0] == to)
-
-
-@pytest.mark.parametrize("mode", [simulation.KEEP_ROUTE, 2])
-def test_the_ego_keeps_its_route_where_another_turn_lies_nearer(tmp_path, monkeypatch, mode):
-    folder = make_scenario(tmp_path / "x", X_NODES, X_EDGES, 'edges = ["wj", "je"]')  # straight on
-    road = load_road(scenario=folder)
-    (signal,) = road.signals
-    cfg = EpisodeConfig(
-        name="x", max_time=60.0, ego_start_random=False, ego_start_s=signal.s - 60.0, ego_start_speed=0.0
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("egoroute")
+    args = ["--grid", "--grid.number", "4", "--grid.length", "200", "--default.lanenumber", "2"]
+    proc = subprocess.run(
+        [sumo_binary("netgenerate"), *args, "--no-turnarounds", "true", "-o", "grid.net.xml"],
+        cwd=folder,
+        capture_output=True,
+        text=True,
     )
-    monkeypatch.setattr(simulation, "KEEP_ROUTE", mode)
+    assert proc.returncode == 0, proc.stderr
+    edges = ", ".join(f'"{e}"' for e in ROUTE)
+    (folder / "scenario.toml").write_text(f'[network]\nfile = "grid.net.xml"\n\n[route]\nedges = [{edges}]\n')
+    return load_road(scenario=folder)
+
+
+def _place(sim, road, x: float, y: float, yaw: float) -> None:
+    s, d = road.to_frenet(np.array([x]), np.array([y]))
+    sim.step(dataclasses.replace(sim.ego, x=x, y=y, yaw=yaw, s=float(s[0]), d=float(d[0]), v=5.0))
+
+
+@pytest.mark.parametrize("kept", [True, False])
+def test_the_ego_has_its_route_again_once_back_on_it(grid, monkeypatch, kept):
+    road = grid
+    if not kept:  # the defect: the route stays cut
+        monkeypatch.setattr(sumo_ego.EgoRoute, "keep", lambda self, api, ego: None)
+    start = road.route_begin_s + 150.0  # on A0A1, 50 m before junction A1
+    cfg = EpisodeConfig(
+        name="g", n_vehicles=0, max_time=60.0, ego_start_random=False, ego_start_s=start, ego_start_speed=0.0
+    )
     with Simulation(road, cfg) as sim:
         sim.reset(0)
         api = sim._api
-        own = _via(api, "wj_0", "je_0")
-        (_, y_own), _ = api.lane.getShape(own)
-        # the ego veering left inside the junction, 1.5-2.5 m off its own lane: on the left turn's lane
-        left = _via(api, "wj_0", "jn_0")
-        shape = [*api.lane.getShape(left), *api.lane.getShape(_via(api, left, "jn_0"))]
-        x, y = next(p for p in shape if 1.5 < p[1] - y_own < 2.5)
-        s, d = road.to_frenet(np.array([x]), np.array([y]))
-        sim.step(dataclasses.replace(sim.ego, x=x, y=y, yaw=0.3, s=float(s[0]), d=float(d[0]), v=5.0))
-        assert api.vehicle.getPosition(EGO) == pytest.approx((x, y), abs=1e-6)  # its exact pose either way
-        route, lane = api.vehicle.getRoute(EGO), api.vehicle.getLaneID(EGO)
-    if mode == 2:  # the defect: SUMO took the ego for a car turning left
-        assert route == ("wj", "jn") and lane != own
+        # inside junction A1, on the straight-on connection's lane (north), headed along it: not the ego's
+        lane = road.net.getEdge(ROUTE[0]).getLane(1)
+        via = next(c.getViaLaneID() for c in lane.getOutgoing() if c.getTo().getID() == "A1A2")
+        (x0, y0), (x1, y1) = road.net.getLane(via).getShape()[:2]
+        _place(sim, road, (x0 + x1) / 2, (y0 + y1) / 2, float(np.arctan2(y1 - y0, x1 - x0)))
+        assert api.vehicle.getLaneID(EGO).startswith(":") and "A1A2" in api.vehicle.getRoute(EGO)  # cut
+        # 20 m into the route's next edge, in its right lane
+        (x0, y0), (x1, y1) = road.net.getEdge(ROUTE[1]).getLane(0).getShape()[:2]
+        f = 20.0 / float(np.hypot(x1 - x0, y1 - y0))
+        for k in range(3):
+            _place(
+                sim,
+                road,
+                x0 + f * (x1 - x0) + k * 0.5,
+                y0 + f * (y1 - y0),
+                float(np.arctan2(y1 - y0, x1 - x0)),
+            )
+        route = api.vehicle.getRoute(EGO)[api.vehicle.getRouteIndex(EGO) :]
+    if kept:
+        assert route == tuple(ROUTE[1:])
     else:
-        assert route == ("wj", "je") and lane == own
+        assert route == (ROUTE[1],)
