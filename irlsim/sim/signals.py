@@ -50,10 +50,10 @@ class SignalWatch:
         self.violations = 0
         if not self.signals:
             return
-        try:
-            edge, lane = api.vehicle.getRoadID(ego), int(api.vehicle.getLaneIndex(ego))
-            if not edge.startswith(":"):  # a junction's internal lane: the lane it came from counts
-                self._lanes = (*[e for e in self._lanes if e[0] != edge][-1:], (edge, lane))
+        try:  # by its lane's id: getRoadID crashed libsumo 1.28 for a placed ego without a lane
+            edge, _, lane = api.vehicle.getLaneID(ego).rpartition("_")
+            if edge and not edge.startswith(":"):  # a junction's internal lane: the lane it came from counts
+                self._lanes = (*[e for e in self._lanes if e[0] != edge][-1:], (edge, int(lane)))
         except api.TraCIException:  # off the network (arrived): as last seen
             pass
         on = dict(self._lanes)

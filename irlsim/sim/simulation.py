@@ -318,7 +318,8 @@ class Simulation:
             t1 = time.perf_counter()
             api.simulationStep()
             self._sumo_wall += time.perf_counter() - t1
-            self._route.keep(api, EGO)
+            if bookkeeping:  # not in reset: libsumo crashes when asked for a still pending ego's edge
+                self._route.keep(api, EGO)
         self.ego = state = dataclasses.replace(state, t=float(api.simulation.getTime()))
         self.vehicles = self._read_vehicles(state.s)
         assert self.traffic is not None and self.episode is not None

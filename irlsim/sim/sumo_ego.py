@@ -54,9 +54,11 @@ class EgoRoute:
 
     def keep(self, api: Any, ego: str) -> None:
         """After a step: the ego on a new route edge with less of its route left than a whole one has, its
-        route set to the rest of irlsim's from there."""
+        route set to the rest of irlsim's from there. Only for an ego SUMO has inserted. Its edge is read
+        from its lane: libsumo 1.28's ``getRoadID`` crashed the process (SIGSEGV) for an ego placed off
+        its lanes right after its insertion (``getLaneID`` empty), on a sweep's random network."""
         try:
-            edge = api.vehicle.getRoadID(ego)
+            edge = api.vehicle.getLaneID(ego).rpartition("_")[0]
             if edge == self._on:
                 return
             self._on = edge

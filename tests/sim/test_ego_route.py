@@ -7,34 +7,20 @@ good, a car turning on its minor green at the next light drove into the ego goin
 from __future__ import annotations
 
 import dataclasses
-import subprocess
 
 import numpy as np
 import pytest
 
 from irlsim.road import load_road
-from irlsim.road.network import sumo_binary
 from irlsim.sim import sumo_ego
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import EGO, Simulation
-
-ROUTE = ["A0A1", "A1B1", "B1B2", "B2B3"]  # north, right turn east at A1, left turn north at B1, on north
+from tests.sim.test_turns import ROUTE, grid_scenario
 
 
 @pytest.fixture(scope="module")
 def grid(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("egoroute")
-    args = ["--grid", "--grid.number", "4", "--grid.length", "200", "--default.lanenumber", "2"]
-    proc = subprocess.run(
-        [sumo_binary("netgenerate"), *args, "--no-turnarounds", "true", "-o", "grid.net.xml"],
-        cwd=folder,
-        capture_output=True,
-        text=True,
-    )
-    assert proc.returncode == 0, proc.stderr
-    edges = ", ".join(f'"{e}"' for e in ROUTE)
-    (folder / "scenario.toml").write_text(f'[network]\nfile = "grid.net.xml"\n\n[route]\nedges = [{edges}]\n')
-    return load_road(scenario=folder)
+    return load_road(scenario=grid_scenario(tmp_path_factory.mktemp("egoroute"), 2))
 
 
 def _place(sim, road, x: float, y: float, yaw: float) -> None:

@@ -25,8 +25,11 @@ ROUTE = ["A0A1", "A1B1", "B1B2", "B2B3"]  # north, right turn east, left turn no
 @pytest.fixture(scope="module", params=[2, 3])
 def grid_turns(request, tmp_path_factory) -> Path:
     """A 4 x 4 grid of roads of 2 or 3 lanes (with 3, the middle lane turns neither right nor left)."""
-    lanes = request.param
-    folder = tmp_path_factory.mktemp(f"turns{lanes}")
+    return grid_scenario(tmp_path_factory.mktemp(f"turns{request.param}"), request.param)
+
+
+def grid_scenario(folder: Path, lanes: int) -> Path:
+    """A scenario folder: netgenerate's 4 x 4 grid of 200 m roads of ``lanes`` lanes, the route ROUTE."""
     args = ["--grid", "--grid.number", "4", "--grid.length", "200", "--default.lanenumber", str(lanes)]
     proc = subprocess.run(
         [sumo_binary("netgenerate"), *args, "--no-turnarounds", "true", "-o", "grid.net.xml"],
