@@ -410,7 +410,7 @@ def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None 
     along, across = -back[None, :] * ln[:, None], side[None, :] * wd[:, None]  # [K, 4] in the body's frame
     cx = vehicles.x[k, None] + along * np.cos(yaw)[:, None] - across * np.sin(yaw)[:, None]
     cy = vehicles.y[k, None] + along * np.sin(yaw)[:, None] + across * np.cos(yaw)[:, None]
-    cs, cd = road.to_frenet(cx, cy, near=np.repeat(vehicles.s[k, None], 4, axis=1))
+    cs, cd = road.to_frenet(cx, cy, near=vehicles.s[k, None])  # near: broadcast over the corners
     ds = (cs - vehicles.s[k, None] + lap / 2) % lap - lap / 2  # [K, 4] about the vehicle's own s
     s_new, d_new = vehicles.s.copy(), vehicles.d.copy()
     length, width = vehicles.length.copy(), vehicles.width.copy()

@@ -8,6 +8,7 @@ import numpy as np
 
 from irlsim.road import Road
 from irlsim.sim.minor_green import MinorGreen
+from irlsim.sim.sumo_ego import lane_of
 
 #: SUMO signal states on a link: red (and red-yellow), and yellow; the stop line binds while either shows
 RED_STATES = ("r", "R", "u")
@@ -50,10 +51,10 @@ class SignalWatch:
         self.violations = 0
         if not self.signals:
             return
-        try:  # by its lane's id: getRoadID crashed libsumo 1.28 for a placed ego without a lane
-            edge, _, lane = api.vehicle.getLaneID(ego).rpartition("_")
+        try:
+            edge, lane = lane_of(api, ego)
             if edge and not edge.startswith(":"):  # a junction's internal lane: the lane it came from counts
-                self._lanes = (*[e for e in self._lanes if e[0] != edge][-1:], (edge, int(lane)))
+                self._lanes = (*[e for e in self._lanes if e[0] != edge][-1:], (edge, lane))
         except api.TraCIException:  # off the network (arrived): as last seen
             pass
         on = dict(self._lanes)

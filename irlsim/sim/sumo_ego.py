@@ -36,6 +36,14 @@ def add_ego(
     )
 
 
+def lane_of(api: Any, vid: str) -> tuple[str, int]:
+    """(edge, lane index) of vehicle ``vid``'s lane in SUMO, ("", -1) off the network: read from its lane's
+    id, as libsumo 1.28's ``getRoadID`` crashed the process (SIGSEGV) for an ego placed off its lanes right
+    after its insertion, on a sweep's random network. Raises TraCIException for a vehicle gone."""
+    edge, _, index = api.vehicle.getLaneID(vid).rpartition("_")
+    return (edge, int(index)) if edge else ("", -1)
+
+
 class EgoRoute:
     """The placed ego's route in SUMO, kept whole. ``moveToXY`` in mode 2 (the ego's exact pose, counted on
     the lane it is on, whatever edge that is: SUMO's drivers see it where it is) replaces a moved vehicle's
@@ -54,11 +62,9 @@ class EgoRoute:
 
     def keep(self, api: Any, ego: str) -> None:
         """After a step: the ego on a new route edge with less of its route left than a whole one has, its
-        route set to the rest of irlsim's from there. Only for an ego SUMO has inserted. Its edge is read
-        from its lane: libsumo 1.28's ``getRoadID`` crashed the process (SIGSEGV) for an ego placed off
-        its lanes right after its insertion (``getLaneID`` empty), on a sweep's random network."""
+        route set to the rest of irlsim's from there. Only for an ego SUMO has inserted."""
         try:
-            edge = api.vehicle.getLaneID(ego).rpartition("_")[0]
+            edge = lane_of(api, ego)[0]
             if edge == self._on:
                 return
             self._on = edge
