@@ -43,7 +43,7 @@ import numpy as np
 
 from irlsim.sim.inputs import reports_sumo_errors
 from irlsim.sim.simulation import EGO, Simulation
-from irlsim.sim.sumo_ego import sumo_step, take_over
+from irlsim.sim.sumo_ego import lane_of, sumo_step, take_over
 from irlsim.sim.types import EgoState
 from irlsim.sim.vtype import DEMO_TYPE
 
@@ -123,9 +123,9 @@ class BranchingSimulation(Simulation):
         assert self.ego is not None
         if not (straddles and off * self.ego.d_dot > 0.0):
             return
-        k = int(api.vehicle.getLaneIndex(EGO)) + int(math.copysign(1, off))
-        edge = api.vehicle.getRoadID(EGO)
-        if 0 <= k < int(api.edge.getLaneNumber(edge)):
+        edge, lane = lane_of(api, EGO)
+        k = lane + int(math.copysign(1, off))
+        if edge and 0 <= k < int(api.edge.getLaneNumber(edge)):
             # a maneuver under way is completed whatever the gaps SUMO asks of a change it has yet to start
             # (the ego already straddles the line; the mode comes back with the saved state)
             api.vehicle.setLaneChangeMode(EGO, COMPLETE_MODE)
