@@ -170,14 +170,59 @@ def sumo_stopped(error: BaseException) -> bool:
 F = TypeVar("F", bound=Callable[..., Any])
 
 
+#: the name of a SUMO error log: the process that made it, and a unique part
+LOG_PREFIX = "irlsim-sumo-"
+
+#: whether this process removed the logs of ended processes yet (:func:`remove_stale_logs`)
+_SWEPT = False
+
+
+def _pid_of(log: Path) -> int | None:
+    pid = log.name[len(LOG_PREFIX) :].split("-", 1)[0]
+    return int(pid) if pid.isdigit() else None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)  # signal 0: asks only whether the process exists
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process, or no such check here: kept
+        return True
+    return True
+
+
+def remove_stale_logs(folder: Path | None = None) -> int:
+    """Remove the SUMO error logs whose process is gone (a worker killed, or one that ended by
+    ``os._exit``, cannot remove its own); POSIX only, elsewhere nothing is removed. The number removed."""
+    if os.name != "posix":
+        return 0
+    removed = 0
+    for log in Path(folder or tempfile.gettempdir()).glob(f"{LOG_PREFIX}*.log"):
+        pid = _pid_of(log)
+        if pid is not None and pid != os.getpid() and not _alive(pid):
+            try:
+                log.unlink(missing_ok=True)
+            except OSError:  # another user's, in a shared temporary folder
+                continue
+            removed += 1
+    return removed
+
+
 class SumoErrorLog:
     """Where SUMO writes its errors (``--error-log``), read when libsumo stops an episode with nothing but
     'Process Error': SUMO's own reason is written to the process's stderr, where a progress bar hides it,
     and is lost to the line an episode's failure is reported by. A file in the temporary folder, unique
-    to its simulation; :meth:`remove` when the simulation closes."""
+    to its simulation and named by its process; :meth:`remove` when the simulation closes (also when it
+    is collected, at the latest at exit), and by the next process's first log where the process ended
+    without (killed, or a worker's ``os._exit``)."""
 
     def __init__(self) -> None:
-        self.path = Path(tempfile.gettempdir()) / f"irlsim-sumo-{os.getpid()}-{uuid.uuid4().hex}.log"
+        global _SWEPT
+        if not _SWEPT:
+            _SWEPT = True
+            remove_stale_logs()
+        self.path = Path(tempfile.gettempdir()) / f"{LOG_PREFIX}{os.getpid()}-{uuid.uuid4().hex}.log"
 
     def option(self) -> dict[str, str]:
         return {"--error-log": str(self.path)}
