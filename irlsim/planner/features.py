@@ -281,7 +281,9 @@ def vehicle_terms(
 ) -> VehicleTerms:
     """Proximity, predicted collision and safety risk against the vehicles' predictions: constant speed
     along the route frame at constant d, except that a vehicle stands at the next stop line
-    (``stop_lines_s``, wrapped route positions [m]) it reaches. Vectors over the candidate pairs."""
+    (``stop_lines_s``, wrapped route positions [m]) it reaches, and that one with a ``motion`` (a turning
+    vehicle's way into the route, :func:`irlsim.planner.planner.route_frame_boxes`) moves by it, at its
+    speed. Vectors over the candidate pairs."""
     L, T = len(lon.v), cfg.n_steps
     pairs = pairs if pairs is not None else Pairs.of(lat, L)
     lap = ctx.lap_length
@@ -293,6 +295,12 @@ def vehicle_terms(
     t = (np.arange(T) * cfg.dt).astype(F32)
     if near.any():
         sv_near, vv_near = predicted_motion(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T] each
+        moved = None if vehicles.motion is None else vehicles.motion[near]  # [M, T, 2] along a path
+        if moved is not None:
+            along = np.isfinite(moved[:, 0, 0])
+            start = (ds0[near] - vehicles.length[near] / 2)[along, None]
+            sv_near[along] = (start + moved[along, :, 0]).astype(F32)
+            vv_near[along] = vehicles.v[near][along, None].astype(F32)
         kept = _cull(near, sv_near, vv_near, lon, vehicles, cfg)
         sv, vm = sv_near[kept[near]], vv_near[kept[near]]
         near = kept
@@ -305,7 +313,11 @@ def vehicle_terms(
     vv = vehicles.v[near].astype(F32)[:, None, None]
     # route-frame centres: ego (front bumper s - L/2) minus vehicle's predicted centre: [M, L, T]
     dS = (lon.s.astype(F32) - cfg.ego_length / 2)[None, :, :] - sv[:, None, :]
-    dD = lat.d.astype(F32)[None, :, :] - vehicles.d[near].astype(F32)[:, None, None]  # [M, J, T]
+    if vehicles.motion is None:
+        dD = lat.d.astype(F32)[None, :, :] - vehicles.d[near].astype(F32)[:, None, None]  # [M, J, T]
+    else:  # a vehicle predicted along its path moves across the frame too
+        d_m = vehicles.d[near][:, None] + np.nan_to_num(vehicles.motion[near][:, :, 1])  # [M, T]
+        dD = lat.d.astype(F32)[None, :, :] - d_m.astype(F32)[:, None, :]
     M = int(near.sum())
     half_l = (cfg.ego_length + vlen) / 2
     half_w = (cfg.ego_width + vwid) / 2

@@ -28,7 +28,7 @@ from irlsim.planner.policy_set import LazyWorld, PolicySet
 from irlsim.planner.sampler import LatBank, LonBank, Sampler, concat_lat, select_pairs, stop_distances
 from irlsim.road import Road, wrap_angle
 from irlsim.road.angles import atan
-from irlsim.sim.types import EgoState, Observation, Trajectory, VehicleStates
+from irlsim.sim.types import PATH_STEP, EgoState, Observation, Trajectory, VehicleStates
 
 F32 = np.float32
 
@@ -163,7 +163,7 @@ class Planner:
         f_lon, series = lon_features(lon, kappa, ctx, cfg_c, self.w)
         f_lat = lat_features(lat, lon, series, road, ctx, cfg, self.w)
         f_x = cross_features(lat, lon, series, ctx, self.w, pairs, cfg.yaw_speed_floor)
-        boxes = route_frame_boxes(road, obs.vehicles, ego)
+        boxes = route_frame_boxes(road, obs.vehicles, ego, np.arange(cfg.n_steps) * cfg.dt)
         veh = vehicle_terms(lat, lon, boxes, ctx, cfg, self.w, self._stop_lines, pairs)
 
         cj, cl = pairs.lat_idx(), pairs.lon_idx()
@@ -374,7 +374,9 @@ BOX_TURN_MIN = 0.15
 OTHER_PASS_REACH = 40.0
 
 
-def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None = None) -> VehicleStates:
+def route_frame_boxes(
+    road: Road, vehicles: VehicleStates, ego: EgoState | None = None, t: np.ndarray | None = None
+) -> VehicleStates:
     """``vehicles`` as the planner's collision and proximity terms see them, boxes aligned with the route
     frame: a vehicle turned by theta > :data:`BOX_TURN_MIN` to the route's heading at its position gets the
     extent of its body's four corners in the route frame, so that a car standing at an angle beside a
@@ -383,7 +385,10 @@ def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None 
     angle to the route's reference there, is not wider than it is. Where a
     route passes a place twice, a vehicle within OTHER_PASS_REACH of the ``ego``
     that the frame puts on the other pass (further along the route than it is away) is projected onto the
-    ego's pass: at a junction both passes share, it stands beside the ego, not a lap away."""
+    ego's pass: at a junction both passes share, it stands beside the ego, not a lap away. With the
+    horizon's times ``t`` [T] [s], a turned vehicle that has a way into the route (``path``: inside a
+    junction, bound for the route's edge) gets its box's ``motion`` along it at its speed
+    (:func:`path_motion`)."""
     if not vehicles.count:
         return vehicles
     if ego is not None:
@@ -417,7 +422,28 @@ def route_frame_boxes(road: Road, vehicles: VehicleStates, ego: EgoState | None 
     s_new[k] = (vehicles.s[k] + ds.max(axis=1)) % lap
     d_new[k] = (cd.min(axis=1) + cd.max(axis=1)) / 2
     length[k], width[k] = ds.max(axis=1) - ds.min(axis=1), cd.max(axis=1) - cd.min(axis=1)
-    return dataclasses.replace(vehicles, s=s_new, d=d_new, length=length, width=width)
+    motion = None
+    if t is not None and vehicles.path is not None:
+        k = k[np.isfinite(vehicles.path[k, 0, 0])]
+        if len(k):
+            motion = np.full((vehicles.count, len(t), 2), np.nan)
+            motion[k] = path_motion(road, vehicles.path[k], vehicles.v[k], vehicles.s[k], t)
+    return dataclasses.replace(vehicles, s=s_new, d=d_new, length=length, width=width, motion=motion)
+
+
+def path_motion(road: Road, path: np.ndarray, v: np.ndarray, s: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """[K, T, 2] (s, d) [m] displacement in the route frame of K vehicles going along their ``path``
+    ([K, P, 2] xy, a point every :data:`irlsim.sim.types.PATH_STEP` metres from the front) at their
+    speed ``v`` [K] over the times ``t`` [T]; ``s`` [K] their route positions (where each lies, on a
+    route that comes back near itself)."""
+    at = np.clip(v[:, None] * np.asarray(t, np.float64)[None, :] / PATH_STEP, 0.0, path.shape[1] - 1.0)
+    i0 = np.minimum(at.astype(int), path.shape[1] - 2)
+    f = (at - i0)[..., None]
+    rows = np.arange(len(path))[:, None]
+    xy = path[rows, i0] * (1.0 - f) + path[rows, i0 + 1] * f  # [K, T, 2]
+    ps, pd = road.to_frenet(xy[..., 0], xy[..., 1], near=np.broadcast_to(s[:, None], at.shape))
+    lap = road.lap_length
+    return np.stack([(ps - ps[:, :1] + lap / 2) % lap - lap / 2, pd - pd[:, :1]], axis=-1)
 
 
 def lane_targets(road: Road, lanes: tuple[np.ndarray, np.ndarray], d0: float) -> np.ndarray:

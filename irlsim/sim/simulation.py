@@ -37,6 +37,7 @@ from irlsim.sim.inputs import (
     reports_sumo_errors,
     start_quietly,
 )
+from irlsim.sim.intent import JunctionPaths
 from irlsim.sim.signals import SignalWatch
 from irlsim.sim.start import draw_start, start_scale
 from irlsim.sim.sumo_ego import EgoRoute, add_ego, sumo_step, take_over
@@ -110,6 +111,7 @@ class Simulation:
         #: its lights' grace (SignalWatch) and its body's box along its recorded heading (Bodies)
         self.replayed_rows: float | None = None
         self.yields = YieldWatch(self.road, self.cfg)  # right of way at the route's yield points
+        self.paths = JunctionPaths(self.road)  # a vehicle's way through a junction into the route
         self._colliding: set[str] = set()
         self.bodies = Bodies()  # the long vehicles' paths: their bodies in the ego's collision check
         self._sumo_pairs: set[tuple[str, str]] = set()
@@ -364,7 +366,8 @@ class Simulation:
         if not self.road.flat and self.traffic is not None:
             near = self.traffic.hints(ids, ego_s)
         s, d = self.road.to_frenet(arr[0], arr[1], near=near)
-        return VehicleStates(ids, arr[0], arr[1], yaw, arr[3], s, d, arr[4], arr[5])
+        path = self.paths.paths(self._api, ids)
+        return VehicleStates(ids, arr[0], arr[1], yaw, arr[3], s, d, arr[4], arr[5], path)
 
     def _ego_collisions(self, ego: EgoState) -> int:
         """New ego-vehicle overlaps (oriented boxes) this step; one per contiguous overlap per vehicle."""

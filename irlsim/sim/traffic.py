@@ -244,10 +244,7 @@ class BackgroundTraffic:
             api.vehicle.remove(ids[i])
             self.counts["recycled"] += 1
         keep = ~recycle
-        kept = VehicleStates(
-            tuple(v for v, k in zip(ids, keep, strict=False) if k),
-            *(getattr(vehicles, n)[keep] for n in ("x", "y", "yaw", "v", "s", "d", "length", "width")),
-        )
+        kept = vehicles.subset(keep)
         self._track(t, kept)
         self.spawn(ego_s, kept, initial=False)
 

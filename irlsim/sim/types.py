@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -28,6 +30,10 @@ class EgoState:
     lane: int  # loop lane 0..2, -1 off the loop
 
 
+#: [m] spacing of the points of a vehicle's way ahead (:attr:`VehicleStates.path`, :mod:`irlsim.sim.intent`)
+PATH_STEP = 1.0
+
+
 @dataclass(frozen=True)
 class VehicleStates:
     """Other vehicles at one instant, M of them; every array is [M]. Position is the front-bumper centre."""
@@ -41,11 +47,26 @@ class VehicleStates:
     d: np.ndarray  # [m]
     length: np.ndarray  # [m]
     width: np.ndarray  # [m]
+    #: [M, P, 2] xy [m] of each vehicle's way ahead inside a junction into the ego's route, every metre
+    #: from its front, NaN where it has none; None where no vehicle has one (:mod:`irlsim.sim.intent`)
+    path: np.ndarray | None = None
+    #: [M, T, 2] (s, d) [m] displacement of each vehicle's box over the planner's horizon where it is
+    #: predicted along its path, NaN elsewhere (the planner's: ``planner.route_frame_boxes``)
+    motion: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = len(self.ids)
         for name in ("x", "y", "yaw", "v", "s", "d", "length", "width"):
             assert getattr(self, name).shape == (m,), f"{name}: {getattr(self, name).shape} != ({m},)"
+        for name in ("path", "motion"):
+            a = getattr(self, name)
+            assert a is None or (a.ndim == 3 and a.shape[0] == m and a.shape[2] == 2), f"{name}: {a.shape}"
+
+    def subset(self, keep: np.ndarray) -> VehicleStates:
+        """The vehicles where the [M] bool ``keep`` is true, in their order."""
+        arrays = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "ids"}
+        kept: dict[str, Any] = {k: (a[keep] if a is not None else None) for k, a in arrays.items()}
+        return VehicleStates(tuple(v for v, k in zip(self.ids, keep, strict=True) if k), **kept)
 
     @property
     def count(self) -> int:
