@@ -50,6 +50,7 @@ import numpy as np
 
 from irlsim import FEATURE_NAMES
 from irlsim.planner.config import PlannerConfig
+from irlsim.planner.prediction import predicted_d, predicted_motion
 from irlsim.planner.sampler import LatBank, LonBank
 from irlsim.road import LANE_WIDTH, Road
 from irlsim.sim.types import VehicleStates
@@ -295,12 +296,6 @@ def vehicle_terms(
     t = (np.arange(T) * cfg.dt).astype(F32)
     if near.any():
         sv_near, vv_near = predicted_motion(near, ds0, vehicles, lap, t, stop_lines_s)  # [M, T] each
-        moved = None if vehicles.motion is None else vehicles.motion[near]  # [M, T, 2] along a path
-        if moved is not None:
-            along = np.isfinite(moved[:, 0, 0])
-            start = (ds0[near] - vehicles.length[near] / 2)[along, None]
-            sv_near[along] = (start + moved[along, :, 0]).astype(F32)
-            vv_near[along] = vehicles.v[near][along, None].astype(F32)
         kept = _cull(near, sv_near, vv_near, lon, vehicles, cfg)
         sv, vm = sv_near[kept[near]], vv_near[kept[near]]
         near = kept
@@ -313,11 +308,7 @@ def vehicle_terms(
     vv = vehicles.v[near].astype(F32)[:, None, None]
     # route-frame centres: ego (front bumper s - L/2) minus vehicle's predicted centre: [M, L, T]
     dS = (lon.s.astype(F32) - cfg.ego_length / 2)[None, :, :] - sv[:, None, :]
-    if vehicles.motion is None:
-        dD = lat.d.astype(F32)[None, :, :] - vehicles.d[near].astype(F32)[:, None, None]  # [M, J, T]
-    else:  # a vehicle predicted along its path moves across the frame too
-        d_m = vehicles.d[near][:, None] + np.nan_to_num(vehicles.motion[near][:, :, 1])  # [M, T]
-        dD = lat.d.astype(F32)[None, :, :] - d_m.astype(F32)[:, None, :]
+    dD = lat.d.astype(F32)[None, :, :] - predicted_d(vehicles, near)[:, None, :]  # [M, J, T]
     M = int(near.sum())
     half_l = (cfg.ego_length + vlen) / 2
     half_w = (cfg.ego_width + vwid) / 2
@@ -398,68 +389,6 @@ def proximity_lon(
     np.square(gap, out=gap)
     np.negative(gap, out=gap)
     return np.exp(gap, out=gap)
-
-
-#: [m] background vehicles heading for a stop line within this distance are predicted to stop
-STOP_PREDICTION_REACH = 80.0
-#: [m] bumper gap a queued background vehicle keeps to the one ahead (vtypes.add.xml minGap)
-QUEUE_GAP = 2.5
-
-
-def predicted_stop_distance(
-    s: np.ndarray,
-    d: np.ndarray,
-    length: np.ndarray,
-    width: np.ndarray,
-    stop_lines_s: tuple[float, ...],
-    lap: float,
-) -> np.ndarray:
-    """[M] distance [m] each vehicle (front bumper at wrapped route position ``s``, offset ``d``) still
-    travels before it stands at the next stop line, queue included; inf without a stop line within
-    ``STOP_PREDICTION_REACH``. A vehicle stands 0.3 m before the line, or ``QUEUE_GAP`` behind the rear of
-    the last vehicle queued ahead of it in its lane (the vehicles of its lane between it and the same
-    line, each taking its length + QUEUE_GAP): without the queue, a follower is predicted to roll on to
-    the line and the gap behind it looks metres larger than it will be."""
-    m = len(s)
-    if not stop_lines_s or m == 0:
-        return np.full(m, np.inf)
-    ahead = np.stack([(sl - s) % lap for sl in stop_lines_s]).min(axis=0)  # [M] to the next line
-    stops = ahead < STOP_PREDICTION_REACH
-    # n is queued before m: same lane, heading for the same line, closer to it
-    same_lane = np.abs(d[:, None] - d[None, :]) < (width[:, None] + width[None, :]) / 2
-    before = stops[None, :] & (ahead[None, :] < ahead[:, None]) & same_lane  # [m, n]
-    queue = (before * (length + QUEUE_GAP)[None, :]).sum(axis=1)
-    return np.where(stops, np.maximum(ahead - 0.3 - queue, 0.1), np.inf)
-
-
-def predicted_motion(
-    near: np.ndarray,
-    ds0: np.ndarray,
-    vehicles: VehicleStates,
-    lap: float,
-    t: np.ndarray,
-    stop_lines_s: tuple[float, ...],
-) -> tuple[np.ndarray, np.ndarray]:
-    """([M, T], [M, T]) float32: predicted route-frame centre (relative to the ego) and speed of each
-    near vehicle: constant speed, or braking at constant deceleration to stand where it will stop before
-    the next stop line (:func:`predicted_stop_distance`; SUMO brakes about like that)."""
-    v_m = vehicles.v[near].astype(F32)[:, None]
-    travel = v_m * t[None, :]
-    speed = np.broadcast_to(v_m, travel.shape)
-    # the queue counts every vehicle, not only the near ones
-    to_stop = predicted_stop_distance(
-        vehicles.s, vehicles.d, vehicles.length, vehicles.width, stop_lines_s, lap
-    )[near]
-    stops = np.isfinite(to_stop)
-    if stops.any():
-        dist = np.where(stops, to_stop, 1.0).astype(F32)[:, None]
-        b = v_m * v_m / (2 * dist) + F32(1e-3)
-        tt = np.minimum(t[None, :], v_m / b)
-        braking = np.minimum(v_m * tt - 0.5 * b * tt * tt, dist)
-        travel = np.where(stops[:, None], braking, travel)
-        speed = np.where(stops[:, None], np.maximum(v_m - b * tt, 0.0), speed)
-    centre = ds0[near].astype(F32)[:, None] + travel - vehicles.length[near].astype(F32)[:, None] / 2
-    return centre.astype(F32), np.ascontiguousarray(speed, dtype=F32)
 
 
 def _cull(

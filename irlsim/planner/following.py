@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.planner.features import predicted_stop_distance
+from irlsim.planner.prediction import predicted_stop_distance
 from irlsim.sim.types import Observation
 
 
@@ -30,7 +30,7 @@ def lane_outlook(
     lane then: required gap = headway v + gap + max(0, v^2 - v_m^2) / (2 b) (it could still fall back
     behind that vehicle braking ``follow_decel``). Vehicles are predicted at constant speed, standing
     where they will stop before a stop line within 80 m, queue included
-    (:func:`irlsim.planner.features.predicted_stop_distance`). Without it the expert, whose
+    (:func:`irlsim.planner.prediction.predicted_stop_distance`). Without it the expert, whose
     safety zone looks 3 s ahead, keeps choosing policies that brake late in the horizon, closes in on
     slow vehicles at full speed and is then pushed out of its lane by the safety zone.
 

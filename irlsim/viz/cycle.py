@@ -3,7 +3,7 @@ coloured by value, the executed one, the vehicles and what the planner predicts 
 
 The drawing itself is :func:`irlsim.viz.frames.draw_policies`, the same as the drive stage's cycle pictures;
 this module only turns a PolicySet, values and vehicle states into its arrays. The vehicles' predictions
-are the planner's own (:func:`irlsim.planner.features.predicted_motion`: constant speed, or braking to
+are the planner's own (:func:`irlsim.planner.prediction.predicted_motion`: constant speed, or braking to
 stand at the next stop line), so the picture shows what the proximity feature and the collision label see.
 """
 
@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from irlsim.planner.features import F32, predicted_motion
+from irlsim.planner.features import F32
 from irlsim.planner.policy_set import PolicySet
+from irlsim.planner.prediction import predicted_motion
 from irlsim.road import Road
 from irlsim.sim.types import VehicleStates
 from irlsim.viz.frames import draw_policies

@@ -240,7 +240,7 @@ def test_velocity_target_is_zero_at_an_active_stop_line(road, planner):
 def test_vehicles_queue_before_a_stop_line(road):
     """A vehicle heading for a stop line stands 0.3 m before it, or QUEUE_GAP behind the rear of each
     vehicle queued ahead of it in its lane; vehicles of other lanes or beyond reach do not count."""
-    from irlsim.planner.features import QUEUE_GAP, predicted_stop_distance
+    from irlsim.planner.prediction import QUEUE_GAP, predicted_stop_distance
 
     line = road.stop_lines[0].s
     lap = road.lap_length
