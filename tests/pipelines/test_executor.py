@@ -169,7 +169,9 @@ def test_one_worker_runs_the_jobs_in_a_worker_process_when_they_have_a_time_limi
     assert worker != os.getpid() and {pid for pid, _ in inline.results.values()} == {os.getpid()}
 
 
-@pytest.mark.parametrize("executor", ["local", "ray"])
+# local workers: in make test-slow, for the suite's time (collect's hung-worker test below runs the same
+# local kill, retry and naming through the CLI in make test)
+@pytest.mark.parametrize("executor", [pytest.param("local", marks=pytest.mark.slow), "ray"])
 def test_a_hung_worker_is_killed_retried_then_named(executor, request, monkeypatch):
     """A job whose worker stops (SIGSTOP) on every attempt: after the time limit its process is killed
     (Ray: its task cancelled), the job is tried once more in a fresh worker, then named with a one-line
