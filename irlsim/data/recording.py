@@ -127,6 +127,12 @@ def check_rows(rows: Rows, max_gap: float = MAX_GAP) -> tuple[np.ndarray, np.nda
                 f"{rows.where(deg[0])}: heading {rows.heading[deg[0]]:g} is beyond 2 pi: headings are "
                 "radians (ENU, counter-clockwise from east), these look like degrees: convert them"
             )
+    nameless = np.flatnonzero(np.char.strip(rows.id.astype(str)) == "")
+    if len(nameless):
+        raise IrlsimError(
+            f"{rows.where(nameless[0])}: the row has no vehicle id (an empty cell): give every row the id "
+            "of the vehicle it records, or drop the row"
+        )
     if (rows.v < 0).any():
         i = int(np.flatnonzero(rows.v < 0)[0])
         raise IrlsimError(

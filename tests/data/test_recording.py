@@ -115,6 +115,8 @@ def _bad(cols: dict[str, list], kind: str) -> dict[str, list]:
         cols["v"] = [3.6 * v if vid == "veh1" else v for v, vid in zip(cols["v"], cols["id"], strict=True)]
     elif kind == "degrees":
         cols["heading"] = [math.degrees(h) for h in cols["heading"]]
+    elif kind == "no id":
+        cols["id"][rows[5]] = ""  # an empty cell
     return cols
 
 
@@ -124,6 +126,7 @@ BAD = {
     "off the network": "is off the network",
     "km/h": "v looks like km/h",
     "degrees": "these look like degrees",
+    "no id": "has no vehicle id",
 }
 
 
