@@ -55,8 +55,7 @@ class JunctionPaths:
         chain = None
         if found is not None and api.lane.getEdgeID(found) in self.route_edges:
             xy = np.concatenate(points)
-            first = np.asarray(api.lane.getShape(lane), dtype=np.float64)
-            geometric = float(np.hypot(*np.diff(first, axis=0).T).sum())
+            geometric = float(np.hypot(*np.diff(points[0], axis=0).T).sum())  # ``lane``'s own shape
             chain = (xy, float(api.lane.getLength(lane)) / geometric if geometric > 0 else 1.0)
         self._chains[lane] = chain
         return chain
