@@ -142,6 +142,9 @@ class YieldPoint:
     s: float  # [m] route frame position of the line (end of the incoming lanes)
     x: float  # [m] world position of the line on the middle lane
     y: float
+    #: SUMO's internal lanes of the route's way through the junction (every lane's connection into the
+    #: next route edge, each through its chain); () on a network without internal lanes
+    lanes: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -518,9 +521,9 @@ class Road:
         """The minor links on the route's way through (yield and priority junctions), by s."""
         points = junctions.yield_points(self.net, self.edges, self.closed, self.middle_lane)
         out = []
-        for n, x, y, i in points:  # at the end of route edge i
+        for n, x, y, i, lanes in points:  # at the end of route edge i
             s = float(self.to_frenet(np.array([x]), np.array([y]), near=self.edge_s[i, 1])[0][0])
-            out.append(YieldPoint(n, s, x, y))
+            out.append(YieldPoint(n, s, x, y, lanes))
         return tuple(sorted(out, key=lambda p: p.s))
 
     def _exits(self) -> tuple[Exit, ...]:

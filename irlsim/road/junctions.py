@@ -66,16 +66,32 @@ def _ways_through(
 
 def yield_points(
     net: object, edges: tuple[str, ...], closed: bool, lanes: dict[str, int]
-) -> list[tuple[str, float, float, int]]:
+) -> list[tuple[str, float, float, int, tuple[str, ...]]]:
     """The junctions where the route's way through is a minor link without a traffic light (SUMO link
-    state 'm', '=' or 'Z': a minor road, equal rank, a zipper merge): (node id, x, y, i) at the end of
-    the middle lane of route edge i, the incoming one, where the ego waits for the foes with priority
-    (like a stop line)."""
+    state 'm', '=' or 'Z': a minor road, equal rank, a zipper merge): (node id, x, y, i, internal lanes)
+    at the end of the middle lane of route edge i, the incoming one, where the ego waits for the foes with
+    priority (like a stop line); the internal lanes are those of the route's way through
+    (:func:`way_lanes`)."""
     return [
-        (node, x, y, i)
+        (node, x, y, i, way_lanes(net, edges[i], edges[(i + 1) % len(edges)]))
         for node, x, y, cons, i in _ways_through(net, edges, closed, lanes)
         if cons and not cons[0].getTLSID() and cons[0].getState() in YIELD_STATES
     ]
+
+
+def way_lanes(net: object, edge: str, nxt: str) -> tuple[str, ...]:
+    """The internal lanes of every connection from a lane of ``edge`` into ``nxt``, each connection's
+    chain through its junction (the lane it starts on, then an internal junction's lane after it), sorted;
+    () on a network built without internal lanes."""
+    out: set[str] = set()
+    for ln in net.getEdge(edge).getLanes():  # type: ignore[attr-defined]
+        for con in ln.getOutgoing():
+            via = con.getViaLaneID() if con.getTo().getID() == nxt else ""
+            while via and via not in out:  # an internal lane leads on to the next one of its chain
+                out.add(via)
+                onward = [c.getViaLaneID() for c in net.getLane(via).getOutgoing()]  # type: ignore[attr-defined]
+                via = onward[0] if onward else ""
+    return tuple(sorted(out))
 
 
 #: SUMO link states at which a vehicle yields without a sign (a minor road, equal rank, a zipper merge)

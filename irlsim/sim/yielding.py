@@ -77,6 +77,9 @@ class YieldWatch:
 
     def __init__(self, road: Road, cfg: EpisodeConfig):
         self.nodes = tuple(p.node for p in road.yield_points)
+        self.ways: dict[str, set[str]] = {}  # node -> the internal lanes of the route's way(s) through it
+        for p in road.yield_points:
+            self.ways.setdefault(p.node, set()).update(p.lanes)
         self.s = np.array([p.s for p in road.yield_points], dtype=np.float64)  # [m] their route positions
         self.lap = float(road.lap_length)
         self.ego_length = float(cfg.ego_length)
@@ -93,6 +96,16 @@ class YieldWatch:
         live = ahead[(ahead <= YIELD_LOOKAHEAD) & (ahead >= -YIELD_PAST)]
         return float(min(YIELD_LOOKAHEAD, live.min() + YIELD_PAST)) if len(live) else 0.0
 
+    def on_way(self, lane: str) -> bool:
+        """Whether SUMO's foe answer for the ego's internal lane ``lane`` is one of the route's way through
+        a yield point's junction: where two links' internal lanes run together (a turn's end where another
+        approach's joins it), SUMO may place the moved ego on the other link's lane and answer with that
+        link's foes and priorities, which are not the ego's. A point without internal lanes known takes
+        every lane of its junction."""
+        node = junction_of(lane)
+        way = self.ways.get(node)
+        return way is not None and (not way or lane in way)
+
     def read(self, api: Any, ego: str, ego_v: float, ego_s: float) -> int:
         """Ask SUMO for the ego's junction foes near a yield point; set ``binding``; return the new
         violations this step. On a road without yield points, and away from them, SUMO is not asked
@@ -105,7 +118,7 @@ class YieldWatch:
                 foes = api.vehicle.getJunctionFoes(ego, reach)
             except Exception:  # the ego has left the simulation (SUMO's driver at its route's end)
                 foes = ()
-        mine = [f for f in foes if f[7] and junction_of(f[5]) in self.nodes]
+        mine = [f for f in foes if f[7] and self.on_way(f[5])]
         self.binding = np.zeros(len(self.nodes), dtype=bool)
         if not mine:
             self._ego_dist, self._violated = {}, set()

@@ -14,7 +14,7 @@ from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim import minor_green, signals, yielding
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.episode import CourseMarks, Episode
-from irlsim.sim.simulation import Simulation
+from irlsim.sim.simulation import EGO, Simulation
 from irlsim.sim.types import EgoState
 from tests.road.test_scenario import make_scenario
 
@@ -207,3 +207,92 @@ def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_pat
     with Simulation(road, cfg) as sim:
         res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
     assert res.stats["sim/yield_violations"] == 0 and res.stats["sim/collisions"] == 1
+
+
+#: a priority crossing of a two-lane major road (west-east) and a one-lane minor one (south-north)
+P_EDGES = "".join(
+    f'<edge id="{a}{b}" from="{a}" to="{b}" numLanes="{2 if a + b in ("wj", "je", "ej", "jw") else 1}" '
+    f'speed="13.9" priority="{3 if a + b in ("wj", "je", "ej", "jw") else 1}"/>'
+    for a, b in ("wj", "je", "ej", "jw", "nj", "jn", "sj", "js")
+)
+
+
+def _left_turn(tmp_path):
+    """The ego turns left from the major road (wj) into the minor one (jn): a minor link across the
+    oncoming lanes, which SUMO builds in two internal lanes (an internal junction where it waits)."""
+    folder = make_scenario(
+        tmp_path / "p", X_NODES.replace("traffic_light", "priority"), P_EDGES, 'edges = ["wj", "jn"]'
+    )
+    return load_road(scenario=folder)
+
+
+def test_a_yield_points_way_is_its_connections_chain_through_the_junction(tmp_path):
+    road = _left_turn(tmp_path)
+    (p,) = road.yield_points
+    assert p.node == "j" and len(p.lanes) == 2 and all(yielding.junction_of(ln) == "j" for ln in p.lanes)
+    # the chain runs from the end of the major road's left lane to the start of the minor road, joined
+    shapes = {ln: road.net.getLane(ln).getShape() for ln in p.lanes}
+    first = next(ln for ln in p.lanes if np.allclose(shapes[ln][0], road.net.getLane("wj_1").getShape()[-1]))
+    (second,) = set(p.lanes) - {first}
+    assert np.allclose(shapes[first][-1], shapes[second][0])
+    assert np.allclose(shapes[second][-1], road.net.getLane("jn_0").getShape()[0])
+    # the T junction's minor road into the major one: one lane, its connection's
+    minor = t_junction(tmp_path, '["sj", "je"]')
+    (q,) = minor.yield_points
+    (con,) = minor.net.getEdge("sj").getLane(0).getOutgoing()
+    assert q.lanes == (con.getViaLaneID(),) and q.lanes[0].startswith(":j_")
+
+
+def test_sumo_places_the_turning_ego_on_other_links_lanes_which_are_not_its_way(tmp_path):
+    """Moved by moveToXY through its left turn, the ego is on lanes of the junction's other links where
+    they run together with its own (SUMO's foe answers there are that link's): the watch takes only the
+    route's way through the junction."""
+    road = _left_turn(tmp_path)
+    (p,) = road.yield_points
+    cfg = EpisodeConfig(
+        name="t", max_time=30.0, ego_start_random=False, ego_start_s=p.s - 60.0, ego_start_speed=10.0
+    )
+    lanes: list[str] = []
+    with Simulation(road, cfg) as sim:
+        sim.step_listeners.append(lambda s: lanes.append(s._api.vehicle.getLaneID(EGO)))
+        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        watch = sim.yields
+    inside = {ln for ln in lanes if yielding.junction_of(ln) == "j"}
+    others = inside - set(p.lanes)
+    assert set(p.lanes) <= inside and others, lanes  # its own way, and lanes of other links
+    assert all(watch.on_way(ln) for ln in p.lanes) and not any(watch.on_way(ln) for ln in others)
+    assert not watch.on_way(":k_0_0")  # another junction's
+    assert res.stats["sim/yields_passed"] == 1 and res.stats["sim/yield_violations"] == 0
+
+
+@pytest.mark.slow  # a generated network's 90 s episode, twice (about 12 s)
+def test_a_foe_of_a_link_the_ego_is_not_taking_is_no_violation(tmp_path, monkeypatch):
+    """Generated network 47 of seed 0 (the sweep's development draw), its first drawn route: the ego's
+    left turn at junction 58 ends where another approach's link joins it, SUMO places the ego on that
+    link's lane and lists that link's foes with priority. Taken as the ego's, they were a violation."""
+    from irlsim.road.generate import build_network, network_params
+    from irlsim.road.scenario import Scenarios
+    from irlsim.workflows.scenarios import scenario_config
+
+    net = build_network(network_params(0, 47), tmp_path)
+    edges = ["626", "-674", "-624", "-459", "-59", "-9", "5", "17", "-264", "282"]
+    path = tmp_path / "route.toml"
+    path.write_text(f'name = "r"\n[network]\nfile = "{net}"\n[route]\nedges = {edges}\n'.replace("'", '"'))
+
+    def drive() -> tuple[dict, list[str]]:
+        scenarios = Scenarios()
+        road = load_road(scenario=scenarios(str(path)))
+        cfg = scenario_config(str(path), scenarios, max_time=90.0)
+        lanes: list[str] = []
+        with Simulation(road, cfg) as sim:
+            sim.step_listeners.append(lambda s: lanes.append(s._api.vehicle.getLaneID(EGO)))
+            return EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0).stats, lanes
+
+    stats, lanes = drive()
+    assert {":58_1_0", ":58_12_0", ":58_5_0"} <= set(lanes)  # its way, then the other link's lane
+    assert stats["sim/yields_passed"] >= 3 and stats["sim/yield_violations"] == 0
+    monkeypatch.setattr(
+        yielding.YieldWatch, "on_way", lambda self, lane: yielding.junction_of(lane) in self.nodes
+    )
+    stats, _ = drive()
+    assert stats["sim/yield_violations"] == 1  # every foe of the junction taken as the ego's
