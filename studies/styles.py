@@ -50,8 +50,9 @@ the SUMO drivers' rewards finish their maneuvers (``irlsim drive --commit``, ``-
 ``-stop``; not recordings; :func:`drive_tag`). ``assertive-lc3`` is the assertive driver with lane
 changes of 3 s instead of SUMO's jump (``demonstrator.lane_change_duration``); ``assertive-eidm`` that
 driver with SUMO's Extended IDM, whose acceleration has a human driver's reaction time and jerk limit;
-``sporty`` a fast, left-keeping EIDM driver at SUMO's default headway; ``sporty-split`` and
-``assertive-split`` those drivers with the split policy set (development candidates).
+``sporty`` a fast, left-keeping EIDM driver at SUMO's default headway; ``sporty-split``,
+``assertive-split`` and ``assertive-lc3-split`` those drivers with the split policy set (development
+candidates).
 """
 
 from __future__ import annotations
