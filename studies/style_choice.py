@@ -69,7 +69,7 @@ def drive(d: str, road: str, runs: Path, bias: float, out: Path, a: Any) -> None
         + ["--episodes", str(a.episodes), "--seed", str(a.eval_base * styles.SEED_STRIDE)]
         + ["--config", styles.CONFIGS[d], "--scenario", road, "--laps", str(a.laps)]
         + ["--max-cycles", str(a.max_cycles), "--frames", "0", "--workers", str(a.workers)]
-        + ["--choice", "expected", "--lane-change-bias", repr(bias), "--out", str(out)]
+        + ["--choice", a.choice, "--lane-change-bias", repr(bias), "--out", str(out)]
         + ["--commit"] * a.commit
         + ["--full-stop"] * a.full_stop
     )
@@ -90,6 +90,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--model", choices=styles.MODELS, default="PACNN+S", help="the learned reward driven")
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default", help="the rows' training rule")
     p.add_argument("--dagger-rounds", type=int, choices=range(6), default=0, help="style_dagger.py's rewards")
+    p.add_argument(
+        "--choice", choices=["expected", "maneuver"], default="expected", help="irlsim drive --choice"
+    )
     styles.add_rule_flags(p)
     a = p.parse_args(argv)
     bad = [d for d in [*a.demonstrators, *a.rows] if d not in styles.CONFIGS]
@@ -102,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
         styles.RULES[a.rule] = []  # style_dagger.py's rows: the rounds' data is what differs
     out = Path(a.out)
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    tag = styles.drive_tag(commit=a.commit, stop=a.full_stop, choice=True)
+    tag = styles.drive_tag(commit=a.commit, stop=a.full_stop, choice=a.choice)
     folders = [
         out / f"drive{at}{tag}" / road / f"{styles.learner(d, a)[0]}-seed{seed}"
         for d in a.rows
@@ -131,7 +134,16 @@ def main(argv: list[str] | None = None) -> int:
     model = "" if a.model == "PACNN+S" else f"-{a.model}"
     (out / f"choice-biases{at}{rule}{model}.json").write_text(json.dumps(biases, indent=1) + "\n")
     norms = ["--out", str(out), "--roads", *a.roads, "--demonstrators", *a.demonstrators]
-    norms += ["--rows", *a.rows, "--seeds", *map(str, a.seeds), "--eval-base", str(a.eval_base), "--choice"]
+    norms += [
+        "--rows",
+        *a.rows,
+        "--seeds",
+        *map(str, a.seeds),
+        "--eval-base",
+        str(a.eval_base),
+        "--choice",
+        a.choice,
+    ]
     norms += ["--rule", a.rule] + ["--commit"] * a.commit + ["--full-stop"] * a.full_stop
     return style_norms.main(norms)
 

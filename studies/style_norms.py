@@ -151,7 +151,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-base", type=int, default=styles.EVAL_BASE, help="the drives' episode seed base")
     p.add_argument("--rule", choices=sorted(styles.RULES), default="default")
     p.add_argument("--safety", action="store_true", help="the drives within the planner's label filter")
-    p.add_argument("--choice", action="store_true", help="the drives of studies/style_choice.py")
+    p.add_argument(
+        "--choice",
+        nargs="?",
+        const="expected",
+        default=None,
+        choices=["expected", "maneuver"],
+        help="the drives of studies/style_choice.py (with that choice; default: expected)",
+    )
     styles.add_rule_flags(p)
     a = p.parse_args(argv)
     a.drive_tag = styles.drive_tag(a.safety, a.commit, a.full_stop, a.choice)

@@ -225,9 +225,13 @@ def add_rule_flags(p: argparse.ArgumentParser) -> None:
     p.add_argument("--full-stop", action="store_true", help="learned rewards stop at every line they can")
 
 
-def drive_tag(safe: bool = False, commit: bool = False, stop: bool = False, choice: bool = False) -> str:
-    """The suffix of the studies' drive folders and tables: ``[-safe][-commit][-stop][-choice]``."""
-    return "-safe" * safe + "-commit" * commit + "-stop" * stop + "-choice" * choice
+def drive_tag(
+    safe: bool = False, commit: bool = False, stop: bool = False, choice: bool | str = False
+) -> str:
+    """The suffix of the studies' drive folders and tables: ``[-safe][-commit][-stop][-choice]`` (the
+    expected choice; ``choice="maneuver"``: ``-maneuver``)."""
+    last = "-maneuver" if choice == "maneuver" else "-choice" * bool(choice)
+    return "-safe" * safe + "-commit" * commit + "-stop" * stop + last
 
 
 def learner(d: str, a: Any) -> tuple[str, list[str]]:

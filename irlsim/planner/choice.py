@@ -13,6 +13,8 @@ choices differ where a decision is spread over many policies:
   multiplied by ``lane_change_bias``; within it, among the policies with the lateral profile of its most
   likely one, the policy whose progress profile (the control points' progress) is closest (RMS) to
   the maneuver's expected progress profile under p.
+- ``maneuver``: the decision the distribution expects (as ``expected``, with the same bias), then the
+  most likely policy within it: the argmax wherever the argmax's maneuver is the one chosen.
 
 The bias is set so that the choice changes lanes as often as the distribution expects on the states the
 reward was trained on (:func:`calibrate_lane_change_bias`, closed form): the argmax changes lanes far
@@ -29,7 +31,7 @@ import numpy as np
 #: and return; its lane changes end a lane width away)
 SIDEWAYS = 2.0
 #: the choices a planner can make from a reward
-CHOICES = ("argmax", "expected")
+CHOICES = ("argmax", "expected", "maneuver")
 
 
 def _distribution(value: np.ndarray, allowed: np.ndarray | None) -> np.ndarray:
@@ -57,15 +59,19 @@ def expected_choice(
     control_points: np.ndarray,
     lane_change_bias: float = 1.0,
     allowed: np.ndarray | None = None,
+    within: str = "expected",
 ) -> int:
     """The ``expected`` choice (module docstring) over one cycle's policies; ``allowed`` [N] bool limits
-    it to some (None: all; at least one must be allowed)."""
+    it to some (None: all; at least one must be allowed); ``within="argmax"``: the ``maneuver`` choice
+    (the chosen maneuver's most likely policy)."""
     cp = np.asarray(control_points)
     p, which, offsets, mass = maneuver_masses(value, cp, allowed)
     score = mass * np.where(np.abs(offsets) > SIDEWAYS, lane_change_bias, 1.0)
     members = (which == int(np.argmax(score))) & (p > 0)
     v = np.where(members, np.asarray(value, dtype=np.float64), -np.inf)
     best = int(np.argmax(v))
+    if within == "argmax":
+        return best
     q = np.where(members, p, 0.0)
     profile = q @ cp[:, :, 2].astype(np.float64) / q.sum()  # [K] the maneuver's expected progress profile
     same = members & np.all(cp[:, :, 0] == cp[best, :, 0], axis=1)

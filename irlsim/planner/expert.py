@@ -348,8 +348,9 @@ def choose_index(
     if heading is not None:
         there = (policy_set.lane[:, -1] == heading) & np.logical_not(policy_set.labels[:, 0])
         allowed = _narrowed(allowed, there)
-    if choice == "expected":
-        return expected_choice(value, policy_set.control_points, lane_change_bias, allowed)
+    if choice in ("expected", "maneuver"):
+        within = "argmax" if choice == "maneuver" else "expected"
+        return expected_choice(value, policy_set.control_points, lane_change_bias, allowed, within)
     return _best(value, allowed)
 
 

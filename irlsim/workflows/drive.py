@@ -80,10 +80,11 @@ class DriveRun:
     """on a recording (the config's ``[demonstrator] kind = 'recording'``): SUMO drives the other
     vehicles from their first recorded pose on (False: they replay their recorded motion)"""
     choice: str = "argmax"
-    """how a learned model's reward picks the policy: 'argmax' (the paper's) or 'expected' (the fit's
-    expected maneuver and policy, :mod:`irlsim.planner.choice`)"""
+    """how a learned model's reward picks the policy: 'argmax' (the paper's), 'expected' (the fit's
+    expected maneuver and policy) or 'maneuver' (the expected maneuver's most likely policy;
+    :mod:`irlsim.planner.choice`)"""
     lane_change_bias: float = 1.0
-    """the 'expected' choice's lane-change bias (:func:`irlsim.reward.choice.lane_change_bias`)"""
+    """the 'expected'/'maneuver' choices' lane-change bias (:func:`irlsim.reward.choice.lane_change_bias`)"""
     commit: bool = False
     """a learned model finishes the maneuver it chose (:class:`irlsim.planner.expert.ThetaDriver`)"""
     full_stop: bool = False

@@ -56,6 +56,20 @@ def test_the_maneuver_with_the_mass_wins_over_the_most_likely_policy():
     assert expected_choice(value_keep, cp, lane_change_bias=1.01 * r_keep) in (1, 2, 3)
 
 
+def test_the_maneuver_choice_takes_the_expected_maneuvers_most_likely_policy():
+    # the same cycle: the lane change has the mass; within it the policies' values differ, so its most
+    # likely policy (3) is chosen, where the expected choice takes the progress nearest the expectation
+    value = np.array([0.0, -0.6, -0.5, -0.4])
+    cp = _points([0.0, 3.2, 3.2, 3.2], [40.0, 30.0, 40.0, 50.0])
+    assert expected_choice(value, cp, within="argmax") == 3 and expected_choice(value, cp) == 2
+    # where the most likely policy's maneuver has the mass, it is the argmax
+    value_keep = np.array([0.0, -2.0, -2.0, -1.9])
+    assert expected_choice(value_keep, cp, within="argmax") == int(np.argmax(value_keep)) == 0
+    # the bias moves the decision and nothing else: above the ratio, the lane change's best
+    r_keep, _ = change_ratio(value_keep, cp)
+    assert expected_choice(value_keep, cp, lane_change_bias=1.01 * r_keep, within="argmax") == 3
+
+
 def test_within_the_maneuver_the_lateral_profile_is_the_most_likely_policys():
     # two lateral profiles to the same lane (ends equal, ramps differ): the progress choice stays on the
     # most likely policy's profile even where another profile's progress is nearer the expectation
