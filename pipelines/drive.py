@@ -109,15 +109,16 @@ def add_choice_arguments(p: argparse.ArgumentParser) -> None:
         "--choice",
         choices=CHOICES,
         default="argmax",
-        help="how a learned model picks its policy: 'argmax' of its reward (the paper's; default) or "
-        "'expected': the maneuver and policy its maximum-entropy distribution expects",
+        help="how a learned model picks its policy: 'argmax' of its reward (the paper's; default), "
+        "'expected': the maneuver and policy its maximum-entropy distribution expects, or 'maneuver': "
+        "that maneuver's most likely policy",
     )
     p.add_argument(
         "--lane-change-bias",
         type=float_in(1.0),
         default=1.0,
-        help="with --choice expected: a lane change's probability mass is multiplied by this (>= 1) "
-        "before the maneuver is chosen (calibrated on a reward's training data by "
+        help="with --choice expected or maneuver: a lane change's probability mass is multiplied by "
+        "this (>= 1) before the maneuver is chosen (calibrated on a reward's training data by "
         "irlsim.reward.choice.lane_change_bias; default: 1)",
     )
     p.add_argument(

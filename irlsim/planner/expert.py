@@ -225,7 +225,7 @@ class ThetaDriver:
 
     ``safe=True`` first drops policies labelled collision / off-road / exit (model-based safety, as the
     paper's planner does around a learned reward); when that drops all of them it uses all.
-    ``choice``: 'argmax' (the paper's), or 'expected' with ``lane_change_bias``
+    ``choice``: 'argmax' (the paper's), or 'expected' or 'maneuver' with ``lane_change_bias``
     (:mod:`irlsim.planner.choice`). ``commit=True`` finishes the maneuver chosen (``choose_index``'s
     ``heading`` and ``stopping``): once a chosen policy ends in another lane than the ego's, the next
     cycles choose among the policies that end there until the ego is in it (no dithering between two
@@ -316,21 +316,20 @@ def choose_index(
     value: np.ndarray | None = None,
     in_lane: bool = False,
 ) -> int:
-    """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected'
-    (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a label
-    (collision / off-road / exit), all of them when every one has one. ``heading``: a lane change under
-    way to that lane; only the policies that end in it and are not labelled a predicted collision (nor,
-    with ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under
-    way; only the policies that do not cross an active stop line without a full stop (``stop_line``
-    feature 0), unless there is none (applied first: a stop outranks a lane change); ``braking`` [N] bool:
-    then only these (:func:`within_braking_curve`), unless none; ``distance`` [N] bool: then only these
+    """The policy a reward theta executes in the set: ``choice`` 'argmax' of V = -theta^T f, or 'expected' or
+    'maneuver' (:func:`irlsim.planner.choice.expected_choice`); with ``safety`` among the policies without a
+    label (collision / off-road / exit), all of them when every one has one. ``heading``: a lane change under
+    way to that lane; only the policies that end in it and are not labelled a predicted collision (nor, with
+    ``safety``, anything else) are chosen from, unless there is none; ``stopping``: a stop under way; only the
+    policies that do not cross an active stop line without a full stop (``stop_line`` feature 0), unless there
+    is none (applied first: a stop outranks a lane change); ``braking`` [N] bool: then only these
+    (:func:`within_braking_curve`), unless none; ``distance`` [N] bool: then only these
     (:func:`keeping_distance`), unless none; with ``in_lane`` the lane the policy of highest value (before
     ``distance``) ends in is kept: its policies that keep the distance, where there are (the rule picks the
-    speed, the reward the lane; a lane change only where no policy in that lane keeps the distance).
-    ``value`` [N]: the policies' values instead of -theta^T f (any
-    score, higher is better: ``theta`` is then unused; e.g. the nearness to a driver's odometry of
-    ``studies/style_oracle.py``). :class:`ThetaDriver` and :meth:`irlsim.reward.LearnedReward.choose`
-    decide with it."""
+    speed, the reward the lane; a lane change only where no policy in that lane keeps the distance). ``value``
+    [N]: the policies' values instead of -theta^T f (any score, higher is better: ``theta`` is then unused;
+    e.g. the nearness to a driver's odometry of ``studies/style_oracle.py``). :class:`ThetaDriver` and
+    :meth:`irlsim.reward.LearnedReward.choose` decide with it."""
     value = policy_set.value(theta) if value is None else np.asarray(value, dtype=np.float64)
     allowed: np.ndarray | None = None
     if safety:
