@@ -148,6 +148,15 @@ def test_any_value_is_chosen_under_the_same_rules():
     assert choose_index(ps, E0, heading=2, value=np.array([5.0, 1.0, 2.0])) == 1
 
 
+def test_the_driver_dispatches_the_maneuver_choice():
+    # one keeping policy (V 0) and three changes to lane 2 (V -0.6, -0.5, -0.4, their own progress): the
+    # change has the mass; the maneuver choice drives its best, the expected one its middle progress
+    ps = _lanes_set(1, [1, 2, 2, 2], [0.0, -0.6, -0.5, -0.4], [False] * 4)
+    ps = replace(ps, control_points=_points([0.0, 3.2, 3.2, 3.2], [40.0, 30.0, 40.0, 50.0], k=2))
+    assert choose_index(ps, E0) == 0
+    assert choose_index(ps, E0, choice="maneuver") == 3 and choose_index(ps, E0, choice="expected") == 2
+
+
 class _Planner:
     """Hands out prepared policy sets in turn (the commitment's bookkeeping is pure logic)."""
 
