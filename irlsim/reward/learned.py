@@ -130,15 +130,15 @@ class LearnedReward:
         distance: np.ndarray | None = None,
         in_lane: bool = False,
     ) -> int:
-        """The policy this reward executes: argmax V. ``safety``: first drop the policies labelled collision /
-        off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``; ``choice``
-        'expected': the fit's expected maneuver and policy instead, 'maneuver': that maneuver's most likely
-        policy (:mod:`irlsim.planner.choice`, ``irlsim drive --choice``); ``heading``, ``stopping``: a lane
-        change under way to that lane, or a stop, is finished (``irlsim drive --commit``; see
-        ``choose_index``); ``stopping`` and ``braking`` = ``irlsim.planner.expert.within_braking_curve(...)``:
-        ``irlsim drive --full-stop``; ``distance`` = ``irlsim.planner.expert.keeping_distance(...)``: ``irlsim
-        drive --keep-distance``; ``in_lane``: that distance kept in the lane the reward chooses (``irlsim
-        drive --in-lane``)."""
+        """The policy this reward executes: argmax V. ``safety``: first drop the policies labelled
+        collision / off-road / exit (all kept when that drops every one), as ``irlsim drive --safety``;
+        ``choice`` 'expected': the fit's expected maneuver and policy instead, 'maneuver': that maneuver's
+        most likely policy (:mod:`irlsim.planner.choice`, ``irlsim drive --choice``); ``heading``,
+        ``stopping``: a lane change under way to that lane, or a stop, is finished (``irlsim drive
+        --commit``; see ``choose_index``); ``stopping`` and ``braking`` =
+        ``irlsim.planner.expert.within_braking_curve(...)``: ``irlsim drive --full-stop``; ``distance`` =
+        ``irlsim.planner.expert.keeping_distance(...)``: ``irlsim drive --keep-distance``; ``in_lane``: that
+        distance kept in the lane the reward chooses (``irlsim drive --in-lane``)."""
         if self.is_expert:
             raise IrlsimError(
                 "'expert' chooses by a model-based rule on its own planner's internals, not by a reward: "
