@@ -84,6 +84,25 @@ def test_lc_delay_grows_when_the_same_lane_change_comes_later(road, planner):
     assert ps.features[late, F["lc_delay"]].min() > ps.features[early, F["lc_delay"]].max()
 
 
+def test_no_feature_but_the_missions_prefers_a_side(road, planner):
+    """The reward family prices no lane for its own sake: in the middle lane of the oval's straight,
+    without traffic, every policy and its mirror image (the lateral profile negated, the same
+    longitudinal one) have the same 14 features; only the mission's lane differs (the next checkpoint
+    requires a lane). So a driver's habit of keeping left or right is no weight a reward can learn (the
+    style study's lane shares, docs/results/styles.md)."""
+    ps = planner.plan(make_obs(road, STRAIGHT_S, 0.0, 15.0))
+    d, v = np.round(ps.d.astype(np.float64), 4), np.round(ps.v.astype(np.float64), 4)
+    key = {(di.tobytes(), vi.tobytes()): i for i, (di, vi) in enumerate(zip(d, v, strict=True))}
+    mirror = [((-d[i] + 0.0).tobytes(), v[i].tobytes()) for i in range(len(d))]  # + 0.0: no -0.0
+    pairs = np.array([(i, key[k]) for i, k in enumerate(mirror) if k in key])
+    sideways = np.abs(d[pairs[:, 0], -1]) > LANE_WIDTH / 2
+    assert len(pairs) > len(d) / 2 and sideways.sum() > 100  # lane changes to both sides among them
+    a, b = ps.features[pairs[:, 0]], ps.features[pairs[:, 1]]
+    others = [i for i in range(len(FEATURE_NAMES)) if i != F["mission_lane"]]
+    np.testing.assert_array_equal(a[:, others], b[:, others])
+    assert np.any(a[sideways, F["mission_lane"]] != b[sideways, F["mission_lane"]])
+
+
 def _expected_proximity(planner, ps, i, s_front, d_veh, v_veh, length=4.5):
     """The documented proximity of policy ``i`` against one vehicle at constant speed, computed here
     from the policy's own arrays: sum_t w_t (exp(-(gap / D)^2) exp(-(dd / sigma_d)^2) + K [overlap])."""
