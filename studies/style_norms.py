@@ -12,7 +12,9 @@ the next among the drivers compared, and the normaliser is the same for every ro
 Reads a ``studies/styles.py`` run (its drives and references; nothing is driven again) and writes, per
 road, each row's cells and nearest demonstrator under both, with each figure's two normalisers, and for
 every row not nearest its own demonstrator per episode, each figure's signed normalised difference from
-its own and from the nearest (what keeps it from its own; the distance is the RMS of these):
+its own and from the nearest (what keeps it from its own; the distance is the RMS of these), and for every
+row not nearest its own demonstrator as defined, its distances as defined with one group of figures
+(:data:`GROUPS`) set to its own demonstrator's value in turn (which figure alone keeps it from its own):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
         --demonstrators expert cautious assertive --rows cautious assertive \
@@ -39,6 +41,15 @@ from irlsim.rollout.style import STYLE_FIGURES, pool_styles, style_distances, st
 #: the two spreads of a figure the table shows: over the references' episodes, over their pooled values
 #: (the distance as defined adds the row to these)
 EPISODES, POOLED = "references' episodes", "references pooled"
+#: the groups of figures the counterfactual sets to the row's own demonstrator's, one at a time
+GROUPS = {
+    "speed": ("style/mean_speed",),
+    "headway": ("style/headway_median_s", "style/headway_p10_s"),
+    "lane changes": ("style/lane_changes_per_km",),
+    "acceleration, jerk": ("style/rms_accel", "style/rms_jerk"),
+    "stops": ("style/stops_per_km",),
+    "lane shares": ("style/lane_share",),
+}
 
 
 def figure_names(n_lanes: int) -> list[str]:
@@ -65,6 +76,19 @@ def figure_gaps(row: dict[str, Any], ref: dict[str, Any], spread: np.ndarray) ->
     with np.errstate(invalid="ignore", divide="ignore"):
         gap = (style_vector(row, n_lanes) - style_vector(ref, n_lanes)) / np.where(spread > 0, spread, np.nan)
     return gap
+
+
+def counterfactual(
+    row: dict[str, Any], refs: dict[str, dict[str, Any]], own: str
+) -> dict[str, dict[str, float]]:
+    """For each of :data:`GROUPS`: the distances as defined from ``row`` to every reference with that
+    group's figures set to reference ``own``'s (the row enters the spread with them, as defined)."""
+    out = {}
+    for name, keys in GROUPS.items():
+        moved = {**row, **{k: refs[own][k] for k in keys}}
+        d = style_distances([moved, *refs.values()])[0, 1:]
+        out[name] = dict(zip(refs, map(float, d), strict=True))
+    return out
 
 
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
@@ -103,6 +127,8 @@ def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
                     "episodes": dict(zip(cols, map(float, per_ep), strict=True)),
                     "gaps": gaps, "bounds": styles.safety(dj, m),
                 })  # fmt: skip
+                if cols[int(np.argmin(pooled))] != d:
+                    rows[-1]["counterfactual"] = counterfactual(style, refs, d)
     names = figure_names(n_lanes)
     pooled_spread = np.nanstd(np.stack([style_vector(r, n_lanes) for r in refs.values()]), axis=0)
     both = zip(names, spread, pooled_spread, strict=True)
@@ -137,8 +163,26 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
                 for c, g in r["gaps"].items():
                     cells = ["-" if x is None else f"{x:+.2f}" for x in g]
                     lines.append(f"| {r['row']} | {c} | " + " | ".join(cells) + " |")
+        lines += counterfactual_lines(t["rows"])
         parts.append("\n".join(lines) + "\n")
     return "\n".join(parts)
+
+
+def counterfactual_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """The counterfactual's table (module docstring): as defined, to its own / to the nearest other."""
+    missed = [r for r in rows if "counterfactual" in r]
+    if not missed:
+        return []
+    head = ["row not nearest its own (as defined): to own / nearest other", "as measured", *GROUPS]
+    lines = ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in missed:
+        cells = [r["row"]]
+        for d in (r["pooled"], *r["counterfactual"].values()):
+            own = d[r["demonstrator"]]
+            other = min(v for c, v in d.items() if c != r["demonstrator"])
+            cells.append(f"**{own:.2f}** / {other:.2f}" if own < other else f"{own:.2f} / {other:.2f}")
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -288,3 +288,21 @@ def test_style_oracle_names_its_table_by_every_planner_field_whole(tmp_path):
     assert js.parent == md.parent == tmp_path and js.name == md.name[:-3] + ".json"
     other, _ = oracle.table_paths(tmp_path, "-s2000-commit-stop-lon_split=1.0-accel_ramp=0.7", "assertive")
     assert other != js  # a field's decimals tell two tables apart
+
+
+def test_counterfactual_sets_one_group_to_the_own_demonstrators():
+    """A row that is its own demonstrator's driving but for its speed: with the speed set to the
+    demonstrator's it is that driving (distance 0 as defined); with any other group set, the speed still
+    keeps it away; a lane-share group moves the whole share vector."""
+    own = _style([15.0, 2.4, 1.0, 6.0, 1.4, 1.0, 0.1], [0.1, 0.4, 0.5])
+    other = _style([14.0, 3.0, 1.5, 4.5, 1.1, 0.4, 0.1], [0.4, 0.3, 0.3])
+    third = _style([10.0, 5.0, 2.5, 1.0, 0.7, 0.3, 0.2], [0.5, 0.3, 0.2])
+    refs = {"own": own, "other": other, "third": third}
+    row = {**own, "style/mean_speed": 18.0}
+    cf = norms.counterfactual(row, refs, "own")
+    assert list(cf) == list(norms.GROUPS)
+    assert cf["speed"]["own"] == 0.0 and cf["speed"]["other"] > 0
+    assert all(cf[g]["own"] > 0 for g in norms.GROUPS if g != "speed")
+    # the lanes: a row with the other's shares, moved back to its own's, is its own driving again
+    lanes = norms.counterfactual({**own, "style/lane_share": other["style/lane_share"]}, refs, "own")
+    assert lanes["lane shares"]["own"] == 0.0 and lanes["speed"]["own"] > 0
