@@ -28,6 +28,23 @@ FEATURE_NAMES: tuple[str, ...] = (
     "proximity",
 )
 N_FEATURES = len(FEATURE_NAMES)
+#: the lane-preference pair (``planner.feature_set = "lanes"``): the lanes to the ego's right and to its
+#: left, each a cost, so that positive weights can prefer either side (the paper's 15 price no lane)
+LANE_FEATURE_NAMES: tuple[str, ...] = ("lane_right", "lane_left")
+#: the feature sets a planner can compute, by name; "paper" (the 15) is the default everywhere
+FEATURE_SETS: dict[str, tuple[str, ...]] = {
+    "paper": FEATURE_NAMES,
+    "lanes": FEATURE_NAMES + LANE_FEATURE_NAMES,
+}
+
+
+def feature_names_of(n: int) -> tuple[str, ...]:
+    """The names of the feature set with ``n`` features (the sets differ in size); ValueError if none."""
+    for names in FEATURE_SETS.values():
+        if len(names) == n:
+            return names
+    raise ValueError(f"no feature set has {n} features (irlsim.FEATURE_SETS)")
+
 
 #: environment variables that size numpy's / torch's CPU thread pools; set to 1 for single-threaded
 #: processes (``irlsim bench``, collection workers: see :mod:`irlsim.executor`). Read once, when

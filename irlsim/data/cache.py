@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim import N_FEATURES
 from irlsim.data.lz4rows import Lz4Rows
 from irlsim.data.lz4rows import files as lz4_files
 from irlsim.data.schema import SCHEMA_VERSION
@@ -166,7 +167,8 @@ def open_cache(folder: Path, meta: dict[str, Any]) -> SplitTensors:
             small[name] = _opened(path, partial(np.load, path, mmap_mode="r"))
     c, n, k = (int(meta[key]) for key in ("cycles", "policies", "control_points"))
     big: dict[str, Any] = {}
-    for name, (shape, dtype) in policy_array_specs(c, n, k).items():
+    f = int(meta.get("features", N_FEATURES))  # F: written only for a feature set other than the paper's
+    for name, (shape, dtype) in policy_array_specs(c, n, k, f).items():
         big[name] = _opened(folder / f"{name}.lz4", partial(Lz4Rows.open, folder, name, shape[1:], dtype))
     try:
         return SplitTensors(**small, **big)

@@ -423,7 +423,10 @@ def collect_episode(
             driver.look_ahead_by = sim.look_ahead  # type: ignore[attr-defined]
             driver.lane_offset_by = sim.look_ahead_offset  # type: ignore[attr-defined]
         record = episode_record(job.seed, cfg, job.scenario, scenarios)
-        with EpisodeWriter(out, job.split, job.episode, demo_source=source, record=record) as writer:
+        n_features = len(cfg.planner.feature_names)
+        with EpisodeWriter(
+            out, job.split, job.episode, demo_source=source, record=record, n_features=n_features
+        ) as writer:
             recorder, style = CycleRecorder(writer, projector, labeller), StyleObserver()
             runner = EpisodeRunner(
                 sim, observers=[_SetupClock(), recorder, style, *observers], max_cycles=cfg.max_cycles

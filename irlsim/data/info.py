@@ -11,7 +11,6 @@ from typing import Any
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES, N_FEATURES
 from irlsim.data.aggregate import AggregateDataset, open_datasets
 from irlsim.data.by_demonstrator import dataset_demonstrator
 from irlsim.data.cache import CACHE_DIR
@@ -76,7 +75,8 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
     with the DEMO mean.
     """
     ds = open_dataset(path)
-    moments = _Moments(N_FEATURES)
+    names = list(ds.manifest["feature_names"])
+    moments = _Moments(len(names))
     splits: dict[str, Any] = {}
     for split in ds.splits:
         cycles = ds.read_cycles_table(split)
@@ -86,9 +86,9 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
         rand_sum, rand_n, offset = 0.0, 0, 0  # offset: first cycles row of the current row group
         for ep in ds.episodes(split):
             p = ds.policies_path(split, ep)
-            pf = open_parquet(p, TABLE_POLICIES)
+            pf = open_parquet(p, TABLE_POLICIES, n_features=len(names))
             for group in iter_policy_groups(pf, p, ["features", "distance"]):
-                moments.add(fixed_list_to_numpy(group.column("features"), N_FEATURES))
+                moments.add(fixed_list_to_numpy(group.column("features"), len(names)))
                 n = int(n_pol[0])
                 g = group.num_rows // n
                 dist = group.column("distance").to_numpy().reshape(g, n)[has_demo[offset : offset + g]]
@@ -122,7 +122,7 @@ def dataset_info(path: str | Path) -> dict[str, Any]:
         "splits": splits,
         "features": {
             name: {key: float(stats[key][i]) for key in ("mean", "std", "min", "max")}
-            for i, name in enumerate(FEATURE_NAMES)
+            for i, name in enumerate(names)
         },
         "disk_bytes": _dir_size(ds.path, skip=CACHE_DIR),
         "cache_bytes": _dir_size(ds.path / CACHE_DIR) if (ds.path / CACHE_DIR).is_dir() else 0,

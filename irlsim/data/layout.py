@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES, __version__
+from irlsim import FEATURE_NAMES, FEATURE_SETS, __version__
 from irlsim.data.reader import BadParquetFile, open_parquet, read_parquet
 from irlsim.data.schema import (
     META_CONFIG,
@@ -108,7 +108,11 @@ def check_episode(
                 k = ppf.schema_arrow.field("control_points").type.list_size // 3
             except (KeyError, AttributeError):
                 k = -1
-        if k < 0 or not ppf.schema_arrow.equals(policies_schema(k)):
+        try:  # F: the file's own feature set (open_parquet checked it is one)
+            f = ppf.schema_arrow.field("features").type.list_size
+        except (KeyError, AttributeError):
+            f = -1
+        if k < 0 or f < 0 or not ppf.schema_arrow.equals(policies_schema(k, f)):
             want = (
                 f"{n_control_points} control points"
                 if n_control_points is not None
@@ -178,6 +182,13 @@ def split_counts(dataset_dir: str | Path, split: str, episodes: Iterable[int]) -
     }
 
 
+def manifest_feature_names(manifest: Mapping[str, Any]) -> tuple[str, ...]:
+    """The features a collection's planner computed: its config's ``planner.feature_set`` (the paper's 15
+    when it is not set)."""
+    planner = (manifest.get("config") or {}).get("planner") or {}
+    return FEATURE_SETS.get(str(planner.get("feature_set", "paper")), FEATURE_NAMES)
+
+
 def write_manifest(dataset_dir: str | Path, manifest: Mapping[str, Any]) -> Path:
     """Write ``<dataset>/manifest.json`` atomically and return its path.
 
@@ -200,7 +211,7 @@ def write_manifest(dataset_dir: str | Path, manifest: Mapping[str, Any]) -> Path
     out: dict[str, Any] = {
         # the version and names describe what this code wrote: never taken from the caller
         "schema_version": SCHEMA_VERSION,
-        "feature_names": list(FEATURE_NAMES),
+        "feature_names": list(manifest_feature_names(manifest)),
         "created_by": manifest.get("created_by", f"irlsim {__version__}"),
         "complete": complete,
         **{

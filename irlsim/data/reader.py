@@ -75,9 +75,12 @@ def _corrupt(path: Path, exc: BaseException) -> BadParquetFile:
     return BadParquetFile(path, f"is truncated or corrupt ({reason})", _REGENERATE)
 
 
-def open_parquet(path: Path, table: str, n_control_points: int | None = None) -> pq.ParquetFile:
+def open_parquet(
+    path: Path, table: str, n_control_points: int | None = None, n_features: int | None = None
+) -> pq.ParquetFile:
     """Open an irlsim Parquet file, checking it is complete, ours, of this schema version and has the
-    columns, types and list widths of this irlsim's ``table`` (with ``n_control_points`` K if given).
+    columns, types and list widths of this irlsim's ``table`` (with ``n_control_points`` K and
+    ``n_features`` F if given).
 
     Raises ``BadParquetFile`` (an ``IrlsimError``) naming the file."""
     try:
@@ -100,7 +103,7 @@ def open_parquet(path: Path, table: str, n_control_points: int | None = None) ->
             f"has schema version {version}, this irlsim reads {SCHEMA_VERSION}",
             "re-collect it with 'irlsim collect'",
         )
-    check_columns(pf.schema_arrow, path, table, n_control_points)
+    check_columns(pf.schema_arrow, path, table, n_control_points, n_features)
     return pf
 
 
@@ -157,6 +160,8 @@ class Dataset:
         #: K and N the collection was configured with (None: not recorded, taken from the files)
         self.n_control_points: int | None = planner.get("n_control_points")
         self.n_policies: int | None = planner.get("n_policies")
+        #: F, the features of its feature set (the manifest's names)
+        self.n_features = len(manifest.get("feature_names") or ()) or N_FEATURES
         #: the scenarios read (None: all); a selection has its own identity and cache
         self.selection = scenarios
         self.legacy_identities: tuple[str, ...] = ()
@@ -313,16 +318,17 @@ class Dataset:
             folder, f"the cache of split {split}, out of date (other files, or another irlsim)", quiet
         )
         # LZ4 takes the rows to a third to a fifth of their float32 bytes: half of those is the estimate
-        self._check_cache_place(folder, c * n * (4 * (N_FEATURES + 5 * k + 1) + len(LABEL_NAMES)) // 2)
+        self._check_cache_place(folder, c * n * (4 * (self.n_features + 5 * k + 1) + len(LABEL_NAMES)) // 2)
         invalidate_cache(folder)
-        specs = policy_array_specs(c, n, k)
+        f = self.n_features
+        specs = policy_array_specs(c, n, k, f)
         small = {name: cycles.column(name).to_numpy().astype(dtype) for name, dtype in _SMALL_COLUMNS}
         small["demo_source"] = demo_source_codes(cycles.column("demo_source"))
         with Lz4RowsWriter(folder, specs) as big:
             row = 0  # next cycle row to fill
             for ep in self.episodes(split):
                 path = self.policies_path(split, ep)
-                pf = open_parquet(path, TABLE_POLICIES, self.n_control_points)
+                pf = open_parquet(path, TABLE_POLICIES, self.n_control_points, self.n_features)
                 for group in iter_policy_groups(pf, path, [*_POLICY_COLUMNS, *LABEL_NAMES]):
                     if group.num_rows % max(n, 1):
                         raise IrlsimError(
@@ -332,9 +338,7 @@ class Dataset:
                     g = group.num_rows // max(n, 1)
                     sl = slice(row, row + g)
                     _check_policy_ids(path, group, small["episode"][sl], small["cycle"][sl], n)
-                    big["features"].append(
-                        fixed_list_to_numpy(group.column("features"), N_FEATURES).reshape(g, n, N_FEATURES)
-                    )
+                    big["features"].append(fixed_list_to_numpy(group.column("features"), f).reshape(g, n, f))
                     big["control_points"].append(
                         fixed_list_to_numpy(group.column("control_points"), 3 * k).reshape(g, n, k, 3)
                     )
@@ -357,7 +361,10 @@ class Dataset:
         for name, arr in small.items():
             with atomic_path(folder / f"{name}.npy") as tmp, open(tmp, "wb") as fh:
                 np.save(fh, arr)
-        write_cache_meta(folder, {"cycles": c, "policies": n, "control_points": k, "sources": sources})
+        shape = {"cycles": c, "policies": n, "control_points": k} | (
+            {"features": f} if f != N_FEATURES else {}
+        )
+        write_cache_meta(folder, {**shape, "sources": sources})
         # Arrow's allocator keeps the row groups' freed buffers (0.2 GB and more at 2,500 policies): given
         # back, so they do not sit in the training's anonymous memory beside what it allocates next
         pa.default_memory_pool().release_unused()

@@ -107,8 +107,9 @@ def cycles_schema() -> pa.Schema:
     )
 
 
-def policies_schema(n_control_points: int = N_CONTROL_POINTS) -> pa.Schema:
-    """One row per policy. Lists are row-major flattenings: control_points [K, 3], actions [K, 2]."""
+def policies_schema(n_control_points: int = N_CONTROL_POINTS, n_features: int = N_FEATURES) -> pa.Schema:
+    """One row per policy. Lists are row-major flattenings: control_points [K, 3], actions [K, 2];
+    features [F] (the dataset's feature set: 15, or irlsim.FEATURE_SETS's larger one)."""
     f32 = pa.float32()
     k = int(n_control_points)
     return pa.schema(
@@ -116,7 +117,7 @@ def policies_schema(n_control_points: int = N_CONTROL_POINTS) -> pa.Schema:
             pa.field("episode", pa.int32(), nullable=False),
             pa.field("cycle", pa.int32(), nullable=False),
             pa.field("policy", pa.int32(), nullable=False),
-            pa.field("features", pa.list_(f32, N_FEATURES), nullable=False),
+            pa.field("features", pa.list_(f32, int(n_features)), nullable=False),
             # (lateral offset to ego [m], yaw to ego [rad], progress along route [m]) x K
             pa.field("control_points", pa.list_(f32, 3 * k), nullable=False),
             # (longitudinal acceleration [m/s^2], lateral velocity [m/s]) x K

@@ -29,7 +29,7 @@ class SplitTensors:
 
     Arrays (read-only memory maps, or for an aggregate's per-policy arrays ``RowConcat`` views over them;
     shapes checked on construction):
-        features:       [C, N, 15] float32  path-integral feature costs (irlsim.FEATURE_NAMES)
+        features:       [C, N, F] float32  path-integral feature costs (the dataset's feature_names)
         control_points: [C, N, K, 3] float32  (lateral offset [m], yaw [rad], progress [m]) to the ego
         actions:        [C, N, K, 2] float32  (longitudinal acceleration [m/s^2], lateral velocity [m/s])
         distances:      [C, N] float32      d(zeta, pi) [m]; NaN where the window is incomplete
@@ -59,8 +59,9 @@ class SplitTensors:
         if self.demo_source is None:
             object.__setattr__(self, "demo_source", np.zeros(c, np.int8))
         k = self.control_points.shape[2] if self.control_points.ndim == 4 else -1
+        nf = self.features.shape[-1] if self.features.ndim == 3 else N_FEATURES  # the feature set's F
         expected = {
-            "features": ((c, n, N_FEATURES), np.float32),
+            "features": ((c, n, nf), np.float32),
             "control_points": ((c, n, k, 3), np.float32),
             "actions": ((c, n, k, 2), np.float32),
             "distances": ((c, n), np.float32),
@@ -110,11 +111,13 @@ ARRAY_NAMES = tuple(f.name for f in fields(SplitTensors))
 POLICY_ARRAYS = ("features", "control_points", "actions", "distances", "labels")
 
 
-def policy_array_specs(c: int, n: int, k: int) -> dict[str, tuple[tuple[int, ...], Any]]:
+def policy_array_specs(
+    c: int, n: int, k: int, n_features: int = N_FEATURES
+) -> dict[str, tuple[tuple[int, ...], Any]]:
     """{name: (shape, dtype)} of the per-policy arrays of a split of ``c`` cycles of ``n`` policies with
-    ``k`` control points each."""
+    ``k`` control points and ``n_features`` features each."""
     return {
-        "features": ((c, n, N_FEATURES), np.float32),
+        "features": ((c, n, n_features), np.float32),
         "control_points": ((c, n, k, 3), np.float32),
         "actions": ((c, n, k, 2), np.float32),
         "distances": ((c, n), np.float32),

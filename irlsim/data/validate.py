@@ -8,7 +8,7 @@ from typing import Any
 
 import pyarrow as pa
 
-from irlsim import FEATURE_NAMES
+from irlsim import FEATURE_NAMES, FEATURE_SETS, N_FEATURES
 from irlsim.data.schema import SCHEMA_VERSION, TABLE_POLICIES, cycles_schema, policies_schema
 from irlsim.errors import IrlsimError
 
@@ -27,18 +27,31 @@ class BadParquetFile(IrlsimError):
         self.problem = f"{path} {problem}"
 
 
-def check_columns(schema: pa.Schema, path: Path, table: str, n_control_points: int | None = None) -> None:
+def check_columns(
+    schema: pa.Schema,
+    path: Path,
+    table: str,
+    n_control_points: int | None = None,
+    n_features: int | None = None,
+) -> None:
     """The file's columns, their types and fixed list widths must be those of this irlsim's ``table``
     schema (``irlsim.data.schema``): a file whose metadata claims the table but whose columns differ (a
     'features' list of 14, another K) is refused in one line naming the column, not read into a reshape
-    error. ``n_control_points``: the dataset's K (from its manifest); None = the file's own K."""
+    error. ``n_control_points``: the dataset's K (from its manifest); None = the file's own K.
+    ``n_features``: the dataset's F (its manifest's feature set); None = the file's own, if a feature
+    set has that many (irlsim.FEATURE_SETS), else the paper's 15."""
     if table == TABLE_POLICIES:
         k = n_control_points
         if k is None:
             field = schema.field("control_points") if "control_points" in schema.names else None
             size = getattr(field.type, "list_size", 0) if field is not None else 0
             k = max(int(size) // 3, 1)
-        expected = policies_schema(k)
+        f = n_features
+        if f is None:
+            field = schema.field("features") if "features" in schema.names else None
+            size = int(getattr(field.type, "list_size", 0)) if field is not None else 0
+            f = size if size in {len(names) for names in FEATURE_SETS.values()} else N_FEATURES
+        expected = policies_schema(k, f)
     else:
         expected = cycles_schema()
     names = list(schema.names)
@@ -90,10 +103,11 @@ def validate_manifest(manifest: dict[str, Any], manifest_path: Path) -> None:
             "re-collect it with 'irlsim collect'"
         )
     names = manifest.get("feature_names")
-    if names != list(FEATURE_NAMES):
+    if names not in [list(s) for s in FEATURE_SETS.values()]:
         raise IrlsimError(
-            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)}: "
-            "re-collect it with 'irlsim collect'"
+            f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)} (or a "
+            f"larger set, planner.feature_set: {', '.join(FEATURE_SETS)}): re-collect it with "
+            "'irlsim collect'"
         )
     if "complete" in manifest and not isinstance(manifest["complete"], bool):
         raise _manifest_error(manifest_path, f"has 'complete': {manifest['complete']!r}, not true or false")

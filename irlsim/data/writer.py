@@ -106,6 +106,7 @@ class EpisodeWriter:
         cycles_per_row_group: int = CYCLES_PER_ROW_GROUP,
         demo_source: str = DEMO_ODOMETRY,
         record: Mapping[str, Any] | None = None,
+        n_features: int = N_FEATURES,
     ) -> None:
         if cycles_per_row_group < 1:
             raise ValueError(f"cycles_per_row_group must be >= 1, got {cycles_per_row_group}")
@@ -122,6 +123,7 @@ class EpisodeWriter:
         self._rows: list[tuple[Any, ...]] = []  # cycles-table rows already flushed, in order
         self._n: int | None = None
         self._k: int | None = None
+        self._f = int(n_features)  # F: the planner's feature set's size (every cycle's)
         self._last_cycle: int | None = None
         self._stack = ExitStack()
         self._pol_tmp: Path | None = None
@@ -162,6 +164,10 @@ class EpisodeWriter:
         if missing:
             raise ValueError(f"ego state lacks {missing}; expected keys {EGO_KEYS}")
         n, k = policy_set.n_policies, int(policy_set.control_points.shape[1])
+        if int(policy_set.features.shape[1]) != self._f:
+            raise ValueError(
+                f"cycle {cycle}: {policy_set.features.shape[1]} features, the writer's are {self._f}"
+            )
         if self._n is None:
             self._n, self._k = n, k
         elif (n, k) != (self._n, self._k):
@@ -228,7 +234,7 @@ class EpisodeWriter:
     def _write_group(self, group: list[_Cycle]) -> None:
         assert self._n is not None and self._k is not None
         if self._pol_writer is None:
-            schema = self._recorded(policies_schema(self._k))
+            schema = self._recorded(policies_schema(self._k, self._f))
             self._pol_tmp = self._stack.enter_context(atomic_path(self.policies_path))
             self._pol_writer = self._stack.enter_context(_policies_writer(self._pol_tmp, schema))
         table = build_policies_table(
@@ -273,7 +279,8 @@ class EpisodeWriter:
                 with naming(self.policies_path):
                     self._pol_writer = self._stack.enter_context(
                         _policies_writer(
-                            self._pol_tmp, self._recorded(policies_schema(self._k or N_CONTROL_POINTS))
+                            self._pol_tmp,
+                            self._recorded(policies_schema(self._k or N_CONTROL_POINTS, self._f)),
                         )
                     )
             table = build_cycles_table(self.episode, self._rows, self._n or 0, self.demo_source)
@@ -352,12 +359,13 @@ def build_policies_table(
 ) -> pa.Table:
     """Policies rows of C cycles x N policies, cycle-major.
 
-    Shapes: cycles [C], features [C, N, 15], control_points [C, N, K, 3], actions [C, N, K, 2],
+    Shapes: cycles [C], features [C, N, F], control_points [C, N, K, 3], actions [C, N, K, 2],
     progress [C, N], distances [C, N], labels [C, N, 3].
     """
     c, n = progress.shape
     k = control_points.shape[2]
-    assert features.shape == (c, n, N_FEATURES), features.shape
+    f = features.shape[-1]
+    assert features.shape == (c, n, f) and f >= N_FEATURES, features.shape
     assert control_points.shape == (c, n, k, 3), control_points.shape
     assert actions.shape == (c, n, k, 2), actions.shape
     assert distances.shape == (c, n) and labels.shape == (c, n, 3), (distances.shape, labels.shape)
@@ -367,7 +375,7 @@ def build_policies_table(
         pa.array(np.full(rows, episode, dtype=np.int32)),
         pa.array(np.repeat(np.asarray(cycles, dtype=np.int32), n)),
         pa.array(np.tile(np.arange(n, dtype=np.int32), c)),
-        _fixed_list(features, N_FEATURES),
+        _fixed_list(features, f),
         _fixed_list(control_points, 3 * k),
         _fixed_list(actions, 2 * k),
         pa.array(progress.reshape(rows).astype(np.float32)),
@@ -376,7 +384,7 @@ def build_policies_table(
         pa.array(lab[:, 1]),
         pa.array(lab[:, 2]),
     ]
-    return pa.Table.from_arrays(columns, schema=policies_schema(k))
+    return pa.Table.from_arrays(columns, schema=policies_schema(k, f))
 
 
 def build_cycles_table(

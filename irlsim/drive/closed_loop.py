@@ -35,7 +35,7 @@ from irlsim.drive.demonstrated import (
 from irlsim.drive.metrics import episode_metrics, missed_checkpoints
 from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.expert import expert_theta
 from irlsim.planner.policy_set import PolicySet
 from irlsim.reward import LearnedReward, RewardDriver, load_reward
 from irlsim.road import Road
@@ -146,6 +146,11 @@ class FrameRecorder:
 
 
 # ------------------------------------------------------------------------------------------ the episode
+
+
+def _expert_ring(decider: RewardDriver) -> np.ndarray:
+    """The radar's unit ring: the expert's weights of the features the decider's planner computes."""
+    return expert_theta(decider.planner.cfg.feature_names)
 
 
 class _Timing(ObserverBase):
@@ -263,7 +268,7 @@ def drive_episode(
         end_reason=result.end_reason,
     )
     # the radar's unit ring is the expert's weight of each feature
-    rec["drive/pictures"] = recorder.write(THETA_EXPERT) if recorder is not None else []
+    rec["drive/pictures"] = recorder.write(_expert_ring(decider)) if recorder is not None else []
     rec["drive/checkpoints_missed"] = missed_checkpoints(sim.episode.events if sim.episode else [])
     rec["drive/first_collision"] = sim.first_collision
     rec.update({**_scores(scorer, dict(result.stats), reward.is_expert, expert_progress), **style.summary()})

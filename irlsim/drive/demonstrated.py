@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from irlsim import FEATURE_NAMES
 from irlsim.data.collection import CollectConfig
 from irlsim.data.demonstrator import (
     EXPERT,
@@ -29,9 +30,10 @@ from irlsim.data.demonstrator import (
 )
 from irlsim.data.recorded import recorded_episode
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.config import PlannerConfig
+from irlsim.planner.expert import expert_theta
 from irlsim.planner.policy_set import PolicySet
-from irlsim.reward import LearnedReward, load_reward
+from irlsim.reward import LearnedReward, check_features, load_reward
 from irlsim.road import Road
 from irlsim.sim.config import EpisodeConfig
 from irlsim.sim.simulation import Simulation
@@ -50,11 +52,14 @@ class DemonstratorModel:
     is_expert = False
 
 
-def resolve_model(spec: str, runs: str | Path | None, n_policies: int, threads: int) -> Any:
-    """``--model``'s entry: the demonstrator, or :func:`irlsim.reward.load_reward`'s reward."""
+def resolve_model(spec: str, runs: str | Path | None, planner: PlannerConfig, threads: int) -> Any:
+    """``--model``'s entry: the demonstrator, or :func:`irlsim.reward.load_reward`'s reward for a planner
+    ``planner`` (refused in one line when built for another policy count or feature set)."""
     if spec == DEMONSTRATOR:
         return DemonstratorModel()
-    return load_reward(spec, runs, n_policies=n_policies, threads=threads)
+    reward = load_reward(spec, runs, n_policies=planner.n_policies, threads=threads)
+    check_features(reward, planner.feature_names)
+    return reward
 
 
 def check_demonstrator(cfg: CollectConfig) -> None:
@@ -73,7 +78,10 @@ class DemonstratorDecider:
 
     def __init__(self, driver: Any):
         self.driver = driver
-        self.theta: np.ndarray = THETA_EXPERT
+        planner = getattr(driver, "planner", None)  # the weights pictures show: the expert's, none inferred
+        self.theta: np.ndarray = expert_theta(
+            planner.cfg.feature_names if planner is not None else FEATURE_NAMES
+        )
         self.info: dict[str, Any] = {}
         self.plan_ms = 0.0
         self.inference_ms = 0.0

@@ -66,7 +66,7 @@ from irlsim.drive.recorder import ScorecardObserver
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import ExpertDriver
 from irlsim.planner.planner import Planner
-from irlsim.reward import EXPERT, LearnedReward, load_reward
+from irlsim.reward import EXPERT, LearnedReward, check_features, load_reward
 from irlsim.road import LANE_WIDTH, load_road
 from irlsim.road.scenario import Scenario, Scenarios
 from irlsim.rollout.runner import EpisodeRunner
@@ -121,16 +121,16 @@ def continuous_action(action: Any) -> np.ndarray:
     return a
 
 
-def check_theta(theta: np.ndarray, reward: str) -> np.ndarray:
-    """A cycle's theta from the reward, refused (one line) unless it holds N_FEATURES finite numbers: a
-    NaN or infinite weight makes every policy's value NaN (or equal), which the normalised reward scored
-    as the maximal 1.0."""
+def check_theta(theta: np.ndarray, reward: str, features: tuple[str, ...] = FEATURE_NAMES) -> np.ndarray:
+    """A cycle's theta from the reward, refused (one line) unless it holds one finite number per feature
+    (``features``: the planner's): a NaN or infinite weight makes every policy's value NaN (or equal),
+    which the normalised reward scored as the maximal 1.0."""
     theta = np.asarray(theta, dtype=np.float64)
-    if theta.shape != (N_FEATURES,):
-        raise IrlsimError(f"reward {reward} gave theta of shape {theta.shape}, not [{N_FEATURES}]")
+    if theta.shape != (len(features),):
+        raise IrlsimError(f"reward {reward} gave theta of shape {theta.shape}, not [{len(features)}]")
     bad = ~np.isfinite(theta)
     if bad.any():
-        names = [FEATURE_NAMES[i] for i in np.flatnonzero(bad)[:3]]
+        names = [features[i] for i in np.flatnonzero(bad)[:3]]
         raise IrlsimError(
             f"reward {reward} gave a non-finite theta ({', '.join(names)} = "
             f"{', '.join(str(theta[i]) for i in np.flatnonzero(bad)[:3])}): fix the reward callable, or "
@@ -139,20 +139,21 @@ def check_theta(theta: np.ndarray, reward: str) -> np.ndarray:
     return theta
 
 
-def callable_theta(out: Any) -> np.ndarray:
-    """What a reward callable returned as theta [N_FEATURES] float64; anything else (another shape, or
-    not numbers: a string, None, a dict, complex or bool values, a tensor that needs grad) is one line."""
+def callable_theta(out: Any, n: int = N_FEATURES) -> np.ndarray:
+    """What a reward callable returned as theta [n] float64 (n: the planner's features); anything else
+    (another shape, or not numbers: a string, None, a dict, complex or bool values, a tensor that needs
+    grad) is one line."""
     try:
         arr = np.asarray(out)
     except Exception:  # noqa: BLE001  # what numpy cannot take (a tensor needing grad, ...): named below
         arr = np.asarray(None)
     if arr.dtype.kind not in "iuf":
         what = type(out).__name__ + ("" if arr.dtype == object else f" of {arr.dtype}")
-        raise IrlsimError(f"the reward callable must return theta [{N_FEATURES}] (real numbers), got {what}")
+        raise IrlsimError(f"the reward callable must return theta [{n}] (real numbers), got {what}")
     theta = arr.astype(np.float64).reshape(-1)
-    if theta.shape != (N_FEATURES,):
+    if theta.shape != (n,):
         raise IrlsimError(
-            f"the reward callable must return theta [{N_FEATURES}] (real numbers), got shape {arr.shape}"
+            f"the reward callable must return theta [{n}] (real numbers), got shape {arr.shape}"
         )
     return theta
 
@@ -166,10 +167,13 @@ def continuous_to_index(action: np.ndarray, actions: np.ndarray, control_points:
     return int(np.argmin(dist))
 
 
-def _resolve_reward(reward: Any, runs: Any, n_policies: int) -> tuple[str, Any]:
-    """(name, theta_fn(policy_set, obs) -> theta, with reset()) from the ``reward`` argument."""
+def _resolve_reward(
+    reward: Any, runs: Any, n_policies: int, features: tuple[str, ...] = FEATURE_NAMES
+) -> tuple[str, Any]:
+    """(name, theta_fn(policy_set, obs) -> theta, with reset()) from the ``reward`` argument, for a
+    planner computing ``features``."""
     if callable(reward) and not isinstance(reward, (str, Path)):
-        return getattr(reward, "__name__", "callable"), _CallableReward(reward)
+        return getattr(reward, "__name__", "callable"), _CallableReward(reward, len(features))
     spec = str(reward)
     if spec == EXPERT:
         raise IrlsimError(
@@ -180,6 +184,7 @@ def _resolve_reward(reward: Any, runs: Any, n_policies: int) -> tuple[str, Any]:
     if path.is_dir() and (path / "checkpoint.pt").is_file():
         spec = str(path / "checkpoint.pt")
     model = load_reward(spec, runs, n_policies=n_policies)
+    check_features(model, features)
     return model.name, _LoadedReward(model)
 
 
@@ -195,11 +200,11 @@ class _LoadedReward:
 
 
 class _CallableReward:
-    def __init__(self, fn: Callable[[Any, Any], Any]):
-        self.fn = fn
+    def __init__(self, fn: Callable[[Any, Any], Any], n: int = N_FEATURES):
+        self.fn, self.n = fn, n
 
     def __call__(self, ps: Any, obs: Any) -> np.ndarray:
-        return callable_theta(self.fn(ps, obs))
+        return callable_theta(self.fn(ps, obs), self.n)
 
     def reset(self) -> None:
         reset = getattr(self.fn, "reset", None)
@@ -277,7 +282,8 @@ class PlanningEnv(gym.Env):
         self.road = load_road(scenario=scenarios(sc.name))
         self.planner = Planner(self.road, cfg.planner)
         n, k = cfg.planner.n_policies, cfg.planner.n_control_points
-        self.reward_name, self._theta_fn = _resolve_reward(reward, runs, n)
+        features = cfg.planner.feature_names
+        self.reward_name, self._theta_fn = _resolve_reward(reward, runs, n, features)
         self.sim = Simulation(self.road, sc)
         self.scorer = ScorecardObserver()
         self.runner = EpisodeRunner(
@@ -286,7 +292,7 @@ class PlanningEnv(gym.Env):
         inf = np.float32(np.inf)
         self.observation_space = spaces.Dict(
             {
-                "features": spaces.Box(0.0, inf, (n, N_FEATURES), np.float32),
+                "features": spaces.Box(0.0, inf, (n, len(features)), np.float32),
                 "control_points": spaces.Box(-inf, inf, (n, k, 3), np.float32),
                 "actions": spaces.Box(-inf, inf, (n, k, 2), np.float32),
                 "labels": spaces.MultiBinary((n, 3)),
@@ -389,7 +395,8 @@ class PlanningEnv(gym.Env):
         if self.policy_set is None:
             self.theta = self.values = None
             return
-        self.theta = check_theta(self._theta_fn(self.policy_set, self.obs), self.reward_name)
+        features = self.planner.cfg.feature_names
+        self.theta = check_theta(self._theta_fn(self.policy_set, self.obs), self.reward_name, features)
         self.values = self.policy_set.value(self.theta)
 
     def _observation(self) -> dict[str, np.ndarray]:

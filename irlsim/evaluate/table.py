@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 import torch
 
+from irlsim import feature_names_of
 from irlsim.data.roads import records_scenarios
 from irlsim.data.situations import SITUATION_NAMES
 from irlsim.devices import current_device
@@ -36,7 +37,7 @@ from irlsim.irl.references import executed_metrics, expert_theta_metrics, oracle
 from irlsim.irl.stability import temporal_weight_summary
 from irlsim.models.normalization import FeatureStats
 from irlsim.models.registry import MODEL_NAMES, build_model, format_parameters
-from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.expert import expert_theta
 from irlsim.train.batching import as_dataset, check_split_shape, get_split, predict_split
 from irlsim.train.checkpoint import model_config_from
 from irlsim.train.layout import STAGE_FOLDERS, find_checkpoint
@@ -279,13 +280,14 @@ def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> li
     """Table-I rows 'expert-theta', 'executed', 'oracle', 'random policy' (with breakdowns if ``ctx``);
     only 'random policy' if not ``full``."""
     refs: list[tuple[str, dict[str, np.ndarray], dict[str, Any]]] = []
+    nf = data.features.shape[-1]
     if full:
         oracle, oracle_thetas = oracle_metrics(data)
         refs += [
             (
                 "expert-theta",
-                expert_theta_metrics(data, THETA_EXPERT),
-                {"thetas": np.tile(THETA_EXPERT, (data.features.shape[0], 1))},
+                expert_theta_metrics(data),
+                {"thetas": np.tile(expert_theta(feature_names_of(nf)), (data.features.shape[0], 1))},
             ),
             ("executed", executed_metrics(data), {"chosen": np.asarray(data.executed_index)}),
             ("oracle (optimistic bound)", oracle, {"thetas": oracle_thetas}),

@@ -35,12 +35,12 @@ EVD_EPS = 1e-8
 
 
 def _check(theta: torch.Tensor, features: torch.Tensor) -> None:
-    assert features.dim() == 3 and features.shape[-1] == N_FEATURES, f"features {tuple(features.shape)}"
-    assert theta.shape == (features.shape[0], N_FEATURES), f"theta {tuple(theta.shape)}"
+    assert features.dim() == 3 and features.shape[-1] >= N_FEATURES, f"features {tuple(features.shape)}"
+    assert theta.shape == (features.shape[0], features.shape[-1]), f"theta {tuple(theta.shape)}"
 
 
 def policy_values(theta: torch.Tensor, features: torch.Tensor) -> torch.Tensor:
-    """V = -theta^T f. theta: [B, 15], features: [B, N, 15] -> [B, N]."""
+    """V = -theta^T f. theta: [B, F], features: [B, N, F] -> [B, N]."""
     _check(theta, features)
     return -torch.einsum("bnf,bf->bn", features, theta)
 
@@ -89,19 +89,17 @@ def sampled_nll(
     (up to float summation order). Only the sampled policies' values are computed.
     """
     _check(theta, features)
-    b, n = features.shape[:2]
+    b, n, nf = features.shape
     m = max(min(n_sample, n) - 1, 0)
     valid, idx = _demo(demo_index)
     idx = idx.to(features.device)
-    v_demo = -(features.gather(1, idx[..., None].expand(-1, -1, N_FEATURES)).squeeze(1) * theta).sum(-1)
+    v_demo = -(features.gather(1, idx[..., None].expand(-1, -1, nf)).squeeze(1) * theta).sum(-1)
     if m == 0:  # the demonstration alone: log Z_hat = V(pi^D)
         out = torch.zeros_like(v_demo)
     else:
         keys = torch.rand(b, n, generator=generator).to(features.device).scatter(1, idx, 2.0)
         others = keys.argsort(dim=1)[:, :m]  # m uniform policies other than the demonstration
-        v = -torch.einsum(
-            "bmf,bf->bm", features.gather(1, others[..., None].expand(-1, -1, N_FEATURES)), theta
-        )
+        v = -torch.einsum("bmf,bf->bm", features.gather(1, others[..., None].expand(-1, -1, nf)), theta)
         log_w = torch.log(torch.tensor((n - 1) / m, dtype=v.dtype, device=v.device))
         out = torch.logsumexp(torch.cat([v_demo[:, None], v + log_w], dim=1), dim=1) - v_demo
     return torch.where(valid.to(out.device), out, torch.full_like(out, float("nan")))
@@ -225,14 +223,16 @@ def attention_loss(attention: torch.Tensor, target: torch.Tensor) -> torch.Tenso
 
 
 def evaluate_thetas(thetas: np.ndarray, split: Any, chunk: int = 256) -> dict[str, np.ndarray]:
-    """Per-cycle metrics of predicted ``thetas`` [C, 15] (raw units) on ``split`` (a SplitTensors).
+    """Per-cycle metrics of predicted ``thetas`` [C, F] (raw units) on ``split`` (a SplitTensors).
 
     Works in chunks of ``chunk`` cycles so memory stays bounded for memory-mapped splits.
     Returns {'nll', 'evd', 'ed', 'opd', 'demo'} -> float64 [C] each, and 'valid' [C] bool (has a demo).
     """
     thetas = np.asarray(thetas)
     n_cycles = split.features.shape[0]
-    assert thetas.shape == (n_cycles, N_FEATURES), f"thetas {thetas.shape}, split has {n_cycles} cycles"
+    assert thetas.shape == (n_cycles, split.features.shape[-1]), (
+        f"thetas {thetas.shape}, split has {n_cycles} cycles"
+    )
     out: dict[str, list[np.ndarray]] = {k: [] for k in ("nll", "evd", "ed", "opd", "demo")}
     with torch.no_grad():
         for start in range(0, n_cycles, chunk):

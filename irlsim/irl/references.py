@@ -1,7 +1,7 @@
 """Reference rows of Table I: what the learned models' figures should be read against.
 
-- ``expert-theta``: the expert's hand-tuned ``THETA_EXPERT``, argmax V on every cycle (no model-based
-  selection, no history): all five metrics.
+- ``expert-theta``: the expert's hand-tuned weights (``expert_theta``), argmax V on every cycle (no
+  model-based selection, no history): all five metrics.
 - ``executed``: the policy the demonstrator actually executed (``executed_index``). A choice, not a
   distribution: OPD = ED = its distance to the odometry; no EVD or NLL.
 - ``oracle``: per cycle, the linear theta over the 15 features that maximises that cycle's own max-ent
@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 import torch
 
-from irlsim import N_FEATURES
+from irlsim import feature_names_of
 from irlsim.irl.objectives import evaluate_thetas
-from irlsim.planner.expert import THETA_EXPERT
+from irlsim.planner.expert import expert_theta
 
 #: the oracle's optimiser: Adam steps, learning rate, L2 weight (in per-cycle standardised feature units)
 ORACLE_STEPS = 200
@@ -31,10 +31,11 @@ ORACLE_L2 = 1e-3
 
 
 def expert_theta_metrics(split: Any, theta: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Per-cycle metrics of one fixed theta [15] (default: the expert's ``THETA_EXPERT``)."""
+    """Per-cycle metrics of one fixed theta [F] (default: the expert's, ``expert_theta``)."""
+    nf = split.features.shape[-1]
     if theta is None:
-        theta = THETA_EXPERT
-    theta = np.asarray(theta, dtype=np.float64).reshape(N_FEATURES)
+        theta = expert_theta(feature_names_of(nf))
+    theta = np.asarray(theta, dtype=np.float64).reshape(nf)
     return evaluate_thetas(np.tile(theta, (split.features.shape[0], 1)), split)
 
 
@@ -81,8 +82,8 @@ def fit_oracle_thetas(
     of the cycle's standardised features (f - mean) / std over its policies (the mean shift leaves the
     softmax unchanged). Convex per cycle; solved by Adam on all cycles of a chunk at once. Cycles without
     a demonstration get NaN. Deterministic (float32, start at 0)."""
-    c = split.features.shape[0]
-    out = np.full((c, N_FEATURES), np.nan)
+    c, nf = split.features.shape[0], split.features.shape[-1]
+    out = np.full((c, nf), np.nan)
     demo_index = np.asarray(split.demo_index)
     for start in range(0, c, chunk):
         sl = slice(start, min(start + chunk, c))
@@ -94,9 +95,9 @@ def fit_oracle_thetas(
         mean = f.mean(1, keepdim=True)
         std = f.std(1, keepdim=True).clamp_min(1e-9)
         z = ((f - mean) / std).float()
-        idx = di.clamp_min(0)[:, None, None].expand(-1, 1, N_FEATURES)
+        idx = di.clamp_min(0)[:, None, None].expand(-1, 1, nf)
         z_demo = z.gather(1, idx).squeeze(1)  # [B, 15]
-        w = torch.zeros(z.shape[0], N_FEATURES, requires_grad=True)
+        w = torch.zeros(z.shape[0], nf, requires_grad=True)
         opt = torch.optim.Adam([w], lr=lr)
         vmask = valid.float()
         for _ in range(steps):  # optimiser iterations (not a loop over cycles or policies)

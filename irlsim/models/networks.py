@@ -1,9 +1,10 @@
 """Reward networks: LIRL, 1DCNN, Bi1DCNN, PACNN(+S) (stage 1) and PTACNN(+S) (stage 2).
 
-Stage-1 models map one planning cycle's policy set to linear reward weights theta:
+Stage-1 models map one planning cycle's policy set to linear reward weights theta (F features: the
+paper's 15, or a larger feature set's, ``FeatureStats.n_features``):
 
-    forward(features [B, N, 15], control_points [B, N, K, 3], actions [B, N, K, 2]) -> dict
-        theta     [B, 15]  raw feature units, >= 0 (so path-integral features stay costs)
+    forward(features [B, N, F], control_points [B, N, K, 3], actions [B, N, K, 2]) -> dict
+        theta     [B, F]  raw feature units, >= 0 (so path-integral features stay costs)
         context   [B, Cc]  (PACNN only) situation context vector, the input of PTACNN
         attention [B, N]   (PACNN only) policy attention, average-upsampled from the pooled groups
                            (each group's weight spread evenly over its policies: sums to 1 over N)
@@ -12,10 +13,10 @@ Theta is predicted in normalised units (features divided by their train std) and
 units by dividing by the per-feature std held in a buffer, so the normalisation travels with the
 checkpoint. Positivity: theta_n = softplus(output). With ``ModelConfig.theta_bound`` = B > 1 the deep
 models predict a bounded deviation from one learned situation-independent theta instead:
-theta_n = softplus(b) * B^tanh(output), b [15] trainable (LIRL's weights, inside the deep model), so a
+theta_n = softplus(b) * B^tanh(output), b [F] trainable (LIRL's weights, inside the deep model), so a
 cycle's weight lies within a factor B of b's; an out-of-distribution state cannot switch a feature off.
 
-The policy encoder treats the progress-sorted policy set as a 1-D sequence (length N, D = 15 + 5K
+The policy encoder treats the progress-sorted policy set as a 1-D sequence (length N, D = F + 5K
 input channels) and convolves along the policy axis, then average-pools groups of ``pool`` neighbouring
 policies (2500 -> 313; ceil, so no policy is dropped, the paper's figure says 312 with floor).
 """
@@ -27,7 +28,6 @@ import math
 import torch
 from torch import nn
 
-from irlsim import N_FEATURES
 from irlsim.models.normalization import FeatureStats
 
 
@@ -41,10 +41,13 @@ class RewardModel(nn.Module):
     def __init__(self, stats: FeatureStats, n_policies: int) -> None:
         super().__init__()
         self.k = stats.k
+        self.n_features = stats.n_features  # F: 15, or a larger feature set's
         self.n_policies = n_policies
         self.register_buffer("input_mean", torch.as_tensor(stats.mean, dtype=torch.float32))
         self.register_buffer("input_std", torch.as_tensor(stats.std, dtype=torch.float32))
-        self.register_buffer("theta_scale", torch.as_tensor(stats.std[:N_FEATURES], dtype=torch.float32))
+        self.register_buffer(
+            "theta_scale", torch.as_tensor(stats.std[: stats.n_features], dtype=torch.float32)
+        )
         self.theta_bound = 0.0
 
     def bound_theta(self, bound: float) -> None:
@@ -52,25 +55,25 @@ class RewardModel(nn.Module):
         situation-independent theta (module docstring); 0 keeps the unbounded softplus."""
         if bound > 0:
             self.theta_bound = float(bound)
-            self.theta_base = nn.Parameter(torch.zeros(N_FEATURES))
+            self.theta_base = nn.Parameter(torch.zeros(self.n_features))
 
     @property
     def n_channels(self) -> int:
-        return N_FEATURES + 5 * self.k
+        return self.n_features + 5 * self.k
 
     def policy_inputs(
         self, features: torch.Tensor, control_points: torch.Tensor, actions: torch.Tensor
     ) -> torch.Tensor:
         """Normalised per-policy inputs [B, N, D] (shapes asserted)."""
         b, n = features.shape[:2]
-        assert features.shape == (b, n, N_FEATURES), f"features {tuple(features.shape)}"
+        assert features.shape == (b, n, self.n_features), f"features {tuple(features.shape)}"
         assert control_points.shape == (b, n, self.k, 3), f"control_points {tuple(control_points.shape)}"
         assert actions.shape == (b, n, self.k, 2), f"actions {tuple(actions.shape)}"
         x = torch.cat([features, control_points.reshape(b, n, -1), actions.reshape(b, n, -1)], dim=-1)
         return (x - self.input_mean) / self.input_std
 
     def to_theta(self, out: torch.Tensor) -> torch.Tensor:
-        """Network output [B, 15] (normalised units, unconstrained) -> theta [B, 15] raw units, >= 0."""
+        """Network output [B, F] (normalised units, unconstrained) -> theta [B, F] raw units, >= 0."""
         if self.theta_bound > 0:
             base = nn.functional.softplus(self.theta_base)
             return base * torch.exp(math.log(self.theta_bound) * torch.tanh(out)) / self.theta_scale
@@ -78,11 +81,11 @@ class RewardModel(nn.Module):
 
 
 class LIRL(RewardModel):
-    """Linear IRL: one theta for every situation (15 trainable weights)."""
+    """Linear IRL: one theta for every situation (F trainable weights, one per feature)."""
 
     def __init__(self, stats: FeatureStats, n_policies: int) -> None:
         super().__init__(stats, n_policies)
-        self.weights = nn.Parameter(torch.zeros(N_FEATURES))
+        self.weights = nn.Parameter(torch.zeros(self.n_features))
 
     def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
         self.policy_inputs(features, control_points, actions)  # shape checks only
@@ -187,7 +190,7 @@ class Conv1DCNN(RewardModel):
         self.encoder = PolicyEncoder(self.n_channels, hidden, latent, kernel, pool)
         g = pooled_length(n_policies, pool)
         self.head = nn.Sequential(
-            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, N_FEATURES)
+            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, self.n_features)
         )
 
     def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
@@ -220,7 +223,7 @@ class Bi1DCNN(RewardModel):
             g = (g + 2 * (kernel // 2) - kernel) // 2 + 1
         self.cross = nn.Sequential(*layers)
         self.head = nn.Sequential(
-            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, N_FEATURES)
+            nn.Flatten(), nn.Linear(latent * g, fc_hidden), nn.ReLU(), nn.Linear(fc_hidden, self.n_features)
         )
 
     def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
@@ -271,7 +274,7 @@ class PACNN(RewardModel):
         )
         self.gamma = nn.Parameter(torch.zeros(()))
         self.head = nn.Sequential(
-            nn.Linear(latent, head_hidden), nn.ReLU(), nn.Linear(head_hidden, N_FEATURES)
+            nn.Linear(latent, head_hidden), nn.ReLU(), nn.Linear(head_hidden, self.n_features)
         )
 
     def forward(self, features, control_points, actions) -> dict[str, torch.Tensor]:  # type: ignore[override]
@@ -304,7 +307,7 @@ TAN_INPUTS: tuple[str, ...] = ("context+theta", "context", "theta", "context+the
 class PTACNN(nn.Module):
     """Temporal attention network (stage 2, on a frozen PACNN).
 
-    contexts [B, H, Cc], thetas [B, H, 15] (oldest first, raw units) -> per step input
+    contexts [B, H, Cc], thetas [B, H, F] (oldest first, raw units) -> per step input
     [context, theta * theta_scale] (theta in normalised units; ``inputs`` picks another set, TAN_INPUTS)
     -> 2-layer LSTM -> last hidden state -> 4 FC layers -> softmax weights w [B, H];
     theta_next = sum_h w_h theta_h, a convex combination of the history's thetas (so it stays >= 0 and in
@@ -332,8 +335,9 @@ class PTACNN(nn.Module):
         self.inputs = inputs
         self.drop_newest = float(drop_newest)
         self.register_buffer("theta_scale", torch.as_tensor(theta_scale, dtype=torch.float32).clone())
-        n_in = {"context+theta": context_dim + N_FEATURES, "context": context_dim, "theta": N_FEATURES}.get(
-            inputs, context_dim + 2 * N_FEATURES
+        nf = self.n_features = int(self.theta_scale.numel())  # F, the feature set's size
+        n_in = {"context+theta": context_dim + nf, "context": context_dim, "theta": nf}.get(
+            inputs, context_dim + 2 * nf
         )
         self.lstm = nn.LSTM(n_in, lstm_hidden, num_layers=lstm_layers, batch_first=True)
         self.fc = nn.Sequential(
@@ -349,7 +353,7 @@ class PTACNN(nn.Module):
     def forward(self, contexts: torch.Tensor, thetas: torch.Tensor) -> dict[str, torch.Tensor]:
         b = contexts.shape[0]
         assert contexts.shape == (b, self.history, self.context_dim), f"contexts {tuple(contexts.shape)}"
-        assert thetas.shape == (b, self.history, N_FEATURES), f"thetas {tuple(thetas.shape)}"
+        assert thetas.shape == (b, self.history, self.n_features), f"thetas {tuple(thetas.shape)}"
         if self.training and self.drop_newest > 0 and self.history > 1:
             # drawn on the CPU whatever the device: the same draws (and so the same training) on any device
             drop = (torch.rand(b) < self.drop_newest)[:, None, None].to(contexts.device)

@@ -153,7 +153,7 @@ def build_model(
     if deep is not None:
         deep.bound_theta(cfg.theta_bound)
         return deep
-    theta_scale = torch.as_tensor(stats.std[:15], dtype=torch.float32)
+    theta_scale = torch.as_tensor(stats.std[: stats.n_features], dtype=torch.float32)
     return PTACNN(
         cfg.latent,
         cfg.history,

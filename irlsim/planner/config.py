@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from irlsim import FEATURE_SETS
 from irlsim.config import STORED_IF_SET, require, require_memory
 
 #: [bytes] memory one policy of a planning cycle takes, an upper estimate: the planner's peak is 4.8-5.7 KB
@@ -136,6 +137,14 @@ class PlannerConfig:
     development seeds without it, 40/40 with it (docs/results/closed-loop-fixes.md)"""
     progress_lookahead: float = 200.0
     """[m] progress measures the distance to a goal this far beyond the target checkpoint"""
+    feature_set: str = field(default="paper", metadata={STORED_IF_SET: True})
+    """the features computed (``irlsim.FEATURE_SETS``): "paper", the 15; "lanes", the 15 and the
+    lane-preference pair (lane_right, lane_left), for drivers who keep to a side (docs/design/planner.md)"""
+
+    @property
+    def feature_names(self) -> tuple[str, ...]:
+        """The names of the features this planner computes, in their column order."""
+        return FEATURE_SETS[self.feature_set]
 
     @property
     def n_steps(self) -> int:
@@ -191,6 +200,10 @@ class PlannerConfig:
         require(self.yaw_speed_floor > 0, "planner.yaw_speed_floor must be > 0")
         require(self.ego_length > 0 and self.ego_width > 0, "planner ego size must be > 0")
         require(self.stop_line_gap >= 0, f"planner.stop_line_gap must be >= 0 m, got {self.stop_line_gap}")
+        require(
+            self.feature_set in FEATURE_SETS,
+            f"planner.feature_set must be one of {', '.join(FEATURE_SETS)}, got {self.feature_set!r}",
+        )
         require(self.mission_event >= 0, f"planner.mission_event must be >= 0 s, got {self.mission_event}")
         require(self.proximity_sigma_s > 0 and self.proximity_sigma_d > 0, "proximity sigmas must be > 0")
         require(

@@ -68,6 +68,12 @@ THETA_EXPERT_DICT: dict[str, float] = {
 THETA_EXPERT = np.array([THETA_EXPERT_DICT[n] for n in FEATURE_NAMES], dtype=np.float64)
 
 
+def expert_theta(names: tuple[str, ...] | list[str] = FEATURE_NAMES) -> np.ndarray:
+    """The expert's weights for the features ``names`` (a feature set's, in order): 0 on the lane pair,
+    which the expert does not price, so that its driving is the same with either set."""
+    return np.array([THETA_EXPERT_DICT.get(n, 0.0) for n in names], dtype=np.float64)
+
+
 #: [s] the time headway of the expert's following check (``SelectionConfig.follow_headway``)
 FOLLOW_HEADWAY = 0.8
 
@@ -148,8 +154,9 @@ class ExpertDriver:
     ):
         self.road = road
         self.planner = Planner(road, cfg)
-        self.theta = THETA_EXPERT.copy() if theta is None else np.asarray(theta, dtype=np.float64)
-        assert self.theta.shape == (len(FEATURE_NAMES),), self.theta.shape
+        names = self.planner.cfg.feature_names
+        self.theta = expert_theta(names) if theta is None else np.asarray(theta, dtype=np.float64)
+        assert self.theta.shape == (len(names),), self.theta.shape
         self.sel = selection or SelectionConfig()
         self.last_policy_set: PolicySet | None = None
         self.last_index: int = -1
@@ -281,7 +288,7 @@ class ThetaDriver:
     def plan(self, obs: Observation) -> Trajectory:
         ps = self.planner.plan(obs)
         theta = np.asarray(self.theta_fn(ps, obs), dtype=np.float64).reshape(-1)
-        assert theta.shape == (len(FEATURE_NAMES),), theta.shape
+        assert theta.shape == (len(self.planner.cfg.feature_names),), theta.shape
         if self.heading is not None and int(ps.lane[0, 0]) == self.heading:
             self.heading = None  # arrived: the lane change is done
         stopping = self.stopping or self.full_stop

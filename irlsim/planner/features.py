@@ -32,6 +32,18 @@ width. ``w_t = gamma^t dt`` [s].
 | 15| proximity     | sum_m exp(-(ds_m / (sigma_s + (L + L_m)/2))^2 - (dd_m / sigma_d)^2), centre  | 1 * s       |
 |   |               | distances to vehicle m's constant-velocity prediction in the route frame     |             |
 
+With ``planner.feature_set = "lanes"`` two more (``irlsim.LANE_FEATURE_NAMES``; the 15 above price no lane
+for its own sake: a policy and its mirror image cost the same but for mission_lane):
+
+| # | name          | f_t (per step)                                                               | unit        |
+|---|---------------|------------------------------------------------------------------------------|-------------|
+| 16| lane_right    | max(0, (d - right edge) / LW - 1/2): whole lanes to the ego's right          | lanes * s   |
+| 17| lane_left     | max(0, (left edge - d) / LW - 1/2): whole lanes to its left                  | lanes * s   |
+
+(the edges of the lanes that exist at each step, an exit ramp's for an exit profile). Both are costs, so
+positive weights prefer either side (their difference is the preference); a driver who keeps left, or
+right, has a reward these can express.
+
 Implementation: per-profile banks (lon [L, T], lat [J, T]); lon-only and lat-only parts are summed per
 bank, the mixed parts (acc_lat, jerk_lat cross terms, mission_lane, proximity) are exact [J, T] @ [T, L]
 products, so a policy's feature is F_lon[l] + F_lat[j] + F_cross[j, l]. float32 throughout.
@@ -48,15 +60,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES
+from irlsim import FEATURE_SETS
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.prediction import predicted_d, predicted_motion
 from irlsim.planner.sampler import LatBank, LonBank
 from irlsim.road import LANE_WIDTH, Road
 from irlsim.sim.types import VehicleStates
 
-IDX = {name: i for i, name in enumerate(FEATURE_NAMES)}
-NF = len(FEATURE_NAMES)
+#: every feature's column (the largest set's order; each set is a prefix of it)
+IDX = {name: i for i, name in enumerate(FEATURE_SETS["lanes"])}
 F32 = np.float32
 
 
@@ -145,10 +157,10 @@ def weights(cfg: PlannerConfig) -> np.ndarray:
 def lon_features(
     lon: LonBank, kappa: np.ndarray, ctx: Context, cfg: PlannerConfig, w: np.ndarray
 ) -> tuple[np.ndarray, LonSeries]:
-    """Lon-only feature parts [L, 15] and the series the mixed parts need."""
+    """Lon-only feature parts [L, F] (F = ``cfg.feature_names``) and the series the mixed parts need."""
     L = len(lon.v)
     s, v, a = lon.s, lon.v, lon.a
-    F = np.zeros((L, NF), F32)
+    F = np.zeros((L, len(cfg.feature_names)), F32)
     F[:, IDX["acc_lon"]] = (a * a) @ w
     jerk = np.diff(a, axis=1, prepend=a[:, :1]) / cfg.dt
     F[:, IDX["jerk_lon"]] = (jerk * jerk) @ w
@@ -191,11 +203,11 @@ def lon_features(
 def lat_features(
     lat: LatBank, lon: LonBank, series: LonSeries, road: Road, ctx: Context, cfg: PlannerConfig, w: np.ndarray
 ) -> np.ndarray:
-    """Lat-only feature parts [J, 15]; exit profiles use their bound longitudinal profile."""
+    """Lat-only feature parts [J, F]; exit profiles use their bound longitudinal profile."""
     J = len(lat.d)
     d, dd = lat.d, lat.dd
     t = np.arange(cfg.n_steps) * cfg.dt
-    F = np.zeros((J, NF), F32)
+    F = np.zeros((J, len(cfg.feature_names)), F32)
     F[:, IDX["acc_lat"]] = (lat.ddd**2) @ w
     F[:, IDX["jerk_lat"]] = (lat.dddd**2) @ w
     # distance to the nearest lane centre, and the road's edges (of the lanes that exist at each step)
@@ -219,6 +231,9 @@ def lat_features(
     m = cfg.edge_margin
     F[:, IDX["road_edge"]] = (np.maximum(m - gap_l, 0.0) ** 2 + np.maximum(m - gap_r, 0.0) ** 2) @ w
     F[:, IDX["lc_delay"]] = (t * np.abs(dd)) @ w
+    if "lane_right" in cfg.feature_names:  # whole lanes between the ego and each edge (a lane's centre)
+        F[:, IDX["lane_right"]] = np.maximum((d - right_edge) / road.lane_width - 0.5, 0.0) @ w
+        F[:, IDX["lane_left"]] = np.maximum((left_edge - d) / road.lane_width - 0.5, 0.0) @ w
     tgt = np.nan_to_num(lat.target, nan=0.0)[:, None]
     sgn = np.where(np.abs(tgt - ctx.d0) > 0.05, np.sign(tgt - ctx.d0), 0.0)
     sgn = np.where(np.isnan(lat.target)[:, None], 0.0, sgn)

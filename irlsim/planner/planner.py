@@ -16,6 +16,7 @@ import numpy as np
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.features import (
     CROSS_COLS,
+    IDX,
     Context,
     Pairs,
     cross_features,
@@ -187,7 +188,7 @@ class Planner:
         # ---- features, labels
         feats = f_lon[cl] + f_lat[cj]
         feats[:, CROSS_COLS] += f_x[sel]
-        feats[:, 14] = veh.proximity[sel]
+        feats[:, IDX["proximity"]] = veh.proximity[sel]
         np.maximum(feats, 0.0, out=feats)
         if lanes is None:
             offroad = self._offroad(lat, lon, ego.s)[cj]

@@ -83,7 +83,8 @@ class PolicySet:
                                              read (the planner does this: they cost ~40 % of a cycle)
         lane:               [N, T] int8
         progress:           [N] float32      route progress gained over the horizon [m]; sort key
-        features:           [N, 15] float32  path-integral feature costs, >= 0 (names: irlsim.FEATURE_NAMES)
+        features:           [N, F] float32  path-integral feature costs, >= 0 (F = 15, irlsim.FEATURE_NAMES,
+                            or a larger set's: irlsim.FEATURE_SETS, the planner's ``feature_set``)
         control_points:     [N, K, 3] float32  (lateral offset to the ego [m], yaw to the ego [rad],
                                                progress along the route [m]) at K time-equidistant points
         actions:            [N, K, 2] float32  (longitudinal acceleration [m/s^2], lateral velocity [m/s])
@@ -112,7 +113,7 @@ class PolicySet:
         for name in ("s", "d", "lane"):
             assert getattr(self, name).shape == (n, t), f"{name}: {getattr(self, name).shape} != {(n, t)}"
         assert self.progress.shape == (n,), self.progress.shape
-        assert self.features.shape == (n, N_FEATURES), self.features.shape
+        assert self.features.shape[0] == n and self.features.shape[1] >= N_FEATURES, self.features.shape
         assert self.control_points.ndim == 3 and self.control_points.shape[0] == n
         assert self.control_points.shape[2] == 3
         assert self.actions.shape == (n, self.control_points.shape[1], 2), self.actions.shape

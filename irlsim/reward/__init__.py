@@ -5,7 +5,7 @@ planning cycle, for theta, the policy values and its chosen policy.
     reward = load_reward("runs/tiny/stage1/PACNN+S/checkpoint.pt")   # a checkpoint path, or
     reward = load_reward("PACNN+S", runs="runs/tiny")                 # a model name found in runs
     reward.reset()                      # a new episode (PTACNN's history)
-    theta = reward.theta(policy_set)    # np.ndarray [15]
+    theta = reward.theta(policy_set)    # np.ndarray [F]: one weight per feature (15: the paper's set)
     values = reward.values(policy_set)  # np.ndarray [N] (the policy values the planner ranks)
     index = reward.choose(policy_set)   # int, the chosen policy
 
@@ -23,6 +23,7 @@ from irlsim.reward.learned import (
     FixedTheta,
     LearnedReward,
     ThetaPredictor,
+    check_features,
     load_reward,
     model_names,
 )
@@ -34,6 +35,7 @@ __all__ = [
     "LearnedReward",
     "RewardDriver",
     "ThetaPredictor",
+    "check_features",
     "choose_index",
     "load_reward",
     "model_names",

@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 
 from irlsim.planner.config import PlannerConfig
-from irlsim.planner.expert import THETA_EXPERT, ExpertDriver, ThetaDriver
+from irlsim.planner.expert import ExpertDriver, ThetaDriver, expert_theta
 from irlsim.planner.planner import Planner
 from irlsim.planner.policy_set import PolicySet
-from irlsim.reward.learned import LearnedReward
+from irlsim.reward.learned import LearnedReward, check_features
 from irlsim.road import Road
 from irlsim.sim.types import Observation, Trajectory
 
@@ -50,11 +50,12 @@ class RewardDriver:
         learned reward picks its policy
         (:mod:`irlsim.planner.choice`, :class:`~irlsim.planner.expert.ThetaDriver`; the expert keeps its
         own selection)."""
+        check_features(reward, planner_cfg.feature_names)
         self.reward = reward
         self.info: dict[str, Any] = {}
         self.inference_ms = 0.0
         self.plan_ms = 0.0
-        self.theta: np.ndarray = THETA_EXPERT
+        self.theta: np.ndarray = expert_theta(planner_cfg.feature_names)
         self.last_policy_set: PolicySet | None = None
         self.last_index = -1
         self.driver: ExpertDriver | ThetaDriver
@@ -88,7 +89,7 @@ class RewardDriver:
         self.plan_ms = float(self.planner.last_ms)
         if isinstance(self.driver, ExpertDriver):  # its 'inference' is the model-based selection
             self.inference_ms = max(total_ms - self.plan_ms, 0.0)
-            self.theta, self.info = THETA_EXPERT, {}
+            self.theta, self.info = self.driver.theta, {}
         else:
             assert self.driver.last_theta is not None
             self.theta = self.driver.last_theta

@@ -19,8 +19,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from irlsim import FEATURE_NAMES, FEATURE_SETS, feature_names_of
 from irlsim.errors import IrlsimError
-from irlsim.planner.expert import THETA_EXPERT, choose_index
+from irlsim.planner.expert import THETA_EXPERT, choose_index, expert_theta
 from irlsim.planner.policy_set import PolicySet
 
 EXPERT = "expert"
@@ -42,6 +43,11 @@ class ThetaPredictor(Protocol):
     def reset(self) -> None: ...
 
 
+def _names_of(features: np.ndarray | None) -> tuple[str, ...]:
+    """The feature set of a cycle's features [N, F] (None: the paper's)."""
+    return FEATURE_NAMES if features is None else feature_names_of(np.shape(features)[-1])
+
+
 class FixedTheta:
     """A reward 'predictor' that always returns the expert's theta (``expert-theta``)."""
 
@@ -50,7 +56,7 @@ class FixedTheta:
     def predict(
         self, features: np.ndarray, control_points: np.ndarray, actions: np.ndarray
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        return THETA_EXPERT.copy(), {}
+        return expert_theta(_names_of(features)), {}
 
     def reset(self) -> None:
         pass
@@ -108,7 +114,7 @@ class LearnedReward:
         self._last_set = None  # the history moved on: a set seen before is predicted anew
         info: dict[str, Any] = {}
         if self.predictor is None:
-            theta = THETA_EXPERT.copy()
+            theta = expert_theta(_names_of(features))
         else:
             theta, info = self.predictor.predict(features, control_points, actions)
         self.info = info
@@ -223,3 +229,21 @@ def load_reward(
             f"samples {n_policies}: pass the collect --config the model was trained on"
         )
     return LearnedReward(predictor.name, predictor, path)
+
+
+def check_features(reward: LearnedReward, features: tuple[str, ...] | list[str]) -> None:
+    """Refuse (one line) a learned reward whose checkpoint weighs other features than ``features`` (the
+    planner's, ``planner.feature_set``): its theta weighs the features by position. The expert and
+    'expert-theta' take any set (their weights are named)."""
+    ck = reward.trained
+    if ck is None:
+        return
+    names = list((ck.get("base") or {}).get("feature_names") or ck.get("feature_names") or FEATURE_NAMES)
+    if names != list(features):
+        sets = {tuple(v): k for k, v in FEATURE_SETS.items()}
+        trained, here = sets.get(tuple(names), "another"), sets.get(tuple(features), "another")
+        raise IrlsimError(
+            f"{reward.name} ({reward.checkpoint}) was trained on the '{trained}' feature set ({len(names)} "
+            f"features), the planner computes the '{here}' set ({len(features)}): pass the collect --config "
+            f'the model was trained on (planner.feature_set = "{trained}")'
+        )

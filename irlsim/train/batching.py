@@ -10,7 +10,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from irlsim import FEATURE_NAMES
+from irlsim import FEATURE_NAMES, FEATURE_SETS
 from irlsim.data.demos import safe_demo_index
 from irlsim.data.npy import take_per_row
 from irlsim.data.reader import open_dataset
@@ -61,9 +61,9 @@ def dataset_meta(dataset: TrainingData) -> dict[str, Any]:
     manifest = getattr(dataset, "manifest", None) or {}
     names = list(manifest.get("feature_names", FEATURE_NAMES))
     version = manifest.get("schema_version", SCHEMA_VERSION)
-    if names != list(FEATURE_NAMES):
+    if names not in [list(s) for s in FEATURE_SETS.values()]:
         raise IrlsimError(
-            f"dataset features {names} differ from this irlsim's {list(FEATURE_NAMES)}: "
+            f"dataset features {names} are none of this irlsim's feature sets ({', '.join(FEATURE_SETS)}): "
             "re-run 'irlsim collect'"
         )
     if version != SCHEMA_VERSION:
@@ -138,7 +138,7 @@ def predict_split(
 ) -> dict[str, np.ndarray]:
     """Run a stage-1 model over every cycle of ``split`` in chunks.
 
-    -> {'theta': [C, 15] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}, the
+    -> {'theta': [C, F] float32, and for PACNN 'context': [C, Cc], 'attention': [C, N] float32}, the
     outputs named in ``keep`` only (the attention is 4 N bytes a cycle, 0.4 GB over the paper's DAgger
     round-2 train split: a caller that does not read it leaves it out).
     """
@@ -162,5 +162,5 @@ def predict_split(
     return (
         {k: np.concatenate(v) for k, v in parts.items()}
         if parts
-        else {"theta": np.zeros((0, 15), np.float32)}
+        else {"theta": np.zeros((0, split.features.shape[-1]), np.float32)}
     )

@@ -13,7 +13,7 @@ from typing import Any
 
 import torch
 
-from irlsim import FEATURE_NAMES
+from irlsim import FEATURE_SETS
 from irlsim.config import from_dict
 from irlsim.data.demonstrator import collected_egos
 from irlsim.data.schema import SCHEMA_VERSION
@@ -164,8 +164,9 @@ def read_checkpoint(
         )
     # its theta weighs the features by position: another feature set or schema makes it meaningless
     names = list(ckpt.get("feature_names") or ())
-    if names != list(FEATURE_NAMES):
-        differ = sorted(set(names) ^ set(FEATURE_NAMES))
+    if names not in [list(s) for s in FEATURE_SETS.values()]:
+        like = next((s for s in FEATURE_SETS.values() if len(s) == len(names)), FEATURE_SETS["paper"])
+        differ = sorted(set(names) ^ set(like))
         what = f"features {', '.join(differ)} differ" if differ else "its features are in another order"
         raise IrlsimError(
             f"checkpoint {path} was trained on another feature set than this irlsim's ({what}): delete it "

@@ -16,6 +16,7 @@ from typing import Any
 
 import torch
 
+from irlsim import N_FEATURES
 from irlsim.config import require_memory
 from irlsim.errors import IrlsimError
 from irlsim.models.registry import STAGE2_BASE, ModelConfig, build_model
@@ -72,7 +73,7 @@ def training_bytes(name: str, model: ModelConfig, n_policies: int, k: int, batch
         with torch.device("meta"):
             net = build_model(part, model, n_policies, None)
         params += sum(p.numel() for p in net.parameters())
-    per_policy = 15 + 5 * k  # the inputs; LIRL has no encoder
+    per_policy = N_FEATURES + 5 * k  # the inputs (the paper's feature set: an estimate); LIRL has no encoder
     if name != "LIRL":
         per_policy += 2 * model.hidden_channels + 2 * model.latent + model.attention_hidden
     activations = batch * n_policies * per_policy

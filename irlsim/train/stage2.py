@@ -45,7 +45,7 @@ def predict_temporal(
 ) -> tuple[np.ndarray, np.ndarray]:
     """PTACNN over a sequential split: for each cycle t the mixture over the history ending at t.
 
-    contexts [C, Cc], thetas [C, 15] (frozen PACNN outputs), episode [C] -> (theta [C, 15], weights [C, H]).
+    contexts [C, Cc], thetas [C, F] (frozen PACNN outputs), episode [C] -> (theta [C, F], weights [C, H]).
     """
     model.eval()
     hist = history_indices(episode, cast(PTACNN, model).history)
@@ -56,7 +56,7 @@ def predict_temporal(
         out_t.append(to_numpy(out["theta"]))
         out_w.append(to_numpy(out["weights"]))
     if not out_t:
-        return np.zeros((0, 15), np.float32), np.zeros((0, hist.shape[1]), np.float32)
+        return np.zeros((0, thetas.shape[-1]), np.float32), np.zeros((0, hist.shape[1]), np.float32)
     return np.concatenate(out_t), np.concatenate(out_w)
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES
+from irlsim import feature_names_of
 from irlsim.viz.figure import new_figure, save_figure
 
 
@@ -44,7 +44,7 @@ def radar_radius(
 def draw_radar(
     ax: Any,
     theta: np.ndarray,
-    names: Sequence[str] = FEATURE_NAMES,
+    names: Sequence[str] | None = None,
     reference: np.ndarray | None = None,
     decades: tuple[float, float] = (-3.0, 1.0),
     title: str | None = None,
@@ -53,6 +53,7 @@ def draw_radar(
 ) -> None:
     """Draw theta [F] on a matplotlib *polar* axes ``ax`` (created with ``projection='polar'``)."""
     theta = np.asarray(theta, dtype=np.float64)
+    names = feature_names_of(len(theta)) if names is None else names
     f = len(names)
     assert theta.shape == (f,), f"theta must be [{f}], got {theta.shape}"
     angles = np.linspace(0.0, 2 * np.pi, f, endpoint=False)
@@ -97,7 +98,7 @@ def draw_radar(
 def save_radar(
     path: str | Path,
     theta: np.ndarray,
-    names: Sequence[str] = FEATURE_NAMES,
+    names: Sequence[str] | None = None,
     reference: np.ndarray | None = None,
     title: str | None = None,
     decades: tuple[float, float] = (-3.0, 1.0),

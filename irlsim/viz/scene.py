@@ -75,7 +75,7 @@ class CycleFrame:
         assert self.y.shape == (p, t), f"y: {self.y.shape} != {(p, t)}"
         assert self.value_rank.shape == (p,) and self.top_attention.shape == (p,)
         assert 0 <= self.chosen < p, f"chosen {self.chosen} not in [0, {p})"
-        assert self.theta.shape == (len(FEATURE_NAMES),), self.theta.shape
+        assert self.theta.ndim == 1 and len(self.theta) >= len(FEATURE_NAMES), self.theta.shape
         assert self.vehicles.ndim == 2 and self.vehicles.shape[1] == 5, self.vehicles.shape
         if self.attention is not None:
             assert self.attention.shape == (p,), self.attention.shape

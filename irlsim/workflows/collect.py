@@ -22,7 +22,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from irlsim import FEATURE_NAMES
 from irlsim.data.collection import (
     SPLITS,
     CollectConfig,
@@ -40,6 +39,7 @@ from irlsim.data.demonstrator import resolve as resolve_demonstrator
 from irlsim.data.layout import (
     check_episode,
     episode_done,
+    manifest_feature_names,
     remove_episode,
     remove_partial,
     write_manifest,
@@ -52,7 +52,8 @@ from irlsim.errors import IrlsimError
 from irlsim.executor import TIMED_OUT, check_executor, describe_failures, run_jobs
 from irlsim.executor import Job as ExecutorJob
 from irlsim.outputs import check_output_dir
-from irlsim.reward import EXPERT, EXPERT_THETA, load_reward
+from irlsim.planner.config import PlannerConfig
+from irlsim.reward import EXPERT, EXPERT_THETA, check_features, load_reward
 from irlsim.road.scenario import Scenarios, recorded_name
 from irlsim.sim.preflight import check_starts
 from irlsim.utils import LockBusy, exclusive_lock, progress
@@ -141,16 +142,17 @@ def _run_job(job):  # top level: picklable for spawn workers and Ray tasks
     return collect_episode(job, dagger_driver_factory(job.driver, job.config.planner.n_policies))
 
 
-def driver_identity(spec: str, runs: Path | None, n_policies: int) -> dict[str, Any]:
+def driver_identity(spec: str, runs: Path | None, planner: PlannerConfig) -> dict[str, Any]:
     """Resolve ``--driver`` (refused in one line when it is no learned model, not found or built for
-    another policy count) and say what identifies it in the manifest: model, checkpoint path and sha256,
-    and the identity of the dataset it was trained on."""
+    another policy count or feature set than ``planner``'s) and say what identifies it in the manifest:
+    model, checkpoint path and sha256, and the identity of the dataset it was trained on."""
     if spec in (EXPERT, EXPERT_THETA):
         raise IrlsimError(
             f"--driver {spec}: DAgger needs a trained model (a name in --runs or a checkpoint path); the "
             "expert's own data is 'irlsim collect' without --driver"
         )
-    model = load_reward(spec, runs, n_policies=n_policies)
+    model = load_reward(spec, runs, n_policies=planner.n_policies)
+    check_features(model, planner.feature_names)
     assert model.checkpoint is not None and model.trained is not None
     path = model.checkpoint.resolve()
     ck = model.trained
@@ -181,7 +183,7 @@ def collect_dataset(run: CollectRun) -> CollectResult:
         raise IrlsimError(
             f"dagger_round = {cfg.dagger_round} needs a learned driver: add --driver MODEL|CHECKPOINT"
         )
-    driver = driver_identity(run.driver, run.runs, cfg.planner.n_policies) if run.driver is not None else None
+    driver = driver_identity(run.driver, run.runs, cfg.planner) if run.driver is not None else None
     check_executor(run.executor, cfg.workers, run.address)
     timeout = episode_timeout(run.episode_timeout, run.executor, cfg.workers, cfg.scenario, cfg.max_cycles)
     out = run.out
@@ -253,7 +255,7 @@ def _check_resumable(
         raise IrlsimError(
             f"{out} holds a dataset of schema version {version}, this irlsim writes {SCHEMA_VERSION}: {fix}"
         )
-    if old.get("feature_names") != list(FEATURE_NAMES):
+    if old.get("feature_names") != list(manifest_feature_names({"config": config})):
         raise IrlsimError(f"{out} holds a dataset of other features than this irlsim computes: {fix}")
     was, now = describe(old.get("demonstrator")), describe(demonstrator)
     if was != now:  # its vType attributes in full: the config's difference below

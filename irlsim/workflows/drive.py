@@ -146,8 +146,8 @@ def _drive_job(job: DriveJob) -> dict[str, Any]:  # top level: picklable for wor
 def _drive(job: DriveJob) -> dict[str, Any]:
     key = _model_key(job.spec, job.runs, job.cfg.planner.n_policies, job.threads)
     if key not in _MODELS:
-        n_policies = job.cfg.planner.n_policies
-        _MODELS[key] = resolve_model(job.spec, job.runs, n_policies, job.threads)
+        planner = job.cfg.planner
+        _MODELS[key] = resolve_model(job.spec, job.runs, planner, job.threads)
     name = job.cfg.scenario.name
     if name not in _ROAD:
         _ROAD[name] = load_road(scenario=job.road if job.road is not None else name)
@@ -354,7 +354,7 @@ def _run(run: DriveRun, device: str) -> DriveResult | None:
     # resolve every model before driving, so a typo fails in a second, not after the expert's episodes
     if DEMONSTRATOR in specs:
         check_demonstrator(cfg)
-    models = [resolve_model(s, run.runs, cfg.planner.n_policies, run.threads) for s in specs]
+    models = [resolve_model(s, run.runs, cfg.planner, run.threads) for s in specs]
     if cfg.demonstrator.kind == RECORDING:  # an episode is its ego; the seed picks no car
         egos = cfg.demonstrator.ego.split(",")[: run.episodes]
         check_egos_unseen(models, cfg.demonstrator.file, sha256, egos)

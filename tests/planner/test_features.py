@@ -8,6 +8,7 @@ import pytest
 from irlsim import FEATURE_NAMES
 from irlsim.planner.config import PlannerConfig
 from irlsim.planner.features import Context, lon_features
+from irlsim.planner.planner import Planner
 from irlsim.planner.sampler import LonBank
 from irlsim.road import HALF_ROAD, LANE_WIDTH
 
@@ -101,6 +102,29 @@ def test_no_feature_but_the_missions_prefers_a_side(road, planner):
     others = [i for i in range(len(FEATURE_NAMES)) if i != F["mission_lane"]]
     np.testing.assert_array_equal(a[:, others], b[:, others])
     assert np.any(a[sideways, F["mission_lane"]] != b[sideways, F["mission_lane"]])
+
+
+def test_the_lane_pair_counts_the_lanes_beside_the_ego_and_leaves_the_15_as_they_are(road, planner):
+    """``planner.feature_set = "lanes"``: the same 15 columns, bit for bit, and two more: the lanes to the
+    ego's right and to its left at each step, whole lanes at a lane's centre. Cruising in the middle lane
+    of three: one lane each side at every step, sum_t w_t each; a policy and its mirror image swap them."""
+    lanes = Planner(road, PlannerConfig(feature_set="lanes"))
+    obs = make_obs(road, STRAIGHT_S, 0.0, 15.0)
+    ps, pl = planner.plan(obs), lanes.plan(obs)
+    assert pl.features.shape == (ps.n_policies, 17)
+    np.testing.assert_array_equal(pl.features[:, :15], ps.features)
+    right, left = pl.features[:, 15], pl.features[:, 16]
+    i = _cruise(lanes, pl, 15.0)
+    w = float(lanes.w.astype(np.float64).sum())
+    assert right[i] == pytest.approx(w, rel=1e-5) and left[i] == pytest.approx(w, rel=1e-5)
+    d, v = np.round(pl.d.astype(np.float64), 4), np.round(pl.v.astype(np.float64), 4)
+    key = {(di.tobytes(), vi.tobytes()): j for j, (di, vi) in enumerate(zip(d, v, strict=True))}
+    mirror = [((-d[j] + 0.0).tobytes(), v[j].tobytes()) for j in range(len(d))]
+    pairs = np.array([(j, key[k]) for j, k in enumerate(mirror) if k in key])
+    np.testing.assert_allclose(right[pairs[:, 0]], left[pairs[:, 1]], rtol=1e-5, atol=1e-6)
+    # straight lane changes to the left (no swerve to the right first): more lanes to the right, fewer left
+    to_left = (np.abs(pl.d[:, -1] - LANE_WIDTH) < 1e-6) & np.all(np.diff(pl.d, axis=1) >= -1e-9, axis=1)
+    assert to_left.any() and (right[to_left] > right[i]).all() and (left[to_left] < left[i]).all()
 
 
 def _expected_proximity(planner, ps, i, s_front, d_veh, v_veh, length=4.5):
