@@ -91,6 +91,14 @@ def counterfactual(
     return out
 
 
+def own_driving(out: Path, d: str, road: str, at: str) -> Path:
+    """The file that holds demonstrator ``d``'s own driving on ``road`` (as styles.py drove it): the
+    expert's drives, the other demonstrators' collections (any of them, the expert's config too)."""
+    if d == "expert":
+        return out / f"drive{at}" / road / "expert" / "drive.json"
+    return out / f"reference{at}" / d / road / "manifest.json"
+
+
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
     """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
     if d == "expert":
@@ -212,9 +220,11 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"style_norms: unknown demonstrator {unknown[0]}: choose from {', '.join(styles.CONFIGS)}")
     out = Path(a.out)
     a.at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"  # the drives' seeds' folders
-    missing = [r for r in a.roads if not (out / f"drive{a.at}" / r / "expert" / "drive.json").is_file()]
+    missing = [
+        f"{d} on {r}" for r in a.roads for d in a.demonstrators if not own_driving(out, d, r, a.at).is_file()
+    ]
     if missing:
-        sys.exit(f"style_norms: no drives in {out} on {missing[0]} for these seeds: run studies/styles.py")
+        sys.exit(f"style_norms: no driving of {missing[0]} in {out} for these seeds: run studies/styles.py")
     tables = {road: road_table(out, road, a) for road in a.roads}
     name = "style-norms" + a.at
     name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag
