@@ -38,12 +38,23 @@ FEATURE_SETS: dict[str, tuple[str, ...]] = {
 }
 
 
-def feature_names_of(n: int) -> tuple[str, ...]:
-    """The names of the feature set with ``n`` features (the sets differ in size); ValueError if none."""
+def feature_names_of(n: int, default: tuple[str, ...] | None = None) -> tuple[str, ...]:
+    """The names of the feature set with ``n`` features (the sets differ in size); ``default`` if none,
+    ValueError if none and no default."""
     for names in FEATURE_SETS.values():
         if len(names) == n:
             return names
+    if default is not None:
+        return default
     raise ValueError(f"no feature set has {n} features (irlsim.FEATURE_SETS)")
+
+
+def feature_set_of(names: object) -> str | None:
+    """The name of the feature set (``FEATURE_SETS``) whose features are ``names``, in that order; None
+    if none (a list of other names, another order, or not a list at all, as a damaged manifest may hold)."""
+    if not isinstance(names, (list, tuple)):
+        return None
+    return next((key for key, value in FEATURE_SETS.items() if list(value) == list(names)), None)
 
 
 #: environment variables that size numpy's / torch's CPU thread pools; set to 1 for single-threaded

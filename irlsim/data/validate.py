@@ -8,7 +8,7 @@ from typing import Any
 
 import pyarrow as pa
 
-from irlsim import FEATURE_NAMES, FEATURE_SETS, N_FEATURES
+from irlsim import FEATURE_NAMES, FEATURE_SETS, feature_names_of, feature_set_of
 from irlsim.data.schema import SCHEMA_VERSION, TABLE_POLICIES, cycles_schema, policies_schema
 from irlsim.errors import IrlsimError
 
@@ -50,7 +50,7 @@ def check_columns(
         if f is None:
             field = schema.field("features") if "features" in schema.names else None
             size = int(getattr(field.type, "list_size", 0)) if field is not None else 0
-            f = size if size in {len(names) for names in FEATURE_SETS.values()} else N_FEATURES
+            f = len(feature_names_of(size, default=FEATURE_NAMES))
         expected = policies_schema(k, f)
     else:
         expected = cycles_schema()
@@ -103,7 +103,7 @@ def validate_manifest(manifest: dict[str, Any], manifest_path: Path) -> None:
             "re-collect it with 'irlsim collect'"
         )
     names = manifest.get("feature_names")
-    if names not in [list(s) for s in FEATURE_SETS.values()]:
+    if feature_set_of(names) is None:
         raise IrlsimError(
             f"dataset {path} has features {names}, this irlsim computes {list(FEATURE_NAMES)} (or a "
             f"larger set, planner.feature_set: {', '.join(FEATURE_SETS)}): re-collect it with "

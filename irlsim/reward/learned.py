@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES, FEATURE_SETS, feature_names_of
+from irlsim import FEATURE_NAMES, feature_names_of, feature_set_of
 from irlsim.errors import IrlsimError
 from irlsim.planner.expert import THETA_EXPERT, choose_index, expert_theta
 from irlsim.planner.policy_set import PolicySet
@@ -240,8 +240,7 @@ def check_features(reward: LearnedReward, features: tuple[str, ...] | list[str])
         return
     names = list((ck.get("base") or {}).get("feature_names") or ck.get("feature_names") or FEATURE_NAMES)
     if names != list(features):
-        sets = {tuple(v): k for k, v in FEATURE_SETS.items()}
-        trained, here = sets.get(tuple(names), "another"), sets.get(tuple(features), "another")
+        trained, here = feature_set_of(names) or "another", feature_set_of(list(features)) or "another"
         raise IrlsimError(
             f"{reward.name} ({reward.checkpoint}) was trained on the '{trained}' feature set ({len(names)} "
             f"features), the planner computes the '{here}' set ({len(features)}): pass the collect --config "

@@ -10,7 +10,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from irlsim import FEATURE_NAMES, FEATURE_SETS
+from irlsim import FEATURE_NAMES, FEATURE_SETS, feature_set_of
 from irlsim.data.demos import safe_demo_index
 from irlsim.data.npy import take_per_row
 from irlsim.data.reader import open_dataset
@@ -61,7 +61,7 @@ def dataset_meta(dataset: TrainingData) -> dict[str, Any]:
     manifest = getattr(dataset, "manifest", None) or {}
     names = list(manifest.get("feature_names", FEATURE_NAMES))
     version = manifest.get("schema_version", SCHEMA_VERSION)
-    if names not in [list(s) for s in FEATURE_SETS.values()]:
+    if feature_set_of(names) is None:
         raise IrlsimError(
             f"dataset features {names} are none of this irlsim's feature sets ({', '.join(FEATURE_SETS)}): "
             "re-run 'irlsim collect'"

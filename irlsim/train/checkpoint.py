@@ -13,7 +13,7 @@ from typing import Any
 
 import torch
 
-from irlsim import FEATURE_SETS
+from irlsim import FEATURE_NAMES, feature_names_of, feature_set_of
 from irlsim.config import from_dict
 from irlsim.data.demonstrator import collected_egos
 from irlsim.data.schema import SCHEMA_VERSION
@@ -164,8 +164,8 @@ def read_checkpoint(
         )
     # its theta weighs the features by position: another feature set or schema makes it meaningless
     names = list(ckpt.get("feature_names") or ())
-    if names not in [list(s) for s in FEATURE_SETS.values()]:
-        like = next((s for s in FEATURE_SETS.values() if len(s) == len(names)), FEATURE_SETS["paper"])
+    if feature_set_of(names) is None:
+        like = feature_names_of(len(names), default=FEATURE_NAMES)
         differ = sorted(set(names) ^ set(like))
         what = f"features {', '.join(differ)} differ" if differ else "its features are in another order"
         raise IrlsimError(

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from irlsim import FEATURE_NAMES, FEATURE_SETS, LANE_FEATURE_NAMES
+from irlsim import FEATURE_NAMES, FEATURE_SETS, LANE_FEATURE_NAMES, feature_names_of, feature_set_of
 from irlsim.cli import main
 from irlsim.data.reader import open_dataset
 
@@ -26,6 +26,18 @@ def lanes_dataset(tmp_path_factory):
         == 0
     )
     return out
+
+
+def test_a_feature_set_is_named_by_its_names_in_order_and_found_by_its_size():
+    for key, names in FEATURE_SETS.items():
+        assert feature_set_of(list(names)) == key and feature_set_of(tuple(names)) == key
+        assert feature_names_of(len(names)) == names
+    assert feature_set_of(list(reversed(FEATURE_NAMES))) is None  # another order weighs other features
+    assert feature_set_of(list(FEATURE_NAMES[:-1])) is None
+    assert feature_set_of(None) is None and feature_set_of("mission_lane") is None  # a damaged manifest
+    assert feature_names_of(3, default=FEATURE_NAMES) == FEATURE_NAMES
+    with pytest.raises(ValueError, match="no feature set has 3 features"):
+        feature_names_of(3)
 
 
 def test_the_lane_pair_adds_two_columns_and_changes_nothing_else(lanes_dataset, tiny_dataset):
