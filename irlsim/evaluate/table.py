@@ -151,7 +151,8 @@ def _fmt(v: float) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3f}"
 
 
-def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str:
+def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int, n_features: int = 15) -> str:
+    """Table I as markdown; ``n_features``: the dataset's feature set's size (the oracle's note)."""
     lines = [
         f"# Results on the {split_name} split (history H = {H} cycles)",
         "",
@@ -173,7 +174,7 @@ def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int) -> str
         "over cycles with a demonstration. Reference rows: expert-theta = the expert's hand-tuned theta, "
         "argmax V; executed = the policy the demonstrator executed (a choice: ED = OPD); oracle = a "
         "per-cycle linear theta fitted to that cycle's own demonstration, an OPTIMISTIC BOUND on any "
-        "linear reward over the 15 features (it sees the answer), not a model.",
+        f"linear reward over the {n_features} features (it sees the answer), not a model.",
         "",
     ]
     lines.append(breakdown_markdown(rows))
@@ -295,7 +296,7 @@ def reference_rows(data: Any, ctx: CycleContext | None, full: bool = True) -> li
     refs.append(("random policy", random_policy_metrics(data), {}))
     rows = []
     for name, metrics, extra in refs:
-        row = _row(name, "15 per cycle" if name.startswith("oracle") else "0", [0], metrics)
+        row = _row(name, f"{nf} per cycle" if name.startswith("oracle") else "0", [0], metrics)
         if ctx is not None:
             row.update(row_breakdown(metrics, data, ctx, **extra))
             if name.startswith("oracle"):  # each cycle's fit has its own scale: a relative change is noise
@@ -323,13 +324,13 @@ def temporal_outputs(
 
 
 def _write_results(
-    out_dir: Path, rows: list[dict[str, Any]], split: str, H: int, record: dict[str, Any]
+    out_dir: Path, rows: list[dict[str, Any]], split: str, H: int, record: dict[str, Any], n_features: int
 ) -> None:
     """results.md (its last paragraph: the record's ``note``, if any) and results.json (the record)."""
     note = record.get("note")
     out_dir.mkdir(parents=True, exist_ok=True)
     atomic_write_text(
-        out_dir / "results.md", results_markdown(rows, split, H) + (f"\n{note}\n" if note else "")
+        out_dir / "results.md", results_markdown(rows, split, H, n_features) + (f"\n{note}\n" if note else "")
     )
     write_json(out_dir / "results.json", {"split": split, "history": H, **record, "rows": rows})
 
@@ -405,7 +406,8 @@ def evaluate_models(
             rows += reference_rows(data, ctx, references)
             evaluated_with = provenance()
 
-        _write_results(out_dir, rows, split, H, {"provenance": evaluated_with, **(record or {})})
+        record = {"provenance": evaluated_with, **(record or {})}
+        _write_results(out_dir, rows, split, H, record, n_features=data.features.shape[-1])
         plot_convergence(
             {m: lm.checkpoint.get("metrics") or [] for m, lm in loaded.items()}, out_dir / "convergence.png"
         )

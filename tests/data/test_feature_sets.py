@@ -76,6 +76,11 @@ def test_trained_on_the_lanes_then_driven_only_with_them(lanes_dataset, tmp_path
         str(lanes_dataset),
     ]
     assert main([*train, "--out", str(runs), "--set", 'models=["LIRL"]', "--set", "epochs=1"]) == 0
+    # Table I on the lanes' test split: the oracle is a fit over the set's 17 features, and says so
+    table = tmp_path / "table"
+    assert main(["evaluate", "--data", str(lanes_dataset), "--runs", str(runs), "--out", str(table)]) == 0
+    results = (table / "results.md").read_text()
+    assert "| oracle (optimistic bound) | 17 per cycle |" in results and "over the 17 features" in results
     drive = ["drive", "--runs", str(runs), "--model", "LIRL", "--config", "configs/collect/tiny.toml"]
     drive += ["--max-cycles", "10", "--frames", "0", "--set", "planner.n_policies=120"]
     capsys.readouterr()
