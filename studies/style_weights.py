@@ -3,7 +3,7 @@ on one common set of planning cycles.
 
 For every run folder ``<out>/runs/<demonstrator>-seed<s>/`` and ``--model``, the model predicts theta on
 every cycle of one split (``--data``, default: the expert's oval test split of the study: the same
-situations for every reward), and for each of the 15 features the table gives its **value share**: the
+situations for every reward), and for each of its features (the paper's 15, or the lane pair's 17) the table gives its **value share**: the
 spread over a cycle's policies of theta_k * f_k (the part of the policy values feature k moves), averaged
 over the cycles, as a share of the sum over the features. A style lives in the features with the largest
 shares, and a reward that drives unlike its demonstrator, or unsafely, shows which weight it put where.
@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from irlsim import FEATURE_NAMES
+from irlsim import feature_names_of
 from irlsim.evaluate.table import predict_sequential
 from irlsim.train.batching import as_dataset, get_split
 from irlsim.train.layout import find_checkpoint
@@ -32,9 +32,9 @@ from irlsim.train.loading import load_model
 
 
 def value_shares(thetas: np.ndarray, features: Any, chunk: int = 256) -> np.ndarray:
-    """[15] each feature's share of the policy values' spread: mean over cycles of the standard
-    deviation over the policies of theta_k * f_k, normalised to sum 1 (``thetas`` [C, 15], ``features``
-    [C, N, 15])."""
+    """[F] each feature's share of the policy values' spread: mean over cycles of the standard
+    deviation over the policies of theta_k * f_k, normalised to sum 1 (``thetas`` [C, F], ``features``
+    [C, N, F])."""
     total = np.zeros(thetas.shape[1])
     for start in range(0, len(thetas), chunk):
         f = np.asarray(features[start : start + chunk], dtype=np.float64)
@@ -60,7 +60,7 @@ def main() -> int:
         thetas = predict_sequential(load_model(ckpt), data, 10)  # read on cycles it was not trained on
         rows[runs.name] = value_shares(thetas, data.features).tolist()
         print(f"{runs.name}: {' '.join(f'{x:.2f}' for x in rows[runs.name])}", flush=True)
-    head = ["learned reward", *FEATURE_NAMES]
+    head = ["learned reward", *feature_names_of(data.features.shape[-1])]  # the dataset's feature set
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for name, shares in rows.items():
         lines.append(f"| {name} | " + " | ".join(f"{100 * x:.0f}" for x in shares) + " |")
