@@ -3,10 +3,11 @@ on one common set of planning cycles.
 
 For every run folder ``<out>/runs/<demonstrator>-seed<s>/`` and ``--model``, the model predicts theta on
 every cycle of one split (``--data``, default: the expert's oval test split of the study: the same
-situations for every reward), and for each of its features (the paper's 15, or the lane pair's 17) the table gives its **value share**: the
-spread over a cycle's policies of theta_k * f_k (the part of the policy values feature k moves), averaged
-over the cycles, as a share of the sum over the features. A style lives in the features with the largest
-shares, and a reward that drives unlike its demonstrator, or unsafely, shows which weight it put where.
+situations for every reward), and for each of its features (the paper's 15, or the lane pair's 17) the
+table gives its **value share**: the spread over a cycle's policies of theta_k * f_k (the part of the
+policy values feature k moves), averaged over the cycles, as a share of the sum over the features. A
+style lives in the features with the largest shares, and a reward that drives unlike its demonstrator,
+or unsafely, shows which weight it put where.
 Run from the repository root, after the study:
 
     .venv/bin/python studies/style_weights.py --out runs/styles
