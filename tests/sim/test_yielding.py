@@ -8,8 +8,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from irlsim.planner.expert import ExpertDriver, planner_config_for
 from irlsim.road import load_road
-from irlsim.rollout.drivers import make_driver
 from irlsim.rollout.runner import EpisodeRunner
 from irlsim.sim import minor_green, signals, yielding
 from irlsim.sim.config import EpisodeConfig
@@ -17,6 +17,13 @@ from irlsim.sim.episode import CourseMarks, Episode
 from irlsim.sim.simulation import EGO, Simulation
 from irlsim.sim.types import EgoState
 from tests.road.test_scenario import make_scenario
+
+
+def _expert(road, cfg):
+    """The expert with 500 policies instead of 2,500: right of way is the simulation's, not the planner's
+    resolution, and the smaller set runs these SUMO episodes several times as fast."""
+    return ExpertDriver(road, dataclasses.replace(planner_config_for(cfg), n_policies=500))
+
 
 #: a T junction: the minor road sj (from the south) meets the major road wj -> je at j
 T_NODES = (
@@ -94,7 +101,7 @@ def _drive(road, seed: int = 0):
         ego_start_speed=10.0,
     )
     with Simulation(road, cfg) as sim:
-        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), seed)
+        res = EpisodeRunner(sim).run(_expert(road, cfg), seed)
         return res.stats, sim.odometry_arrays()
 
 
@@ -183,7 +190,7 @@ def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_pat
     (signal,) = road.signals
     assert road.yield_points == ()  # a light, no minor link without one
     with Simulation(road, cfg) as sim:
-        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        res = EpisodeRunner(sim).run(_expert(road, cfg), 0)
         od = sim.odometry_arrays()
     st = res.stats
     line = signal.s
@@ -201,11 +208,11 @@ def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_pat
 
     monkeypatch.setattr(signals.SignalWatch, "_minor_greens", not_holding)
     with Simulation(road, cfg) as sim:
-        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        res = EpisodeRunner(sim).run(_expert(road, cfg), 0)
     assert res.stats["sim/yield_violations"] == 1
     monkeypatch.setattr(minor_green.MinorGreen, "too_soon", lambda self, *args: False)
     with Simulation(road, cfg) as sim:
-        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        res = EpisodeRunner(sim).run(_expert(road, cfg), 0)
     assert res.stats["sim/yield_violations"] == 0 and res.stats["sim/collisions"] == 1
 
 
@@ -255,7 +262,7 @@ def test_sumo_places_the_turning_ego_on_other_links_lanes_which_are_not_its_way(
     lanes: list[str] = []
     with Simulation(road, cfg) as sim:
         sim.step_listeners.append(lambda s: lanes.append(s._api.vehicle.getLaneID(EGO)))
-        res = EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0)
+        res = EpisodeRunner(sim).run(_expert(road, cfg), 0)
         watch = sim.yields
     inside = {ln for ln in lanes if yielding.junction_of(ln) == "j"}
     others = inside - set(p.lanes)
@@ -286,7 +293,7 @@ def test_a_foe_of_a_link_the_ego_is_not_taking_is_no_violation(tmp_path, monkeyp
         lanes: list[str] = []
         with Simulation(road, cfg) as sim:
             sim.step_listeners.append(lambda s: lanes.append(s._api.vehicle.getLaneID(EGO)))
-            return EpisodeRunner(sim).run(make_driver("expert", road, cfg), 0).stats, lanes
+            return EpisodeRunner(sim).run(_expert(road, cfg), 0).stats, lanes
 
     stats, lanes = drive()
     assert {":58_1_0", ":58_12_0", ":58_5_0"} <= set(lanes)  # its way, then the other link's lane
