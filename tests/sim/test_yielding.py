@@ -21,7 +21,7 @@ from tests.road.test_scenario import make_scenario
 
 def _expert(road, cfg):
     """The expert with 500 policies instead of 2,500: right of way is the simulation's, not the planner's
-    resolution, and the smaller set runs these SUMO episodes several times as fast."""
+    resolution, and the smaller set runs these tests about 1.5 times as fast (44 s -> 29 s)."""
     return ExpertDriver(road, dataclasses.replace(planner_config_for(cfg), n_policies=500))
 
 
