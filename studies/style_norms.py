@@ -101,10 +101,11 @@ def own_driving(out: Path, d: str, road: str, at: str) -> Path:
 
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
     """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
+    path = own_driving(out, d, road, at)
     if d == "expert":
-        eps = json.loads((out / f"drive{at}" / road / "expert" / "drive.json").read_text())["episodes"]
+        eps = json.loads(path.read_text())["episodes"]
         return [e for e in eps if e.get("style/time_s", 0) > 0]
-    return styles.collected_episodes(out / f"reference{at}" / d / road)
+    return styles.collected_episodes(path.parent)
 
 
 def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from irlsim import feature_names_of
+from irlsim import N_FEATURES, feature_names_of
 from irlsim.data.roads import records_scenarios
 from irlsim.data.situations import SITUATION_NAMES
 from irlsim.devices import current_device
@@ -151,7 +151,9 @@ def _fmt(v: float) -> str:
     return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.3f}"
 
 
-def results_markdown(rows: list[dict[str, Any]], split_name: str, H: int, n_features: int = 15) -> str:
+def results_markdown(
+    rows: list[dict[str, Any]], split_name: str, H: int, n_features: int = N_FEATURES
+) -> str:
     """Table I as markdown; ``n_features``: the dataset's feature set's size (the oracle's note)."""
     lines = [
         f"# Results on the {split_name} split (history H = {H} cycles)",
@@ -406,8 +408,8 @@ def evaluate_models(
             rows += reference_rows(data, ctx, references)
             evaluated_with = provenance()
 
-        record = {"provenance": evaluated_with, **(record or {})}
-        _write_results(out_dir, rows, split, H, record, n_features=data.features.shape[-1])
+        meta = {"provenance": evaluated_with, **(record or {})}
+        _write_results(out_dir, rows, split, H, meta, n_features=data.features.shape[-1])
         plot_convergence(
             {m: lm.checkpoint.get("metrics") or [] for m, lm in loaded.items()}, out_dir / "convergence.png"
         )

@@ -240,7 +240,7 @@ def check_features(reward: LearnedReward, features: tuple[str, ...] | list[str])
         return
     names = list((ck.get("base") or {}).get("feature_names") or ck.get("feature_names") or FEATURE_NAMES)
     if names != list(features):
-        trained, here = feature_set_of(names) or "another", feature_set_of(list(features)) or "another"
+        trained, here = feature_set_of(names) or "another", feature_set_of(features) or "another"
         raise IrlsimError(
             f"{reward.name} ({reward.checkpoint}) was trained on the '{trained}' feature set ({len(names)} "
             f"features), the planner computes the '{here}' set ({len(features)}): pass the collect --config "
