@@ -25,9 +25,12 @@ net: setup
 	$(IRLSIM) net
 
 # the suite's time budget (DEVELOPERS.md): the slowest tests printed, then tools/test_budget.py's report
+# (TEST_WORKERS pytest processes, by test file: a file's tests and its fixtures stay in one process)
+TEST_WORKERS ?= 2
 test: setup
 	@mkdir -p build
-	$(BIN)/pytest -q -m "not slow" --durations=15 --junitxml=build/test-report.xml; rc=$$?; \
+	$(BIN)/pytest -q -m "not slow" -n $(TEST_WORKERS) --dist loadfile --durations=15 \
+		--junitxml=build/test-report.xml; rc=$$?; \
 		$(BIN)/python tools/test_budget.py build/test-report.xml; exit $$rc
 
 test-slow: setup
