@@ -9,7 +9,7 @@ saved simulation state it drives the horizon, and its odometry projected onto th
 the demonstration: :mod:`irlsim.sim.branch`). PACNN+S and LIRL are trained again with the same seed on
 the driver's dataset and the round's together (``--rounds N``: round r's reward drives round r + 1, and
 the last is trained on every round), and PACNN+S is driven on the study's episodes with the
-study's rules; the table is ``studies/style_norms.py``'s (as defined and per episode).
+study's rules; the table is ``studies/style_norms.py``'s (as defined, and pooled as before 2026-12-01).
 
 Reads a ``studies/styles.py`` run made with the same options (its datasets, rewards and references);
 writes the rounds' data to ``<out>/dagger/<row>-seed<s>/[round<r>/]<road>``, the rewards to

@@ -1,6 +1,7 @@
 r"""How near a row could come to a driver it cannot match on some figures: the style distance of a
 hypothetical row that drives exactly as ``--driver`` on every figure but ``--keep`` (there it has the
-mean value of the given rows' drives), from each reference, per episode and as defined.
+mean value of the given rows' drives), from each reference, as defined and pooled (the definition
+until 2026-12-01).
 
 Reads a ``studies/styles.py`` run (the references of ``--demonstrators`` on ``--eval-base``'s episodes)
 and the drives of ``--rows`` (folders under ``drive[-s<base>][-commit][-stop][-choice]/<road>/``;
@@ -22,7 +23,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 import style_norms  # noqa: E402
 import styles  # noqa: E402
 
-from irlsim.rollout.style import pool_styles, style_distances  # noqa: E402
+from irlsim.rollout.style import pool_styles, style_distances, style_spread  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -52,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         eps = {d: style_norms.reference_episodes(out, d, road, at) for d in a.demonstrators}
         refs = {d: pool_styles(e) for d, e in eps.items()}
         n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
-        spread = style_norms.episode_spread([e for v in eps.values() for e in v], n_lanes)
+        spread = style_spread([e for v in eps.values() for e in v], n_lanes)
         drives = [styles.driven_styles(f)["PACNN+S"] for f in folders]
         row = dict(refs[a.driver])
         for k in a.keep:
@@ -62,7 +63,7 @@ def main(argv: list[str] | None = None) -> int:
         kept = ", ".join(f"{k} {row[f'style/{k}']:.2f}" for k in a.keep)
         print(f"{road}: {a.driver} but {kept} (the rows' mean):")
         for d, e, q in zip(refs, per_ep, pooled, strict=True):
-            print(f"  from {d}: per episode {e:.3f}, as defined {q:.3f}")
+            print(f"  from {d}: as defined {e:.3f}, pooled {q:.3f}")
     return 0
 
 

@@ -1,19 +1,21 @@
-r"""The style study's table under two normalisations of the style distance (a development study).
+r"""The style study's table under both normalisations of the style distance: the definition, the one before.
 
 The style distance (:func:`irlsim.rollout.style.style_distances`, the one definition) divides each figure
-by its spread over the drivings compared: in the style table, the row's driving and the demonstrators'
-own (four pooled values). A figure on which the three demonstrators nearly agree (the stop rate, the
-middle lane's share) then counts as much as one on which they differ most, and a row that is alone on it
-gets the largest normalised difference there whatever its size. The alternative measured here divides
-each figure by its standard deviation over every *episode* of the demonstrators' own driving (the
-references' episodes pooled): a difference counts against how much the figure varies from one episode to
-the next among the drivers compared, and the normaliser is the same for every row of a table.
+by its standard deviation over every *episode* of the demonstrators' own driving (the references'
+episodes pooled, :func:`irlsim.rollout.style.style_spread`): a difference counts against how much the
+figure varies from one episode to the next among the drivers compared, and the normaliser is the same for
+every row of a table. Until 2026-12-01 it divided each figure by its spread over the drivings compared:
+the row's driving and the demonstrators' own (four pooled values, "pooled" here). A figure on which the
+three demonstrators nearly agree (the stop rate, the middle lane's share) then counted as much as one on
+which they differ most, and a row alone on it got the largest normalised difference there whatever its
+size; the tables of docs/results/styles.md before "The style distance's normaliser" say "as defined" for
+that one.
 
 Reads a ``studies/styles.py`` run (its drives and references; nothing is driven again) and writes, per
 road, each row's cells and nearest demonstrator under both, with each figure's two normalisers, and for
-every row not nearest its own demonstrator per episode, each figure's signed normalised difference from
+every row not nearest its own demonstrator as defined, each figure's signed normalised difference from
 its own and from the nearest (what keeps it from its own; the distance is the RMS of these), and for every
-row not nearest its own demonstrator as defined, its distances as defined with one group of figures
+row not nearest its own demonstrator under either, its distances as defined with one group of figures
 (:data:`GROUPS`) set to its own demonstrator's value in turn (which figure alone keeps it from its own):
 
     .venv/bin/python studies/style_norms.py --out runs/styles --eval-base 2000 \
@@ -36,10 +38,16 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 import styles  # noqa: E402  (studies/styles.py: the study's folders and pooled styles)
 
-from irlsim.rollout.style import STYLE_FIGURES, pool_styles, style_distances, style_vector  # noqa: E402
+from irlsim.rollout.style import (  # noqa: E402
+    STYLE_FIGURES,
+    pool_styles,
+    style_distances,
+    style_spread,
+    style_vector,
+)
 
-#: the two spreads of a figure the table shows: over the references' episodes, over their pooled values
-#: (the distance as defined adds the row to these)
+#: the two spreads of a figure the table shows: over the references' episodes (the definition), over
+#: their pooled values (the definition until 2026-12-01 added the row to these)
 EPISODES, POOLED = "references' episodes", "references pooled"
 #: the groups of figures the counterfactual sets to the row's own demonstrator's, one at a time
 GROUPS = {
@@ -56,16 +64,9 @@ def figure_names(n_lanes: int) -> list[str]:
     return [f.removeprefix("style/") for f in STYLE_FIGURES] + [f"lane {i} share" for i in range(n_lanes)]
 
 
-def episode_spread(episodes: list[dict[str, Any]], n_lanes: int) -> np.ndarray:
-    """[F] each figure's standard deviation over ``episodes`` (style summaries of single episodes)."""
-    x = np.stack([style_vector(e, n_lanes) for e in episodes])
-    with np.errstate(invalid="ignore"):
-        return np.nanstd(x, axis=0)
-
-
 def episode_distances(row: dict[str, Any], refs: list[dict[str, Any]], spread: np.ndarray) -> np.ndarray:
-    """[len(refs)] the style distance of the row from each reference with each figure divided by ``spread``
-    (:func:`episode_spread` of the references' episodes) instead of its spread over the drivings compared."""
+    """[len(refs)] the style distance of the row from each reference, each figure divided by ``spread``
+    (:func:`irlsim.rollout.style.style_spread` of the references' episodes): the definition."""
     return style_distances([row, *refs], spread)[0, 1:]
 
 
@@ -79,14 +80,14 @@ def figure_gaps(row: dict[str, Any], ref: dict[str, Any], spread: np.ndarray) ->
 
 
 def counterfactual(
-    row: dict[str, Any], refs: dict[str, dict[str, Any]], own: str
+    row: dict[str, Any], refs: dict[str, dict[str, Any]], own: str, spread: np.ndarray
 ) -> dict[str, dict[str, float]]:
-    """For each of :data:`GROUPS`: the distances as defined from ``row`` to every reference with that
-    group's figures set to reference ``own``'s (the row enters the spread with them, as defined)."""
+    """For each of :data:`GROUPS`: the distances as defined (each figure divided by ``spread``) from
+    ``row`` to every reference with that group's figures set to reference ``own``'s."""
     out = {}
     for name, keys in GROUPS.items():
         moved = {**row, **{k: refs[own][k] for k in keys}}
-        d = style_distances([moved, *refs.values()])[0, 1:]
+        d = style_distances([moved, *refs.values()], spread)[0, 1:]
         out[name] = dict(zip(refs, map(float, d), strict=True))
     return out
 
@@ -113,7 +114,7 @@ def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
     episodes = {d: reference_episodes(out, d, road, at) for d in a.demonstrators}
     refs = {d: pool_styles(e) for d, e in episodes.items()}
     n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
-    spread = episode_spread([e for eps in episodes.values() for e in eps], n_lanes)
+    spread = style_spread([e for eps in episodes.values() for e in eps], n_lanes)
     rows = []
     for d in a.rows:
         tag, _ = styles.learner(d, a)
@@ -136,8 +137,8 @@ def road_table(out: Path, road: str, a: Any) -> dict[str, Any]:
                     "episodes": dict(zip(cols, map(float, per_ep), strict=True)),
                     "gaps": gaps, "bounds": styles.safety(dj, m),
                 })  # fmt: skip
-                if cols[int(np.argmin(pooled))] != d:
-                    rows[-1]["counterfactual"] = counterfactual(style, refs, d)
+                if cols[int(np.argmin(pooled))] != d or near != d:
+                    rows[-1]["counterfactual"] = counterfactual(style, refs, d, spread)
     names = figure_names(n_lanes)
     pooled_spread = np.nanstd(np.stack([style_vector(r, n_lanes) for r in refs.values()]), axis=0)
     both = zip(names, spread, pooled_spread, strict=True)
@@ -150,11 +151,11 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
     for road, t in tables.items():
         cols = list(t["rows"][0]["pooled"]) if t["rows"] else []
         head = ["learned reward", *(f"{c} (as defined)" for c in cols), "own nearest (as defined)"]
-        head += [*(f"{c} (per episode)" for c in cols), "own nearest (per episode)", *styles.BOUNDS_HEAD]
+        head += [*(f"{c} (pooled)" for c in cols), "own nearest (pooled)", *styles.BOUNDS_HEAD]
         lines = [f"## {road}", "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
         for r in t["rows"]:
             cells = [r["row"]]
-            for kind in ("pooled", "episodes"):
+            for kind in ("episodes", "pooled"):
                 near = min(r[kind], key=r[kind].get)
                 cells += [f"**{v:.3f}**" if c == near else f"{v:.3f}" for c, v in r[kind].items()]
                 cells.append("yes" if near == r["demonstrator"] else "no")
@@ -166,7 +167,7 @@ def markdown(tables: dict[str, dict[str, Any]]) -> str:
         missed = [r for r in t["rows"] if len(r["gaps"]) > 1]
         if missed:
             names = list(t["spread"])
-            head = ["row not nearest its own (per episode)", "(row - driver) / spread, driver", *names]
+            head = ["row not nearest its own (as defined)", "(row - driver) / spread, driver", *names]
             lines += ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
             for r in missed:
                 for c, g in r["gaps"].items():
@@ -182,11 +183,11 @@ def counterfactual_lines(rows: list[dict[str, Any]]) -> list[str]:
     missed = [r for r in rows if "counterfactual" in r]
     if not missed:
         return []
-    head = ["row not nearest its own (as defined): to own / nearest other", "as measured", *GROUPS]
+    head = ["row not nearest its own (either): as defined, to own / nearest other", "as measured", *GROUPS]
     lines = ["", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in missed:
         cells = [r["row"]]
-        for d in (r["pooled"], *r["counterfactual"].values()):
+        for d in (r["episodes"], *r["counterfactual"].values()):
             own = d[r["demonstrator"]]
             other = min(v for c, v in d.items() if c != r["demonstrator"])
             cells.append(f"**{own:.2f}** / {other:.2f}" if own < other else f"{own:.2f} / {other:.2f}")

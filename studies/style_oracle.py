@@ -19,7 +19,7 @@ are then named ``-commit-stop``.
 Reads a ``studies/styles.py`` run (the references of ``--demonstrators`` on ``--eval-base``'s episodes),
 drives the oracle of ``--driver`` on the same episodes (each road's episode seeds, as the references'
 collection) into ``<out>/oracle[-s<base>][-commit-stop]/<driver>/<road>/`` and writes the table (the
-style distance as defined and per episode, ``studies/style_norms.py``'s, with the safety bounds; how each
+style distance as defined and pooled, ``studies/style_norms.py``'s, with the safety bounds; how each
 cycle's policy was found; the chosen policy's progress against the look ahead's after the first cycle and
 after 2 s, where the look ahead brakes, holds or accelerates) to
 ``<out>/style-oracle[-s<base>][-commit-stop]-<driver>.md`` and ``.json``:
@@ -53,7 +53,7 @@ from irlsim.planner.policy_set import PolicySet  # noqa: E402
 from irlsim.road import Road  # noqa: E402
 from irlsim.road.scenario import Scenarios  # noqa: E402
 from irlsim.rollout import EpisodeResult, ObserverBase  # noqa: E402
-from irlsim.rollout.style import pool_styles, style_distances  # noqa: E402
+from irlsim.rollout.style import pool_styles, style_distances, style_spread  # noqa: E402
 from irlsim.sim.collision import collision_line  # noqa: E402
 from irlsim.sim.simulation import Simulation  # noqa: E402
 from irlsim.sim.types import Observation, Trajectory  # noqa: E402
@@ -191,7 +191,7 @@ def road_table(out: Path, road: str, stats: list[dict[str, Any]], a: Any) -> dic
     eps = {d: style_norms.reference_episodes(out, d, road, a.at) for d in a.demonstrators}
     refs = {d: pool_styles(e) for d, e in eps.items()}
     n_lanes = max(len(r["style/lane_share"]) for r in refs.values())
-    spread = style_norms.episode_spread([e for v in eps.values() for e in v], n_lanes)
+    spread = style_spread([e for v in eps.values() for e in v], n_lanes)
     row = pool_styles([s for s in stats if s.get("style/time_s", 0) > 0])
     per_ep = style_norms.episode_distances(row, list(refs.values()), spread)
     pooled = style_distances([row, *refs.values()])[0, 1:]
@@ -219,7 +219,7 @@ def markdown(tables: dict[str, dict[str, Any]], driver: str) -> str:
     lines: list[str] = []
     for road, t in tables.items():
         cols = list(t["as_defined"])
-        head = ["road", *(f"{c} (as defined)" for c in cols), *(f"{c} (per episode)" for c in cols)]
+        head = ["road", *(f"{c} (pooled)" for c in cols), *(f"{c} (as defined)" for c in cols)]
         head += ["collisions", "stops", "cycles: demonstration / ruled out / beyond the distance / expert"]
         lines += ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)] if not lines else []
         cells = [road]

@@ -1,3 +1,5 @@
+# size-ok: the acceptance's whole chain (data, training, Table I, references, drives, table) in one file,
+# each step a command the docs cite; the development variants are flags of it, not copies
 """Learn the reward of any driver: does a reward learned from a demonstrator drive in that demonstrator's
 style, and more like it than like any other demonstrator?
 
@@ -20,7 +22,8 @@ planner's top speed raised to ``REC_V_MAX``, the speeds SUMO's drivers reach the
 
 The table (``<out>/styles.md`` and ``<out>/styles.json``): per road, one row per learned reward (model,
 demonstrator it learned from, training seed), one column per demonstrator, each cell the style distance
-(:func:`irlsim.rollout.style.style_distances` over the row's driving and the references) and the row's
+(:func:`irlsim.rollout.style.style_distances`, each figure divided by its spread over the references'
+episodes) and the row's
 smallest cell marked; beside it the safety bounds of the row's drives. The recording's rows are driven
 where it was recorded (the held-out cars' routes and starts; the others driven by SUMO from their
 recorded states, ``irlsim drive --reactive``: replayed cars cannot see the ego, and rear-end it) and
@@ -72,7 +75,7 @@ import numpy as np
 from irlsim.config import MAX_SEED
 from irlsim.road import load_road
 from irlsim.road.scenario import DEFAULT_SCENARIO
-from irlsim.rollout.style import pool_styles, style_distances
+from irlsim.rollout.style import pool_styles, style_distances, style_spread
 
 sys.path.insert(0, str(Path(__file__).parent))
 from sumo_alone import sumo_alone  # noqa: E402  (studies/sumo_alone.py: SUMO drives the recording)
@@ -147,13 +150,16 @@ def collected_episodes(folder: Path) -> list[dict[str, Any]]:
     return [s for s in stats if s.get("style/time_s", 0) > 0]
 
 
+def driven_episodes(drive_json: Path, model: str) -> list[dict[str, Any]]:
+    """The style figures of every episode ``model`` drove in a drive.json (those that drove)."""
+    eps = json.loads(drive_json.read_text())["episodes"]
+    return [e for e in eps if e["drive/model"] == model and e.get("style/time_s", 0) > 0]
+
+
 def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:
     """model -> the pooled style of its episodes in a drive.json."""
-    eps = json.loads(drive_json.read_text())["episodes"]
-    return {
-        m: pool_styles([e for e in eps if e["drive/model"] == m])
-        for m in dict.fromkeys(e["drive/model"] for e in eps)
-    }
+    models = dict.fromkeys(e["drive/model"] for e in json.loads(drive_json.read_text())["episodes"])
+    return {m: pool_styles(driven_episodes(drive_json, m)) for m in models}
 
 
 def safety(drive_json: Path, model: str) -> dict[str, Any]:
@@ -294,13 +300,15 @@ def record(out: Path, a: Any, seed: int = REC_SEED) -> tuple[str, str]:
 # ------------------------------------------------------------------------------------------ the table
 
 
-def table_rows(learned: dict[str, dict[str, Any]], refs: dict[str, dict[str, Any]]) -> list[dict[str, Any]]:
-    """One row per learned driving: the style distance to every reference (row and references compared
-    together), the nearest reference."""
+def table_rows(
+    learned: dict[str, dict[str, Any]], refs: dict[str, dict[str, Any]], spread: np.ndarray
+) -> list[dict[str, Any]]:
+    """One row per learned driving: the style distance to every reference (each figure divided by
+    ``spread``, :func:`irlsim.rollout.style.style_spread` of the references' episodes), the nearest."""
     cols = list(refs)
     out = []
     for name, r in learned.items():
-        d = style_distances([r["style"], *(refs[c] for c in cols)])[0, 1:]
+        d = style_distances([r["style"], *(refs[c] for c in cols)], spread)[0, 1:]
         cells = {c: float(x) for c, x in zip(cols, d, strict=True)}
         nearest = min(cells, key=lambda c: cells[c])
         own = nearest == r["demonstrator"]
@@ -373,19 +381,20 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
     at = "" if a.eval_base == EVAL_BASE else f"-s{a.eval_base}"  # development seeds: folders of their own
     safe = a.drive_tag  # the learned rewards' drives within the planner's filter, committed maneuvers
     for road in a.roads:  # the references: each demonstrator's own driving on the evaluation seeds
-        refs: dict[str, dict[str, Any]] = {}
+        episodes: dict[str, list[dict[str, Any]]] = {}
         own: dict[str, dict[str, Any]] = {}
         for d in sumo_demos:
             if d == "expert":
                 ref = drive(a.configs[d], road, ["expert"], None, out / f"drive{at}" / road / "expert", a)
-                refs[d], own[d] = driven_styles(ref)["expert"], safety(ref, "expert")
+                episodes[d], own[d] = driven_episodes(ref, "expert"), safety(ref, "expert")
             else:
                 folder = out / f"reference{at}" / d / road
                 sets = ["--set", f"seed={a.eval_base}", "--set", f"train_episodes={a.episodes}"]
                 sets += ["--set", "validation_episodes=0", "--set", "test_episodes=0"]
                 sets += ["--set", f"max_cycles={a.max_cycles}", "--set", f"scenario.laps={a.laps}"]
                 collect(a.configs[d], road, folder, sets, a)
-                refs[d], own[d] = pool_styles(collected_episodes(folder)), collected_bounds(folder)
+                episodes[d], own[d] = collected_episodes(folder), collected_bounds(folder)
+        refs = {d: pool_styles(e) for d, e in episodes.items()}
         learned: dict[str, dict[str, Any]] = {}
         for d in (d for d in sumo_demos if d in a.rows):
             tag, rule = learner(d, a)
@@ -397,7 +406,8 @@ def study(a: Any) -> dict[str, dict[str, Any]]:
                 for m, style in driven_styles(dj).items():
                     row = {"model": m, "demonstrator": d, "seed": seed, "style": style, **t1.get(m, {})}
                     learned[f"{m} / {tag} / seed {seed}"] = {**row, "safety": safety(dj, m)}
-        tables[road] = {"rows": table_rows(learned, refs), "demonstrators": own}
+        spread = style_spread([e for eps in episodes.values() for e in eps])
+        tables[road] = {"rows": table_rows(learned, refs, spread), "demonstrators": own}
     if rec is not None and RECORDING in a.rows:
         tables[f"{DEFAULT_SCENARIO}, where the recording was made"] = recording_rows(out, rec, data, a)
     return tables
@@ -409,7 +419,8 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
     folder = out / "reference" / RECORDING
     collect(str(out / RECORDING / "reference.toml"), DEFAULT_SCENARIO, folder, [], a)
     expert = drive(rec[1], None, ["expert"], None, out / "drive" / RECORDING / "expert", a)
-    refs = {RECORDING: pool_styles(collected_episodes(folder)), "expert": driven_styles(expert)["expert"]}
+    episodes = {RECORDING: collected_episodes(folder), "expert": driven_episodes(expert, "expert")}
+    refs = {d: pool_styles(e) for d, e in episodes.items()}
     own = {RECORDING: collected_bounds(folder), "expert": safety(expert, "expert")}
     learned: dict[str, dict[str, Any]] = {}
     tag, rule = learner(RECORDING, a)
@@ -423,7 +434,8 @@ def recording_rows(out: Path, rec: tuple[str, str], data: dict[str, list[Path]],
         for m, style in driven_styles(dj).items():
             row = {"model": m, "demonstrator": RECORDING, "seed": seed, "style": style, **t1.get(m, {})}
             learned[f"{m} / {tag} / seed {seed}"] = {**row, "safety": safety(dj, m)}
-    return {"rows": table_rows(learned, refs), "demonstrators": own}
+    spread = style_spread([e for eps in episodes.values() for e in eps])
+    return {"rows": table_rows(learned, refs, spread), "demonstrators": own}
 
 
 def write_tables(out: Path, name: str, tables: dict[str, Any], show: bool = True) -> None:

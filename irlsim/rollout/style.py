@@ -25,8 +25,14 @@ gap to the leader in the ego's lane. :func:`style_summary` turns such arrays int
 :func:`pool_styles` combines episodes (time-, distance- and following-time-weighted: exact for every
 figure but the two headway percentiles, which are the following-time-weighted mean of the episodes').
 :func:`style_distances` is the style distance: the RMS over the figures of ``STYLE_FIGURES`` (and the lane
-shares) of their differences, each divided by that figure's spread (standard deviation) across the
-drivings compared; a figure that does not vary, or is NaN for one of the two, is left out.
+shares) of their differences, each divided by that figure's spread: its standard deviation over every
+episode of the drivings compared (:func:`style_spread`; in a style table, the demonstrators' own
+episodes, the same normaliser for every row). A difference then counts against how much the figure varies
+from one episode to the next among the drivers compared: a figure the drivers nearly agree on weighs no
+more than their episodes' variation says it can. Drivings known only pooled fall back to each figure's
+standard deviation across the drivings themselves (the definition until 2026-12-01; where the drivers
+nearly agree it weighs a small difference as much as a large one: docs/results/styles.md, "The style
+distance's normaliser"). A figure that does not vary, or is NaN for one of the two, is left out.
 """
 
 from __future__ import annotations
@@ -179,12 +185,27 @@ def style_vector(record: dict[str, Any], n_lanes: int) -> np.ndarray:
     return np.concatenate([[float(record.get(k, np.nan)) for k in STYLE_FIGURES], share])
 
 
+def style_spread(episodes: Sequence[dict[str, Any]], n_lanes: int | None = None) -> np.ndarray:
+    """[len(STYLE_FIGURES) + n_lanes] each figure's standard deviation over ``episodes`` (style summaries
+    of single episodes: of every driving compared, or in a style table of the demonstrators'): the style
+    distance's normaliser. ``n_lanes``: the lane shares' count (default: the most any episode has)."""
+    if n_lanes is None:
+        n_lanes = max((len(e.get("style/lane_share", [])) for e in episodes), default=0)
+    if not episodes:
+        return np.zeros(len(STYLE_FIGURES) + n_lanes)
+    x = np.stack([style_vector(e, n_lanes) for e in episodes])
+    with warnings.catch_warnings():  # a figure NaN in every episode (no leader: no headway) has no spread
+        warnings.simplefilter("ignore", RuntimeWarning)
+        return np.nanstd(x, axis=0)
+
+
 def style_distances(records: Sequence[dict[str, Any]], spread: np.ndarray | None = None) -> np.ndarray:
     """[n, n] the style distance between every two of ``records`` (style summaries): the RMS over the
-    figures of their difference divided by the figure's standard deviation across all ``records``;
-    figures without spread or NaN in either driving are left out (0 when none is left). Zero on the
-    diagonal, symmetric, unchanged when a figure is scaled (units) in every record. ``spread`` [F] (a
-    development study's alternative normaliser, ``style_vector``'s figures) replaces that deviation."""
+    figures of their difference divided by ``spread`` [F] (:func:`style_spread` of the episodes of the
+    drivings compared, the definition); without it, by the figure's standard deviation across ``records``
+    (drivings known only pooled). Figures without spread or NaN in either driving are left out (0 when
+    none is left). Zero on the diagonal, symmetric, unchanged when a figure is scaled (units) in every
+    record and its episodes."""
     n_lanes = max((len(r.get("style/lane_share", [])) for r in records), default=0)
     if spread is not None:
         n_lanes = len(spread) - len(STYLE_FIGURES)
@@ -239,21 +260,29 @@ class StyleObserver(StepListener):
         return style_summary(t, s, v, lane, gap)
 
 
-def style_report(summaries: list[dict[str, Any]], reference: str | None = None) -> str:
-    """Each model's driving style on one line, and with three models or more their style distances
-    (:func:`irlsim.rollout.style.style_distances`; between two drivings alone every figure that differs
-    counts exactly 2, so two get a line that says so instead of a number). ``reference``: the name of a
-    driving the others are compared with (``irlsim drive``'s demonstrator): a last line names the one
-    nearest it."""
+def style_report(
+    summaries: list[dict[str, Any]], reference: str | None = None, episodes: Sequence[dict[str, Any]] = ()
+) -> str:
+    """Each model's driving style on one line, and their style distances
+    (:func:`irlsim.rollout.style.style_distances`, each figure divided by its spread over ``episodes``,
+    the single episodes of every driving, :func:`style_spread`). A distance needs more episodes than
+    drivings, or without them three drivings or more (each figure is then divided by its spread across
+    the drivings: between two, every figure that differs counts exactly 2), and a line says so instead of
+    a number. ``reference``: the name of a driving the others are compared with (``irlsim drive``'s
+    demonstrator): a last line names the one nearest it."""
     names = [str(s.get("drive/model", i)) for i, s in enumerate(summaries)]
     lines = [f"{n}: {format_style(s.get('style') or {})}" for n, s in zip(names, summaries, strict=True)]
-    if len(summaries) == 2:
+    eps = [e for e in episodes if e.get("style/time_s", 0) > 0]
+    per_episode = len(eps) > len(summaries)
+    if len(summaries) == 2 and not per_episode:
         lines.append(
-            "style distance: needs three drivings or more (each figure is divided by its spread across the "
-            "drivings compared: between two, every figure that differs counts 2): add a model"
+            "style distance: needs more episodes than drivings, or three drivings (each figure is divided "
+            "by its spread: between two single drivings, every figure that differs counts 2): add episodes"
         )
-    if len(summaries) > 2:
-        dist = style_distances([s.get("style") or {} for s in summaries])
+    if len(summaries) > 2 or (len(summaries) == 2 and per_episode):
+        styles = [s.get("style") or {} for s in summaries]
+        n_lanes = max((len(r.get("style/lane_share", [])) for r in [*styles, *eps]), default=0)
+        dist = style_distances(styles, style_spread(eps, n_lanes) if per_episode else None)
         lines.append(
             "style distance: "
             + "; ".join(

@@ -308,7 +308,7 @@ def _write_outputs(
     print(table, end="")
     print()
     print(scores, end="")
-    print(style_report(summaries, DEMONSTRATOR if DEMONSTRATOR in specs else None), end="")
+    print(style_report(summaries, DEMONSTRATOR if DEMONSTRATOR in specs else None, episodes), end="")
     print(
         f"wrote {out}/drive.json, {out}/drive.md"
         + (

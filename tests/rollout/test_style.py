@@ -1,5 +1,5 @@
 """The style summary against closed-form answers on synthetic drivings, its pooling, and the style
-distance's properties (zero to itself, symmetric, scale-free)."""
+distance's properties (zero to itself, symmetric, scale-free) and its normaliser against a closed form."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from irlsim.rollout.style import (
     pool_styles,
     style_distances,
     style_report,
+    style_spread,
     style_summary,
 )
 
@@ -183,7 +184,7 @@ def test_the_report_gives_distances_from_three_drivings_and_says_why_not_for_two
         for name, v, g in (("a", 10.0, 20.0), ("b", 12.0, 30.0), ("c", 14.0, 20.0))
     ]
     two = style_report(drivings[:2])
-    assert "needs three drivings or more" in two and "a vs b" not in two
+    assert "needs more episodes than drivings, or three drivings" in two and "a vs b" not in two
     three = style_report(drivings).strip().splitlines()[-1]
     d = style_distances([r["style"] for r in drivings])
     assert three == f"style distance: a vs b {d[0, 1]:.2f}; a vs c {d[0, 2]:.2f}; b vs c {d[1, 2]:.2f}"
@@ -195,3 +196,27 @@ def test_the_report_gives_distances_from_three_drivings_and_says_why_not_for_two
     assert near == f"nearest the c's style: {first} ({d_first:.2f}; {second} {d_second:.2f})"
     assert d_first < d_second
     assert "nearest" not in style_report(drivings, reference="x") and "nearest" not in two
+
+
+def test_the_normaliser_is_each_figures_spread_over_the_episodes():
+    # four 100 s episodes at 10, 12, 14 and 16 m/s, nobody ahead, one lane: only the speed varies
+    speeds = (10.0, 12.0, 14.0, 16.0)
+    eps = [{"drive/model": m, **style_summary(**_drive(v=v))} for m, v in zip("aabb", speeds, strict=True)]
+    spread = style_spread(eps)
+    speed = STYLE_FIGURES.index("style/mean_speed")
+    assert spread[speed] == pytest.approx(math.sqrt(5.0))  # the standard deviation of 10, 12, 14, 16
+    assert np.count_nonzero(spread > 0) == 1  # no other figure varies (headway: NaN, left out)
+    # two drivings pooled from two episodes each, 11 and 15 m/s: their distance is 4 / sqrt(5), where
+    # divided by their own spread (2) it would be 2 whatever the difference
+    a, b = pool_styles(eps[:2]), pool_styles(eps[2:])
+    d = style_distances([a, b], spread)
+    assert d[0, 1] == pytest.approx(4.0 / math.sqrt(5.0))
+    assert style_distances([a, b])[0, 1] == pytest.approx(2.0)
+    # scale-free with its episodes: the speed in km/h everywhere gives the same distance
+    kmh = [{**e, "style/mean_speed": 3.6 * e["style/mean_speed"]} for e in eps]
+    a_kmh, b_kmh = ({**x, "style/mean_speed": 3.6 * x["style/mean_speed"]} for x in (a, b))
+    assert style_distances([a_kmh, b_kmh], style_spread(kmh))[0, 1] == pytest.approx(d[0, 1])
+    # the report: with more episodes than drivings, two drivings get that distance
+    report = style_report([{"drive/model": "a", "style": a}, {"drive/model": "b", "style": b}], episodes=eps)
+    assert f"style distance: a vs b {d[0, 1]:.2f}" in report
+    assert style_spread([]).shape == (len(STYLE_FIGURES),)
