@@ -6,7 +6,20 @@ a few ms); a test that makes its own Simulation closes the shared one, which res
 
 from __future__ import annotations
 
+import os
+
 import pytest
+
+#: numpy's BLAS on one thread in the test processes, as the irlsim command runs it
+#: (pipelines.commands.BLAS_THREADS: its own setdefault comes too late in a process that has imported
+#: numpy, as a test process has). The suite runs in two processes on two cores: BLAS threads of both
+#: waiting on descheduled siblings made the planner's products about 4 times as slow on a busy machine.
+#: Read when numpy loads, which no test process has done before this file (the first it imports).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+#: torch's OpenMP threads (evaluate's --threads 2) sleep when idle instead of spinning for the CPU the other
+#: test process needs (no effect on any result; read when torch loads): on the loaded host an evaluation
+#: of the tiny demo's data beside one busy process took 12.5-17.0 s spinning, 3.7-5.7 s passive
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:

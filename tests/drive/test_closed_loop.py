@@ -83,7 +83,7 @@ def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
             "--max-cycles",
             "25",
             "--frames",
-            "4",
+            "2",
             "--out",
             str(out),
         ]
@@ -104,7 +104,8 @@ def test_learned_models_drive_through_the_cli(tiny_runs, tmp_path, capsys):
     assert "| LIRL | 1 |" in (out / "drive.md").read_text()
     for model in ("LIRL", "PTACNN+S"):
         files = {p.name for p in (out / model).iterdir()}
-        assert "episode.gif" in files and sum(f.startswith("radar_") for f in files) == 3
+        # two frames (the pictures are most of this test's time): a still of each, of the three at most
+        assert "episode.gif" in files and sum(f.startswith("radar_") for f in files) == 2
 
 
 def test_ptacnn_keeps_an_online_history(tiny_runs):

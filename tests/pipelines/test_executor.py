@@ -27,6 +27,7 @@ from irlsim.data.layout import episode_paths
 from irlsim.executor import RAY_CANCEL_WAIT_S, Job, describe_failures, run_jobs
 from tests.conftest import TINY_COLLECT
 from tests.drive.conftest import tiny_runs  # noqa: F401 - the fixture, shared with the drive tests
+from tests.pipelines.executor_jobs import always_fails, die_once, double, pid_and_double, stops_itself
 
 ROOT = Path(__file__).resolve().parents[2]
 #: the session's tiny dataset (one in-process worker) is the reference; these runs use two workers
@@ -42,43 +43,6 @@ def _sha256(folder: Path) -> dict[str, str]:
         str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
         for p in sorted(folder.rglob("*.parquet"))
     }
-
-
-# --------------------------------------------------------------------- job functions (top level: picklable)
-
-
-def _double(x: int) -> int:
-    return 2 * x
-
-
-def _die_once(arg: tuple[str, int]) -> int:
-    """SIGKILL its own process on the first attempt (a marker file remembers it), then succeed."""
-    marker, x = arg
-    if not os.path.exists(marker):
-        Path(marker).write_text("died")
-        os.kill(os.getpid(), signal.SIGKILL)
-    return 2 * x
-
-
-def _stops_itself(arg: tuple[int, int]) -> int:
-    """Job 7 stops its own process (SIGSTOP) on every attempt: alive and silent, as a worker deadlocked
-    in libsumo. ``arg[0]`` is the test's pid, which is never stopped (a timeout runs no job in it)."""
-    test_pid, x = arg
-    if x == 7:
-        if os.getpid() == test_pid:
-            raise RuntimeError("a job with a timeout ran in the test's own process")
-        os.kill(os.getpid(), signal.SIGSTOP)
-    return 2 * x
-
-
-def _pid_and_double(x: int) -> tuple[int, int]:
-    return os.getpid(), 2 * x
-
-
-def _always_fails(x: int) -> int:
-    if x == 1:
-        return 2
-    raise RuntimeError(f"episode {x} cannot be driven\nsecond line of the message")
 
 
 # ------------------------------------------------------------------------------------------- fixtures
@@ -114,7 +78,7 @@ def test_results_retries_and_failures(executor, tmp_path, request):
     retried: list[str] = []
     jobs = [Job(f"ok/{i}", i) for i in range(5)]
     out = run_jobs(
-        _double,
+        double,
         jobs,
         executor=kind,
         workers=workers,
@@ -125,7 +89,7 @@ def test_results_retries_and_failures(executor, tmp_path, request):
     assert sorted(seen) == sorted(out.results) and not retried
 
     failing = run_jobs(
-        _always_fails,
+        always_fails,
         [Job("bad/7", 7), Job("ok/1", 1)],
         executor=kind,
         workers=workers,
@@ -137,7 +101,7 @@ def test_results_retries_and_failures(executor, tmp_path, request):
     if executor == "inline":
         return
     died = run_jobs(
-        _die_once,
+        die_once,
         [
             Job("a", (str(tmp_path / "a"), 1)),
             Job("b", (str(tmp_path / "b"), 2)),
@@ -151,7 +115,7 @@ def test_results_retries_and_failures(executor, tmp_path, request):
     assert all("died" in reason for reason in died.retried.values()), died.retried
 
 
-#: a time limit far above a start-up and _stops_itself's return, far below a test's patience
+#: a time limit far above a start-up and stops_itself's return, far below a test's patience
 HANG_TIMEOUT = 5.0
 #: [s] SIGTERM's grace here: a stopped worker never uses it (SIGKILL ends it), so the test waits less
 KILL_GRACE_S = 0.5
@@ -161,8 +125,8 @@ def test_one_worker_runs_the_jobs_in_a_worker_process_when_they_have_a_time_limi
     """One worker runs the jobs in this process, unless they have a time limit: a job here could not be
     killed, so one worker process runs them (its kill and retry: the test below, with two)."""
     jobs = [Job(f"ok/{i}", i) for i in (1, 2, 3)]
-    limited = run_jobs(_pid_and_double, jobs, executor="local", workers=1, timeout=HANG_TIMEOUT)
-    inline = run_jobs(_pid_and_double, jobs, executor="local", workers=1)
+    limited = run_jobs(pid_and_double, jobs, executor="local", workers=1, timeout=HANG_TIMEOUT)
+    inline = run_jobs(pid_and_double, jobs, executor="local", workers=1)
     for out in (limited, inline):
         assert {key: v for key, (_, v) in out.results.items()} == {"ok/1": 2, "ok/2": 4, "ok/3": 6}
     (worker,) = {pid for pid, _ in limited.results.values()}
@@ -180,7 +144,7 @@ def test_a_hung_worker_is_killed_retried_then_named(executor, request, monkeypat
         request.getfixturevalue("ray_cluster")
         # Ray starts its worker processes on first use: started before the clock, so that on a busy
         # machine (the suite's other process beside this one) a start-up is not counted as a hang
-        warm = run_jobs(_double, [Job(f"warm/{i}", i) for i in (1, 2)], executor="ray", workers=2)
+        warm = run_jobs(double, [Job(f"warm/{i}", i) for i in (1, 2)], executor="ray", workers=2)
         assert warm.results == {"warm/1": 2, "warm/2": 4}, warm.failed
     kind, workers = executor, 2
     monkeypatch.setattr(irlsim.executor, "KILL_GRACE_S", KILL_GRACE_S)
@@ -188,7 +152,7 @@ def test_a_hung_worker_is_killed_retried_then_named(executor, request, monkeypat
     retried: list[str] = []
     t0 = time.monotonic()
     out = run_jobs(
-        _stops_itself,
+        stops_itself,
         [Job("hung/7", (me, 7)), *(Job(f"ok/{i}", (me, i)) for i in (1, 2, 3))],
         executor=kind,
         workers=workers,

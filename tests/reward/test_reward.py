@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -126,21 +127,31 @@ def test_reward_driver_executes_the_rewards_choice(road, tiny_runs):
     assert driver.inference_ms > 0.0 and driver.info is reward.info
 
 
-def test_quickstart_example_runs_on_a_tiny_model(tiny_runs):
-    """examples/reward_quickstart.py (shown in the README) on a real SUMO cycle, nothing trained."""
+def _quickstart_printed(stdout: str, model: str) -> None:
+    lines = stdout.splitlines()
+    assert lines[0].startswith(f"{model}: {TINY_POLICIES} policies")
+    assert lines[1].startswith("theta: acc_lon ") and lines[1].count(",") == 14
+    chosen = int(lines[3].split("#")[1].split()[0])
+    assert lines[2].startswith(f"best values: #{chosen} ")  # the choice is the highest value
+
+
+def test_quickstart_example_runs_on_a_tiny_model(tiny_runs, monkeypatch, capsys):
+    """examples/reward_quickstart.py (shown in the README) on a real SUMO cycle, nothing trained: with its
+    default model (PACNN+S) in a fresh interpreter, as a user runs it, and with a temporal model run as
+    __main__ in this process (an interpreter's start-up was most of a second subprocess)."""
+    example = str(ROOT / "examples" / "reward_quickstart.py")
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    for model in ("PACNN+S", "PTACNN+S"):
-        out = subprocess.run(
-            [sys.executable, "examples/reward_quickstart.py", str(tiny_runs), "--model", model],
-            cwd=ROOT,
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=300,
-        )
-        assert out.returncode == 0, out.stderr[-2000:]
-        lines = out.stdout.splitlines()
-        assert lines[0].startswith(f"{model}: {TINY_POLICIES} policies")
-        assert lines[1].startswith("theta: acc_lon ") and lines[1].count(",") == 14
-        chosen = int(lines[3].split("#")[1].split()[0])
-        assert lines[2].startswith(f"best values: #{chosen} ")  # the choice is the highest value
+    out = subprocess.run(
+        [sys.executable, example, str(tiny_runs)],
+        cwd=ROOT,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stderr[-2000:]
+    _quickstart_printed(out.stdout, "PACNN+S")
+    monkeypatch.chdir(ROOT)
+    monkeypatch.setattr(sys, "argv", [example, str(tiny_runs), "--model", "PTACNN+S"])
+    runpy.run_path(example, run_name="__main__")
+    _quickstart_printed(capsys.readouterr().out, "PTACNN+S")

@@ -34,10 +34,15 @@ def test_a_recorded_egos_red_ends_a_row_before_the_light_turns_green(tmp_path):
     road, cfg = _crossing(tmp_path, end=0.0)  # no oncoming car: the ego waits for its green, then turns
     both = _Both(road)
     with Simulation(road, cfg) as sim:
-        EpisodeRunner(sim, observers=[both]).run(make_driver("expert", road, cfg), 0)
+        st = EpisodeRunner(sim, observers=[both]).run(make_driver("expert", road, cfg), 0).stats
+        od = sim.odometry_arrays()
     t, plain, graced, switch = (np.array(c) for c in zip(*both.rows, strict=True))
     green = np.flatnonzero(plain[:-1] & ~plain[1:])  # the steps after which the ego's link turns from red
     assert len(green) == 1  # it waited at one red, then had its green
+    # the expert stood at the red and passed the light on its green (the fast suite's check of the expert
+    # at a red light; the corridor's acceptance run, three lights, is in make test-slow)
+    assert st["sim/signals_passed"] == 1 and st["sim/red_crossings"] == 0 and st["sim/collisions"] == 0
+    assert ((od["v"] < 0.1) & (od["t"] <= t[green[0]])).sum() * 0.1 >= 5.0
     # with the grace, red all the same but for the readings within 0.9 s of SUMO's switch to the green
     # (44.1-45.0 s; the green is read from 45.1 s): not before the switch from red to the others' yellow
     # (the ego's link red again), nor ever where it was not red

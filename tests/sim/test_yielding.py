@@ -27,7 +27,7 @@ def _expert(road, cfg):
 
 #: a T junction: the minor road sj (from the south) meets the major road wj -> je at j
 T_NODES = (
-    '<node id="w" x="-500" y="0"/><node id="j" x="0" y="0" type="{kind}"/><node id="e" x="500" y="0"/>'
+    '<node id="w" x="-500" y="0"/><node id="j" x="0" y="0" type="{kind}"/><node id="e" x="250" y="0"/>'
     '<node id="s" x="0" y="-300"/>'
 )
 T_EDGES = (
@@ -35,11 +35,12 @@ T_EDGES = (
     '<edge id="je" from="j" to="e" numLanes="1" speed="13.9" priority="3"/>'
     '<edge id="sj" from="s" to="j" numLanes="1" speed="13.9" priority="1"/>'
 )
-#: a platoon on the major road every 2 s (too short a gap to turn into) for 90 s, then none for 40 s
+#: a platoon on the major road every 2 s (too short a gap to turn into) for 70 s, then none for 40 s (the
+#: ego enters after the 60 s warm-up, stands about 20 s at the line, turns and leaves on the 250 m of je)
 PLATOON = """<routes>
     <vType id="car" length="4.5" minGap="2.5" sigma="0" speedDev="0"/>
-    <flow id="p" type="car" begin="0" end="90" period="2" departSpeed="max"><route edges="wj je"/></flow>
-    <flow id="q" type="car" begin="130" end="3600" period="30" departSpeed="max"><route edges="wj je"/></flow>
+    <flow id="p" type="car" begin="0" end="70" period="2" departSpeed="max"><route edges="wj je"/></flow>
+    <flow id="q" type="car" begin="110" end="3600" period="30" departSpeed="max"><route edges="wj je"/></flow>
 </routes>
 """
 
@@ -173,9 +174,13 @@ ONCOMING = """<routes>
 """
 
 
-def _crossing(tmp_path, end: float):
-    more = '\n[traffic]\nroutes = ["demand.rou.xml"]\nwarmup = 0.0\n'
-    folder = make_scenario(tmp_path / "x", X_NODES, X_EDGES, 'edges = ["wj", "jn"]', more=more)
+def _crossing(tmp_path, end: float, warmup: float = 0.0):
+    """The crossing with a platoon leaving e until ``end`` (at the junction until about 30 s later), the ego
+    entering after ``warmup`` 100 m before the light, SUMO's program giving its minor green from 45 s to
+    87 s; the exit jn is 120 m long (an episode ends soon after the turn)."""
+    more = f'\n[traffic]\nroutes = ["demand.rou.xml"]\nwarmup = {warmup}\n'
+    nodes = X_NODES.replace('<node id="n" x="0" y="300"/>', '<node id="n" x="0" y="120"/>')
+    folder = make_scenario(tmp_path / "x", nodes, X_EDGES, 'edges = ["wj", "jn"]', more=more)
     (folder / "demand.rou.xml").write_text(ONCOMING.format(end=end))
     road = load_road(scenario=folder)
     (signal,) = road.signals
@@ -186,7 +191,8 @@ def _crossing(tmp_path, end: float):
 
 
 def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_path, monkeypatch):
-    road, cfg = _crossing(tmp_path, end=40.0)
+    # the ego enters at 35 s and reaches the light on its green (from 45 s), the platoon still passing
+    road, cfg = _crossing(tmp_path, end=40.0, warmup=35.0)
     (signal,) = road.signals
     assert road.yield_points == ()  # a light, no minor link without one
     with Simulation(road, cfg) as sim:
@@ -194,7 +200,7 @@ def test_the_ego_turning_on_a_minor_green_waits_for_the_oncoming_platoon(tmp_pat
         od = sim.odometry_arrays()
     st = res.stats
     line = signal.s
-    waited = (od["v"] < 0.1) & (od["s"] <= line) & (od["s"] > line - 15.0)
+    waited = (od["v"] < 0.1) & (od["s"] <= line) & (od["s"] > line - 15.0) & (od["t"] > 45.0)
     assert st["sim/red_crossings"] == 0 and st["sim/signals_passed"] == 1
     assert st["sim/yield_violations"] == 0 and st["sim/collisions"] == 0
     assert waited.sum() * 0.1 >= 5.0  # it stood at the line on its green while the platoon passed
