@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from irlsim.rollout.style import style_spread
+
 
 def _study(name: str):
     """The script studies/<name>.py as a module."""
@@ -92,7 +94,7 @@ def _style(values: list[float], share: list[float]) -> dict:
 
 def test_per_episode_normaliser_against_a_closed_form_and_units():
     eps = [_style([10.0 + i, 2.0, 1.0, 3.0 + 2 * i, 1.0, 0.5, 0.9], [0.5, 0.5]) for i in range(4)]
-    spread = norms.episode_spread(eps, 2)
+    spread = style_spread(eps, 2)
     assert spread[0] == pytest.approx(np.std([10, 11, 12, 13])) and spread[1] == 0.0  # no spread: left out
     ref = _style([11.0, 2.0, 1.0, 5.0, 1.0, 0.5, 0.9], [0.5, 0.5])
     row = {**ref, "style/mean_speed": 11.0 + 2 * spread[0]}  # two spreads faster, all else the same
@@ -101,7 +103,7 @@ def test_per_episode_normaliser_against_a_closed_form_and_units():
     assert d == pytest.approx([np.sqrt(4 / 2), 0.0])
     # km/h for m/s in every record, the episodes too: the same distances
     kmh = [{**e, "style/mean_speed": 3.6 * e["style/mean_speed"]} for e in (row, ref, *eps)]
-    d_kmh = norms.episode_distances(kmh[0], [kmh[1], kmh[0]], norms.episode_spread(kmh[2:], 2))
+    d_kmh = norms.episode_distances(kmh[0], [kmh[1], kmh[0]], style_spread(kmh[2:], 2))
     assert d_kmh == pytest.approx(d)
     # the per-figure gaps are the distance's terms: +2 on speed, 0 on lane changes, the rest left out
     gaps = norms.figure_gaps(row, ref, spread)
@@ -299,10 +301,11 @@ def test_counterfactual_sets_one_group_to_the_own_demonstrators():
     third = _style([10.0, 5.0, 2.5, 1.0, 0.7, 0.3, 0.2], [0.5, 0.3, 0.2])
     refs = {"own": own, "other": other, "third": third}
     row = {**own, "style/mean_speed": 18.0}
-    cf = norms.counterfactual(row, refs, "own")
+    spread = style_spread([own, other, third])  # the normaliser: the references' episodes, one each here
+    cf = norms.counterfactual(row, refs, "own", spread)
     assert list(cf) == list(norms.GROUPS)
     assert cf["speed"]["own"] == 0.0 and cf["speed"]["other"] > 0
     assert all(cf[g]["own"] > 0 for g in norms.GROUPS if g != "speed")
     # the lanes: a row with the other's shares, moved back to its own's, is its own driving again
-    lanes = norms.counterfactual({**own, "style/lane_share": other["style/lane_share"]}, refs, "own")
+    lanes = norms.counterfactual({**own, "style/lane_share": other["style/lane_share"]}, refs, "own", spread)
     assert lanes["lane shares"]["own"] == 0.0 and lanes["speed"]["own"] > 0
