@@ -100,6 +100,14 @@ def own_driving(out: Path, d: str, road: str, at: str) -> Path:
     return out / f"reference{at}" / d / road / "manifest.json"
 
 
+def missing_driving(out: Path, demonstrators: list[str], roads: list[str], at: str) -> str | None:
+    """The first "<demonstrator> on <road>" whose own driving (:func:`own_driving`) is not in ``out``."""
+    return next(
+        (f"{d} on {r}" for r in roads for d in demonstrators if not own_driving(out, d, r, at).is_file()),
+        None,
+    )
+
+
 def reference_episodes(out: Path, d: str, road: str, at: str) -> list[dict[str, Any]]:
     """The style summaries of demonstrator ``d``'s own episodes on ``road`` (as styles.py drove them)."""
     path = own_driving(out, d, road, at)
@@ -222,11 +230,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(f"style_norms: unknown demonstrator {unknown[0]}: choose from {', '.join(styles.CONFIGS)}")
     out = Path(a.out)
     a.at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"  # the drives' seeds' folders
-    missing = [
-        f"{d} on {r}" for r in a.roads for d in a.demonstrators if not own_driving(out, d, r, a.at).is_file()
-    ]
-    if missing:
-        sys.exit(f"style_norms: no driving of {missing[0]} in {out} for these seeds: run studies/styles.py")
+    if missing := missing_driving(out, a.demonstrators, a.roads, a.at):
+        sys.exit(f"style_norms: no driving of {missing} in {out} for these seeds: run studies/styles.py")
     tables = {road: road_table(out, road, a) for road in a.roads}
     name = "style-norms" + a.at
     name += ("" if a.rule == "default" else f"-{a.rule}") + a.drive_tag

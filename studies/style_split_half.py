@@ -85,16 +85,8 @@ def main(argv: list[str] | None = None) -> int:
     a = p.parse_args(argv)
     out = Path(a.out)
     at = "" if a.eval_base == styles.EVAL_BASE else f"-s{a.eval_base}"
-    missing = [
-        f"{d} on {r}"
-        for r in a.roads
-        for d in a.demonstrators
-        if not style_norms.own_driving(out, d, r, at).is_file()
-    ]
-    if missing:
-        sys.exit(
-            f"style_split_half: no driving of {missing[0]} in {out} for these seeds: run studies/styles.py"
-        )
+    if missing := style_norms.missing_driving(out, a.demonstrators, a.roads, at):
+        sys.exit(f"style_split_half: no driving of {missing} in {out} for these seeds: run studies/styles.py")
     result = {}
     for road in a.roads:
         eps = {d: style_norms.reference_episodes(out, d, road, at) for d in a.demonstrators}

@@ -158,8 +158,11 @@ def driven_episodes(drive_json: Path, model: str) -> list[dict[str, Any]]:
 
 def driven_styles(drive_json: Path) -> dict[str, dict[str, Any]]:
     """model -> the pooled style of its episodes in a drive.json."""
-    models = dict.fromkeys(e["drive/model"] for e in json.loads(drive_json.read_text())["episodes"])
-    return {m: pool_styles(driven_episodes(drive_json, m)) for m in models}
+    eps = json.loads(drive_json.read_text())["episodes"]
+    return {
+        m: pool_styles([e for e in eps if e["drive/model"] == m])
+        for m in dict.fromkeys(e["drive/model"] for e in eps)
+    }
 
 
 def safety(drive_json: Path, model: str) -> dict[str, Any]:
